@@ -1,0 +1,45 @@
+# CDFF: two commands on a fresh Debian 12 machine, as root:
+#   make demo   installs the dependencies, builds, and runs the main job
+#   make test   installs the dependencies, builds, and runs every test
+# Also: make bench (benchmarks), make fuzz (the MCAP reader fuzzer), make format.
+# Sanitizers: make test SANITIZE=address,undefined   (or thread)
+
+SANITIZE ?=
+BUILD_TYPE ?= $(if $(SANITIZE),Debug,RelWithDebInfo)
+BUILD_DIR ?= build$(if $(SANITIZE),-$(subst $(comma),-,$(SANITIZE)))
+JOBS ?= $(shell nproc)
+comma := ,
+
+CMAKE_FLAGS = -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DCDFF_SANITIZE=$(SANITIZE)
+
+.PHONY: all deps configure build test demo bench fuzz format clean
+
+all: build
+
+deps:
+	@bash scripts/install-deps.sh
+
+configure: deps
+	@cmake -S . -B $(BUILD_DIR) $(CMAKE_FLAGS) > $(BUILD_DIR).configure.log 2>&1 || \
+	  { cat $(BUILD_DIR).configure.log; exit 1; }
+
+build: configure
+	@cmake --build $(BUILD_DIR) -j $(JOBS)
+
+test: build
+	@cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
+
+demo: build
+	@$(BUILD_DIR)/apps/cdff demo --out out/demo
+
+bench: build
+	@bash scripts/run-benchmarks.sh $(BUILD_DIR)
+
+fuzz:
+	@bash fuzz/run.sh
+
+format:
+	@git ls-files '*.cpp' '*.hpp' | xargs clang-format -i
+
+clean:
+	rm -rf build build-* build*.configure.log

@@ -1,0 +1,13 @@
+#pragma once
+// Subcommand groups of the `cdff` command. Each adds itself to the root app; its callbacks set
+// `exit_code` (0 success, 1 failure, 2 usage error).
+
+#include <CLI/CLI.hpp>
+
+namespace cdff::app {
+
+void addDfnCommands(CLI::App& root, int& exit_code);
+void addDemoCommand(CLI::App& root, int& exit_code);
+void addLogCommands(CLI::App& root, int& exit_code);
+
+}  // namespace cdff::app

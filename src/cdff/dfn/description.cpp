@@ -1,0 +1,37 @@
+#include "cdff/dfn/description.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+namespace cdff::dfn {
+
+const char* toString(ParameterType type) {
+  switch (type) {
+    case ParameterType::kBool: return "bool";
+    case ParameterType::kInt: return "int";
+    case ParameterType::kDouble: return "double";
+    case ParameterType::kString: return "string";
+    case ParameterType::kDoubleList: return "double[]";
+  }
+  return "unknown";
+}
+
+std::string ParameterSpec::acceptedText() const {
+  if (!allowed.empty()) return fmt::format("{{{}}}", fmt::join(allowed, ", "));
+  std::string text;
+  if (min || max) {
+    text = fmt::format("[{}, {}]", min ? fmt::format("{}", *min) : "-inf",
+                       max ? fmt::format("{}", *max) : "inf");
+  }
+  if (list_size) text += fmt::format("{}{} values", text.empty() ? "" : ", ", *list_size);
+  if (text.empty()) text = type == ParameterType::kBool ? "true or false" : "any";
+  return text;
+}
+
+const ImplementationSpec* DfnDescription::findImplementation(const std::string& impl) const {
+  for (const auto& i : implementations)
+    if (i.name == impl) return &i;
+  return nullptr;
+}
+
+}  // namespace cdff::dfn

@@ -1,0 +1,37 @@
+#pragma once
+// Conversions between CDFF types and OpenCV. Views share memory; the functions that copy say so.
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/types.hpp>
+
+#include "cdff/types/features.hpp"
+#include "cdff/types/image.hpp"
+
+namespace cdff {
+
+/// The OpenCV type (CV_8UC1, ...) of a pixel format.
+int cvType(PixelFormat format);
+
+/// A cv::Mat header over the image's pixels (no copy). The Mat keeps the pixels alive. CDFF
+/// images are immutable: do not write through the returned Mat (clone() it first).
+cv::Mat toMat(const Image& image);
+
+/// Wraps a cv::Mat as an Image without copying; the Image keeps the Mat's data alive. The caller
+/// must not write into `mat` afterwards. Fails for types other than 8UC1, 8UC3, 16UC1, 32FC1.
+Result<Image> fromMat(const cv::Mat& mat, Timestamp stamp = 0, std::string frame_id = {});
+
+/// K as a 3x3 CV_64F matrix and the distortion coefficients as a 1xN CV_64F row (copies).
+cv::Mat cameraMatrix(const CameraModel& camera);
+cv::Mat distortionCoefficients(const CameraModel& camera);
+
+/// Descriptor views (no copy) and wrap (no copy; keeps the Mat alive).
+cv::Mat toMat(const DescriptorMatrix& descriptors);
+Result<DescriptorMatrix> descriptorsFromMat(const cv::Mat& mat);
+
+/// Keypoint conversions (copies: the layouts differ).
+std::vector<cv::KeyPoint> toCvKeypoints(const std::vector<Keypoint2D>& keypoints);
+std::vector<Keypoint2D> fromCvKeypoints(const std::vector<cv::KeyPoint>& keypoints);
+
+}  // namespace cdff

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# The `cdff` command: exit statuses, listings and usage errors.
+set -u
+cdff=$1
+failures=0
+check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
+  local name=$1 expected=$2 pattern=$3
+  shift 4
+  local output status
+  output=$("$@" 2>&1)
+  status=$?
+  if [ "$status" -ne "$expected" ]; then
+    echo "FAIL $name: exit status $status, expected $expected; output:"; echo "$output"
+    failures=$((failures + 1))
+  elif ! grep -qE -- "$pattern" <<<"$output"; then
+    echo "FAIL $name: output does not match /$pattern/:"; echo "$output"
+    failures=$((failures + 1))
+  else
+    echo "ok   $name"
+  fi
+}
+check version 0 '^cdff [0-9]+\.[0-9]+\.[0-9]+' -- "$cdff" --version
+check help 0 'dfn' -- "$cdff" --help
+check no-subcommand 2 'subcommand' -- "$cdff"
+check unknown-subcommand 2 'frobnicate' -- "$cdff" frobnicate
+check unknown-option 2 'bogus' -- "$cdff" dfn list --bogus
+check dfn-help 0 'list' -- "$cdff" dfn --help
+check dfn-info-help 0 'NAME' -- "$cdff" dfn info --help
+check dfn-info-missing-arg 2 'NAME' -- "$cdff" dfn info
+check dfn-info-unknown 1 "unknown DFN 'Nope'; expected one of" -- "$cdff" dfn info Nope
+check dfn-info 0 'low_threshold +double +default 50' -- "$cdff" dfn info EdgeDetection
+check demo-help 0 '--out' -- "$cdff" demo --help
+for dfn in ImageUndistortion EdgeDetection FeaturesExtraction2D FeaturesMatching2D \
+           StereoRectification EstimationFilter; do
+  check "list-$dfn" 0 "^$dfn " -- "$cdff" dfn list
+done
+check list-one-per-line 0 '^EdgeDetection +edge_detection +Canny Sobel$' -- "$cdff" dfn list
+echo "$failures failed"
+[ "$failures" -eq 0 ]
