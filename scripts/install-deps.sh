@@ -7,9 +7,12 @@ packages=(
   # toolchain
   build-essential cmake ninja-build ccache pkg-config git clang-format
   # core libraries
-  libeigen3-dev libopencv-dev libpcl-dev
+  libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libceres-dev libvisp-dev
+  liboctomap-dev libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libzstd-dev liblz4-dev
+  # real data to validate on (ViSP tracking sequences with ground truth)
+  visp-images-data
   # tests, benchmarks, bindings
   libgtest-dev libgmock-dev libbenchmark-dev pybind11-dev python3-dev python3-yaml
 )

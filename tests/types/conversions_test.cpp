@@ -1,6 +1,8 @@
 // Conversions to and from OpenCV and PCL: zero-copy where the layout allows.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include "cdff/types/opencv.hpp"
 #include "cdff/types/pcl.hpp"
 #include "support/synthetic.hpp"
@@ -44,6 +46,19 @@ TEST(OpenCv, ToMatViewsPixelsAndKeepsThemAlive) {
   cv::Mat copy = view;  // Mat copies share the reference count
   view.release();
   EXPECT_EQ(copy.at<uchar>(0, 0), 9);
+}
+
+TEST(OpenCv, ReallocatingAViewInPlaceLeavesTheImageIntact) {
+  cv::Mat colour(16, 16, CV_8UC3, cv::Scalar(10, 20, 30));
+  auto image = fromMat(colour.clone());
+  ASSERT_TRUE(image.isOk());
+  cv::Mat view = toMat(*image);
+  cv::cvtColor(view, view, cv::COLOR_BGR2GRAY);  // reallocates the Mat, must not free our pixels
+  EXPECT_EQ(view.type(), CV_8UC1);
+  EXPECT_EQ(image->at<cv::Vec3b>(3, 3)[2], 30);
+  cv::Mat again = toMat(*image);
+  again.create(4, 4, CV_32FC1);
+  EXPECT_EQ(image->at<cv::Vec3b>(15, 15)[0], 10);
 }
 
 TEST(OpenCv, UnsupportedMatTypeIsRejected) {

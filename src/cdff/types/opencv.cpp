@@ -50,7 +50,8 @@ cv::Mat wrapShared(int rows, int cols, int type, const std::shared_ptr<const T>&
   u->refcount = 1;
   u->flags |= cv::UMatData::USER_ALLOCATED;  // the pixels are not OpenCV's to free
   mat.u = u;
-  mat.allocator = allocator;
+  // mat.allocator stays null: if OpenCV reallocates this Mat (an in-place call that changes its
+  // size or type), the new data comes from the default allocator, while u keeps ours for release.
   return mat;
 }
 }  // namespace
