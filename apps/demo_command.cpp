@@ -123,7 +123,7 @@ Status cameraChain(json& report, std::vector<const dfn::Node*>& nodes,
   CDFF_RETURN_IF_ERROR(extract_b->configure(YAML::Load("max_features: 2000")));
 
   std::vector<std::shared_ptr<const Image>> undistorted;
-  for (const cv::Mat* ideal : {&scene, &scene_b}) {
+  for (const cv::Mat* ideal : std::initializer_list<const cv::Mat*>{&scene, &scene_b}) {
     Result<Image> raw = fromMat(distort(*ideal, camera), 0, "camera_optical");
     if (!raw) return raw.status();
     raw->camera = camera;

@@ -16,7 +16,7 @@ void printList() {
   for (const dfn::DfnDescription* d : registry.descriptions()) {
     std::vector<std::string> dfis;
     for (const auto& impl : d->implementations) dfis.push_back(impl.name);
-    fmt::print("{:<24} {:<10} {}\n", d->name, d->area, fmt::join(dfis, " "));
+    fmt::print("{:<24} {:<24} {}\n", d->name, d->area, fmt::join(dfis, " "));
   }
 }
 

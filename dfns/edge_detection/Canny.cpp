@@ -10,9 +10,10 @@ class EdgeDetectionCanny final : public EdgeDetectionCannyBase {
  protected:
   Status onConfigure() override {
     if (params_.high_threshold < params_.low_threshold)
-      return invalidParameter("{}: high_threshold ({}) is below low_threshold ({}); expected "
-                              "high_threshold >= low_threshold",
-                              name(), params_.high_threshold, params_.low_threshold);
+      return invalidParameter(
+          "{}: high_threshold ({}) is below low_threshold ({}); expected "
+          "high_threshold >= low_threshold",
+          name(), params_.high_threshold, params_.low_threshold);
     if (params_.aperture_size % 2 == 0)
       return invalidParameter("{}: aperture_size is {}; expected 3, 5 or 7", name(),
                               params_.aperture_size);

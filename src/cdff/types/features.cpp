@@ -8,6 +8,12 @@ Status DescriptorMatrix::validate(const char* what) const {
   if (rows < 0 || cols < 0)
     return invalidInput("{} have shape {}x{}; expected non-negative", what, rows, cols);
   const std::size_t needed = static_cast<std::size_t>(rows) * cols * elementSize();
+  const bool binary = element == Element::kUint8;
+  if (binary != (distance != Distance::kL2))
+    return invalidInput("{} are {} but compare with {}; expected Hamming distances for uint8 "
+                        "descriptors and L2 for float32 ones",
+                        what, binary ? "uint8" : "float32",
+                        distance == Distance::kL2 ? "L2" : "Hamming");
   if (data.size() != needed)
     return invalidInput("{} hold {} bytes; expected {} for {}x{} elements of {} bytes", what,
                         data.size(), needed, rows, cols, elementSize());

@@ -15,7 +15,10 @@ namespace cdff {
 /// A row-major matrix of descriptors, one row per feature.
 struct DescriptorMatrix {
   enum class Element : std::uint8_t { kUint8, kFloat32 };  // binary (ORB) or real (SIFT, SHOT)
+  /// How two descriptors compare: bit count (binary), 2-bit groups (ORB with WTA_K 3 or 4), L2.
+  enum class Distance : std::uint8_t { kHamming, kHamming2, kL2 };
   Element element = Element::kUint8;
+  Distance distance = Distance::kHamming;
   int rows = 0;
   int cols = 0;  // elements per descriptor
   Buffer<std::uint8_t> data;  // rows * cols * elementSize bytes

@@ -130,4 +130,28 @@ Eigen::Vector3d logSO3(const Eigen::Quaterniond& rotation) {
   return q.vec() / sin_half * angle;
 }
 
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+Eigen::Matrix3d leftJacobianSO3(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  const Eigen::Matrix3d k = skew(phi);
+  if (angle < 1e-6) return Eigen::Matrix3d::Identity() + 0.5 * k + k * k / 6.0;
+  const double a2 = angle * angle;
+  return Eigen::Matrix3d::Identity() + (1.0 - std::cos(angle)) / a2 * k +
+         (angle - std::sin(angle)) / (a2 * angle) * k * k;
+}
+
+Eigen::Matrix3d inverseLeftJacobianSO3(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  const Eigen::Matrix3d k = skew(phi);
+  if (angle < 1e-6) return Eigen::Matrix3d::Identity() - 0.5 * k + k * k / 12.0;
+  const double half = 0.5 * angle;
+  const double coefficient = (1.0 - half * std::cos(half) / std::sin(half)) / (angle * angle);
+  return Eigen::Matrix3d::Identity() - 0.5 * k + coefficient * k * k;
+}
+
 }  // namespace cdff

@@ -23,9 +23,9 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 struct Transform {
   Timestamp stamp = 0;
-  std::string parent_frame;  // a in a_T_b
-  std::string child_frame;   // b in a_T_b
-  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // m, origin of b expressed in a
+  std::string parent_frame;                                      // a in a_T_b
+  std::string child_frame;                                       // b in a_T_b
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();         // m, origin of b expressed in a
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();  // unit, rotates b into a
 
   static Transform identity(std::string parent, std::string child, Timestamp stamp = 0);
@@ -33,7 +33,9 @@ struct Transform {
                                 std::string child, Timestamp stamp = 0);
 
   Eigen::Isometry3d isometry() const;
-  Eigen::Vector3d operator*(const Eigen::Vector3d& p_b) const { return translation + rotation * p_b; }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& p_b) const {
+    return translation + rotation * p_b;
+  }
   /// b_T_a, with the frame names swapped.
   Transform inverse() const;
   /// a_T_c = a_T_b * b_T_c; checks that the inner frame names agree when both are set.
@@ -74,6 +76,14 @@ double angularDistance(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b)
 /// Rotation vector (axis * angle) <-> quaternion: the SO(3) exponential and logarithm.
 Eigen::Quaterniond expSO3(const Eigen::Vector3d& rotation_vector);
 Eigen::Vector3d logSO3(const Eigen::Quaterniond& rotation);
+
+/// The cross-product matrix: skew(a) * b = a x b.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+/// Left Jacobian of SO(3) at rotation vector phi: exp(phi + d) ~ exp(J_l(phi) d) exp(phi) for a
+/// small d. Used to propagate attitude covariances through a rotation by phi.
+Eigen::Matrix3d leftJacobianSO3(const Eigen::Vector3d& phi);
+/// Its inverse, e.g. to map a rotation residual log(R_a R_b^T) back to a perturbation.
+Eigen::Matrix3d inverseLeftJacobianSO3(const Eigen::Vector3d& phi);
 
 /// Ok when every entry of `m` is finite; the message names `what` and the first bad entry.
 template <typename Derived>

@@ -119,6 +119,7 @@ Result<DescriptorMatrix> descriptorsFromMat(const cv::Mat& mat) {
     d.element = DescriptorMatrix::Element::kUint8;
   } else if (mat.type() == CV_32FC1) {
     d.element = DescriptorMatrix::Element::kFloat32;
+    d.distance = DescriptorMatrix::Distance::kL2;
   } else {
     return invalidInput("descriptor cv::Mat has type {}; expected CV_8UC1 or CV_32FC1", mat.type());
   }

@@ -1,0 +1,44 @@
+#include "extraction_common.hpp"
+
+namespace cdff::dfn {
+
+class FeaturesExtraction2DOrb final : public FeaturesExtraction2DOrbBase {
+ protected:
+  Status onConfigure() override {
+    if (params_.edge_threshold < params_.patch_size / 2)
+      return invalidParameter(
+          "{}: edge_threshold ({} px) is below half the patch_size ({} px); expected "
+          "edge_threshold >= patch_size / 2, or descriptors near the border would read outside "
+          "the image",
+          name(), params_.edge_threshold, params_.patch_size);
+    // Detect up to twice the budget: ORB spreads features over levels and the strongest across
+    // all levels are kept by publish().
+    orb_ = cv::ORB::create(2 * params_.max_features, static_cast<float>(params_.scale_factor),
+                           params_.levels, params_.edge_threshold, 0, params_.wta_k,
+                           params_.score == "harris" ? cv::ORB::HARRIS_SCORE : cv::ORB::FAST_SCORE,
+                           params_.patch_size, params_.fast_threshold);
+    return Status::ok();
+  }
+
+  Status onProcess() override {
+    Result<extraction::PreparedInput> input = extraction::prepare(in);
+    if (!input) return input.status();
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    orb_->detectAndCompute(input->gray, input->mask, keypoints, descriptors);
+    if (keypoints.empty())
+      warn(fmt::format("no ORB feature found in the {}x{} image (FAST threshold {})",
+                       in.image->width, in.image->height, params_.fast_threshold));
+    return extraction::publish(*in.image, keypoints, descriptors,
+                               params_.wta_k == 2 ? DescriptorMatrix::Distance::kHamming
+                                                  : DescriptorMatrix::Distance::kHamming2,
+                               params_.max_features, out.features);
+  }
+
+ private:
+  cv::Ptr<cv::ORB> orb_;
+};
+
+CDFF_REGISTER_DFI(FeaturesExtraction2DOrb);
+
+}  // namespace cdff::dfn
