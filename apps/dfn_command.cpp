@@ -1,4 +1,5 @@
 // cdff dfn list | info NAME
+#include <algorithm>
 #include <iostream>
 
 #include <fmt/format.h>
@@ -46,10 +47,16 @@ int printInfo(const std::string& name) {
                    : fmt::format(" (uses {})", fmt::join(impl.dependencies, ", ")),
                impl.doc);
     if (impl.parameters.empty()) fmt::print("  parameters: none\n");
+    std::size_t name_width = 0, default_width = 0, unit_width = 1;
     for (const auto& p : impl.parameters) {
-      fmt::print("  {:<22} {:<8} default {:<10} {:<8} accepts {}\n      {}\n", p.name,
-                 dfn::toString(p.type), p.default_text, p.unit.empty() ? "-" : p.unit,
-                 p.acceptedText(), p.doc);
+      name_width = std::max(name_width, p.name.size());
+      default_width = std::max(default_width, p.default_text.size());
+      unit_width = std::max(unit_width, p.unit.size());
+    }
+    for (const auto& p : impl.parameters) {
+      fmt::print("  {:<{}} {:<8} default {:<{}} {:<{}} accepts {}\n      {}\n", p.name, name_width,
+                 dfn::toString(p.type), p.default_text, default_width,
+                 p.unit.empty() ? "-" : p.unit, unit_width, p.acceptedText(), p.doc);
     }
   }
   return 0;

@@ -1,9 +1,47 @@
 // cdff: the command-line front end of the CDFF framework.
 #include <iostream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+
+namespace {
+
+// CLI11 reports a mistyped subcommand as a missing one ("A subcommand is required"); name it
+// instead. Walks the words of the command line down the subcommand tree while the current
+// command has subcommands; returns false after printing the error.
+bool subcommandsAreKnown(CLI::App& app, int argc, char** argv) {
+  CLI::App* current = &app;
+  std::string path = "cdff";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') continue;
+    const std::vector<CLI::App*> children = current->get_subcommands([](CLI::App*) { return true; });
+    if (children.empty()) return true;  // a leaf command: the rest are its arguments
+    std::vector<std::string> names;
+    CLI::App* next = nullptr;
+    for (CLI::App* child : children) {
+      names.push_back(child->get_name());
+      if (child->get_name() == word) next = child;
+    }
+    if (!next) {
+      fmt::print(stderr, "error: unknown subcommand '{}' of `{}`; expected one of {{{}}}\n", word,
+                 path, fmt::join(names, ", "));
+      fmt::print(stderr, "Run with --help for more information.\n");
+      return false;
+    }
+    current = next;
+    path += " " + word;
+  }
+  return true;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"CDFF: data fusion for spacecraft relative navigation", "cdff"};
@@ -18,6 +56,7 @@ int main(int argc, char** argv) {
   cdff::app::addLogCommands(app, exit_code);
 #endif
 
+  if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

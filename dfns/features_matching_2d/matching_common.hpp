@@ -60,11 +60,11 @@ inline std::vector<cv::DMatch> filter(const std::vector<std::vector<cv::DMatch>>
     if (candidates.empty()) continue;
     const cv::DMatch& best = candidates[0];
     if (best.distance > criteria.max_distance) continue;
-    // A lone candidate cannot be compared: it is kept only when the test is disabled.
-    if (criteria.ratio < 1.0) {
-      if (candidates.size() < 2) continue;
-      if (best.distance >= criteria.ratio * candidates[1].distance) continue;
-    }
+    // A lone candidate (a train set of one feature, or an LSH probe that found nothing else
+    // nearby) has no rival within reach: it counts as distinctive.
+    if (criteria.ratio < 1.0 && candidates.size() >= 2 &&
+        best.distance >= criteria.ratio * candidates[1].distance)
+      continue;
     kept.push_back(best);
   }
   return kept;

@@ -23,6 +23,7 @@ check version 0 '^cdff [0-9]+\.[0-9]+\.[0-9]+' -- "$cdff" --version
 check help 0 'dfn' -- "$cdff" --help
 check no-subcommand 2 'subcommand' -- "$cdff"
 check unknown-subcommand 2 'frobnicate' -- "$cdff" frobnicate
+check unknown-dfn-subcommand 2 "unknown subcommand 'lst'.*expected one of \\{list, info\\}" -- "$cdff" dfn lst
 check unknown-option 2 'bogus' -- "$cdff" dfn list --bogus
 check dfn-help 0 'list' -- "$cdff" dfn --help
 check dfn-info-help 0 'NAME' -- "$cdff" dfn info --help

@@ -5,6 +5,7 @@
 #include <limits>
 #include <random>
 
+#include "cdff/types/statistics.hpp"
 #include "cdff/types/types.hpp"
 #include "support/synthetic.hpp"
 
@@ -219,6 +220,41 @@ TEST(Time, SecondsConversionRoundsToTheNearestMicrosecond) {
   EXPECT_EQ(fromSeconds(1.0000004), 1'000'000);
   EXPECT_EQ(fromSeconds(-0.0000006), -1);
   EXPECT_DOUBLE_EQ(toSeconds(2'500'000), 2.5);
+}
+
+}  // namespace
+}  // namespace cdff
+
+namespace cdff {
+namespace {
+
+TEST(Statistics, ChiSquareQuantilesMatchPublishedTables) {
+  // Values from standard chi-square tables (5 significant digits).
+  EXPECT_NEAR(chiSquareQuantile(0.95, 1), 3.8415, 1e-4);
+  EXPECT_NEAR(chiSquareQuantile(0.95, 6), 12.592, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.999, 6), 22.458, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.025, 12), 4.4038, 1e-4);
+  EXPECT_NEAR(chiSquareQuantile(0.975, 300), 349.87, 1e-2);
+  for (int dof : {1, 3, 6, 12, 600})
+    for (double p : {0.001, 0.025, 0.5, 0.975, 0.999})
+      EXPECT_NEAR(chiSquareCdf(chiSquareQuantile(p, dof), dof), p, 1e-9) << dof << " " << p;
+  EXPECT_TRUE(std::isnan(chiSquareQuantile(1.0, 6)));
+  EXPECT_TRUE(std::isnan(chiSquareQuantile(0.5, 0)));
+}
+
+TEST(Geometry, LeftJacobianLinearisesTheExponentialAndItsInverseUndoesIt) {
+  const Eigen::Vector3d phi(0.4, -0.9, 0.3);
+  const Eigen::Matrix3d jl = leftJacobianSO3(phi);
+  EXPECT_LT((jl * inverseLeftJacobianSO3(phi) - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  // exp(phi + d) = exp(J_l d) exp(phi) + O(|d|^2)
+  const Eigen::Vector3d d = 1e-6 * Eigen::Vector3d(1.0, 2.0, -1.5);
+  const Eigen::Quaterniond lhs = expSO3(phi + d);
+  const Eigen::Quaterniond rhs = expSO3(jl * d) * expSO3(phi);
+  EXPECT_LT(angularDistance(lhs, rhs), 1e-11);
+  // Near zero the series branch agrees with the closed form.
+  const Eigen::Vector3d tiny(1e-7, -2e-7, 3e-7);
+  EXPECT_LT((leftJacobianSO3(tiny) - Eigen::Matrix3d::Identity()).norm(), 1e-6);
+  EXPECT_LT((skew(phi) * d - phi.cross(d)).norm(), 1e-18);
 }
 
 }  // namespace

@@ -1,0 +1,263 @@
+// EstimationFilter: on a simulated constant-twist relative trajectory observed through noisy
+// pose measurements, the filtered error must be well below the measurement noise and the
+// filter's covariance must be consistent with its actual errors (NEES within the 95 % chi-square
+// bounds over Monte Carlo runs). Prediction must follow the constant-velocity model exactly, the
+// gate must reject outliers, and bad inputs must leave the filter unchanged.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "EstimationFilter.gen.hpp"
+#include "cdff/dfn/registry.hpp"
+#include "cdff/types/statistics.hpp"
+#include "support/synthetic.hpp"
+
+namespace cdff::dfn {
+namespace {
+
+std::unique_ptr<EstimationFilter> make(const std::string& yaml = "{}") {
+  auto node = Registry::instance().create("EstimationFilter", "ExtendedKalman");
+  EXPECT_TRUE(node.isOk()) << node.status().toString();
+  auto* dfn = dynamic_cast<EstimationFilter*>(node.value().release());
+  EXPECT_OK(dfn->configure(YAML::Load(yaml)));
+  return std::unique_ptr<EstimationFilter>(dfn);
+}
+
+// Target drifting at a few cm/s and tumbling at 2 deg/s in the servicer frame.
+struct Truth {
+  Eigen::Vector3d p0{1.0, -0.5, 10.0};
+  Eigen::Quaterniond q0 = expSO3(Eigen::Vector3d(0.3, -0.2, 0.1));
+  Eigen::Vector3d v{0.05, -0.02, 0.01};
+  Eigen::Vector3d w = Eigen::Vector3d(1, 2, 0.5).normalized() * (2.0 * M_PI / 180.0);
+
+  Eigen::Vector3d position(double t) const { return p0 + v * t; }
+  Eigen::Quaterniond attitude(double t) const { return expSO3(w * t) * q0; }
+};
+
+constexpr double kSigmaP = 0.05;                 // m, per axis
+constexpr double kSigmaR = 1.0 * M_PI / 180.0;  // rad, per axis
+constexpr double kRate = 10.0;                   // Hz
+constexpr double kDuration = 60.0;               // s
+constexpr double kSettle = 10.0;                 // s, errors are counted after this
+
+PoseWithCovariance measure(const Truth& truth, double t, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  PoseWithCovariance z;
+  z.pose = Transform::identity("servicer", "target", fromSeconds(t));
+  z.pose.translation = truth.position(t) + kSigmaP * Eigen::Vector3d(n(rng), n(rng), n(rng));
+  z.pose.rotation = expSO3(kSigmaR * Eigen::Vector3d(n(rng), n(rng), n(rng))) * truth.attitude(t);
+  z.covariance.diagonal() << Eigen::Vector3d::Constant(kSigmaP * kSigmaP),
+      Eigen::Vector3d::Constant(kSigmaR * kSigmaR);
+  return z;
+}
+
+// The error of a state in the filter's own error coordinates [dt, dtheta, dv, domega].
+Eigen::Matrix<double, 12, 1> stateError(const RigidBodyState& s, const Truth& truth, double t) {
+  Eigen::Matrix<double, 12, 1> e;
+  e.segment<3>(0) = s.pose.translation - truth.position(t);
+  e.segment<3>(3) = logSO3(s.pose.rotation * truth.attitude(t).conjugate());
+  e.segment<3>(6) = s.twist.linear - truth.v;
+  e.segment<3>(9) = s.twist.angular - truth.w;
+  return e;
+}
+
+TEST(EstimationFilterExtendedKalman, FilteredErrorIsBelowTheMeasurementNoiseAndConsistent) {
+  // The truth has a constant twist, so the process noise is set near zero: the model is exact
+  // and the covariance must then describe the actual errors.
+  constexpr int kRuns = 50;
+  const Truth truth;
+  double sum_p2 = 0, sum_r2 = 0;
+  long samples = 0;
+  double sum_pose_nees = 0, sum_state_nees = 0;  // sums of per-run time averages
+  for (int run = 0; run < kRuns; ++run) {
+    auto ekf = make("{linear_acceleration_psd: 1.0e-12, angular_acceleration_psd: 1.0e-12}");
+    std::mt19937 rng(1000 + run);
+    double run_pose_nees = 0, run_state_nees = 0;
+    int run_samples = 0;
+    for (int k = 0; k <= static_cast<int>(kDuration * kRate); ++k) {
+      const double t = k / kRate;
+      ekf->in.pose_measurement.set(measure(truth, t, rng));
+      ASSERT_OK(ekf->process());
+      if (t < kSettle) continue;
+      const RigidBodyState& s = *ekf->out.state;
+      const auto e = stateError(s, truth, t);
+      sum_p2 += e.segment<3>(0).squaredNorm();
+      sum_r2 += e.segment<3>(3).squaredNorm();
+      ++samples;
+      run_pose_nees += e.head<6>().dot(s.covariance.topLeftCorner<6, 6>().ldlt().solve(e.head<6>()));
+      run_state_nees += e.dot(s.covariance.ldlt().solve(e));
+      ++run_samples;
+    }
+    sum_pose_nees += run_pose_nees / run_samples;
+    sum_state_nees += run_state_nees / run_samples;
+  }
+  const double rmse_p = std::sqrt(sum_p2 / samples);  // 3D position error
+  const double rmse_r = std::sqrt(sum_r2 / samples);  // attitude error angle
+  RecordProperty("position_rmse_m", std::to_string(rmse_p));
+  RecordProperty("attitude_rmse_rad", std::to_string(rmse_r));
+  // A measurement's 3D error is sqrt(3) sigma; the filter averages hundreds of them.
+  EXPECT_LT(rmse_p, 0.25 * std::sqrt(3.0) * kSigmaP) << "position RMSE " << rmse_p;
+  EXPECT_LT(rmse_r, 0.25 * std::sqrt(3.0) * kSigmaR) << "attitude RMSE " << rmse_r;
+
+  // Averaged NEES: the mean over runs of each run's time-averaged NEES. Runs are independent, so
+  // kRuns * ANEES is at most as spread as a chi-square with kRuns * n dof (time-averaging
+  // within a run only narrows it): the 95 % interval of that distribution is a valid test.
+  for (const auto& [dof, sum] : {std::pair{6, sum_pose_nees}, std::pair{12, sum_state_nees}}) {
+    const double anees = sum / kRuns;
+    const double low = chiSquareQuantile(0.025, kRuns * dof) / kRuns;
+    const double high = chiSquareQuantile(0.975, kRuns * dof) / kRuns;
+    RecordProperty(fmt::format("anees_{}dof", dof), fmt::format("{:.3f} in [{:.3f}, {:.3f}]", anees, low, high));
+    EXPECT_GT(anees, low) << dof << "-dof ANEES " << anees << " outside [" << low << ", " << high
+                          << "]: the filter is pessimistic";
+    EXPECT_LT(anees, high) << dof << "-dof ANEES " << anees << " outside [" << low << ", "
+                           << high << "]: the filter is overconfident";
+  }
+}
+
+RigidBodyState knownState() {
+  RigidBodyState s;
+  s.pose = Transform::identity("servicer", "target", 1'000'000);
+  s.pose.translation = {0.5, 0.2, 8.0};
+  s.pose.rotation = expSO3(Eigen::Vector3d(0.1, 0.2, -0.3));
+  s.twist.linear = {0.1, -0.05, 0.02};
+  s.twist.angular = {0.02, 0.01, -0.03};
+  s.covariance = Matrix12d::Identity() * 1e-4;
+  return s;
+}
+
+TEST(EstimationFilterExtendedKalman, PredictionFollowsTheConstantTwistModelAndGrowsTheCovariance) {
+  auto ekf = make();
+  const RigidBodyState s0 = knownState();
+  ekf->in.initial_state.set(s0);
+  ekf->in.time.set(Timestamp{3'500'000});  // 2.5 s later, in the same call
+  ASSERT_OK(ekf->process());
+  const RigidBodyState& s = *ekf->out.state;
+  const double dt = 2.5;
+  EXPECT_EQ(s.pose.stamp, 3'500'000);
+  EXPECT_LT((s.pose.translation - (s0.pose.translation + s0.twist.linear * dt)).norm(), 1e-12);
+  EXPECT_LT(angularDistance(s.pose.rotation, expSO3(s0.twist.angular * dt) * s0.pose.rotation),
+            1e-12);
+  EXPECT_EQ(s.twist.linear, s0.twist.linear);
+  EXPECT_GT(s.covariance.trace(), s0.covariance.trace());
+  // Position uncertainty grows with the velocity uncertainty: var = p + 2 dt c + dt^2 v (c = 0).
+  EXPECT_GT(s.covariance(0, 0), s0.covariance(0, 0) + dt * dt * s0.covariance(6, 6) * 0.999);
+  EXPECT_FALSE(*ekf->out.measurement_accepted);
+  EXPECT_TRUE(std::isnan(*ekf->out.innovation_nis));
+}
+
+TEST(EstimationFilterExtendedKalman, PredictingThenCorrectingEqualsCorrectingAtTheSameTime) {
+  auto split = make(), joint = make();
+  for (auto* ekf : {split.get(), joint.get()}) {
+    ekf->in.initial_state.set(knownState());
+    ASSERT_OK(ekf->process());
+  }
+  PoseWithCovariance z;
+  z.pose = Transform::identity("servicer", "target", 2'000'000);
+  z.pose.translation = {0.62, 0.14, 8.03};
+  z.pose.rotation = expSO3(Eigen::Vector3d(0.12, 0.21, -0.33));
+  split->in.time.set(Timestamp{2'000'000});
+  ASSERT_OK(split->process());
+  split->in.pose_measurement.set(z);
+  ASSERT_OK(split->process());
+  joint->in.pose_measurement.set(z);
+  ASSERT_OK(joint->process());
+  const RigidBodyState &a = *split->out.state, &b = *joint->out.state;
+  EXPECT_LT((a.pose.translation - b.pose.translation).norm(), 1e-12);
+  EXPECT_LT((a.covariance - b.covariance).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_TRUE(*split->out.measurement_accepted);
+  EXPECT_GT(*split->out.innovation_nis, 0.0);
+}
+
+TEST(EstimationFilterExtendedKalman, TheInnovationGateRejectsAnOutlierAndKeepsThePrediction) {
+  const double gate = chiSquareQuantile(0.999, 6);
+  auto ekf = make(fmt::format("innovation_gate: {}", gate));
+  ekf->in.initial_state.set(knownState());
+  ASSERT_OK(ekf->process());
+  PoseWithCovariance outlier;
+  outlier.pose = Transform::identity("servicer", "target", 1'100'000);
+  outlier.pose.translation = knownState().pose.translation + Eigen::Vector3d(3.0, 0, 0);
+  outlier.pose.rotation = knownState().pose.rotation;
+  ekf->in.pose_measurement.set(outlier);
+  ASSERT_OK(ekf->process());
+  EXPECT_FALSE(*ekf->out.measurement_accepted);
+  EXPECT_GT(*ekf->out.innovation_nis, gate);
+  EXPECT_EQ(ekf->diagnostics().warning_count, 1u);
+  const RigidBodyState s0 = knownState();
+  EXPECT_LT((ekf->out.state->pose.translation - (s0.pose.translation + 0.1 * s0.twist.linear))
+                .norm(),
+            1e-12);
+}
+
+TEST(EstimationFilterExtendedKalman, BadInputsAreReportedAndLeaveTheFilterUnchanged) {
+  auto ekf = make("max_prediction_interval: 5");
+  auto reference = make("max_prediction_interval: 5");
+  // Predicting before any initialisation.
+  ekf->in.time.set(Timestamp{0});
+  Status s = ekf->process();
+  EXPECT_EQ(s.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(s.message().find("not initialised"), std::string::npos) << s.message();
+  // Nothing fresh.
+  s = ekf->process();
+  EXPECT_NE(s.message().find("no fresh input"), std::string::npos) << s.message();
+
+  for (auto* f : {ekf.get(), reference.get()}) {
+    f->in.initial_state.set(knownState());
+    ASSERT_OK(f->process());
+  }
+  const auto expect_error = [&](const std::string& fragment) {
+    const Status status = ekf->process();
+    EXPECT_EQ(status.code(), StatusCode::kInvalidInput) << status.toString();
+    EXPECT_NE(status.message().find(fragment), std::string::npos) << status.message();
+  };
+  PoseWithCovariance nan_pose;
+  nan_pose.pose = Transform::identity("servicer", "target", 1'200'000);
+  nan_pose.pose.translation.x() = std::nan("");
+  ekf->in.pose_measurement.set(nan_pose);
+  expect_error("non-finite");
+
+  PoseWithCovariance old = nan_pose;
+  old.pose.translation = {0.5, 0.2, 8.0};
+  old.pose.stamp = 500'000;
+  ekf->in.pose_measurement.set(old);
+  expect_error("older than the filter's time");
+
+  PoseWithCovariance wrong_frames = old;
+  wrong_frames.pose.stamp = 1'200'000;
+  wrong_frames.pose.parent_frame = "camera";
+  ekf->in.pose_measurement.set(wrong_frames);
+  expect_error("expected servicer_T_target");
+
+  PoseWithCovariance indefinite = old;
+  indefinite.pose.stamp = 1'200'000;
+  indefinite.covariance(0, 0) = 1.0;  // the rest zero: singular
+  ekf->in.pose_measurement.set(indefinite);
+  expect_error("not positive definite");
+
+  ekf->in.time.set(Timestamp{20'000'000});
+  expect_error("max_prediction_interval");
+
+  // After all these, the filter behaves exactly as one that never saw them.
+  PoseWithCovariance good = old;
+  good.pose.stamp = 1'200'000;
+  for (auto* f : {ekf.get(), reference.get()}) {
+    f->in.pose_measurement.set(good);
+    ASSERT_OK(f->process());
+  }
+  EXPECT_EQ(ekf->out.state->pose.translation, reference->out.state->pose.translation);
+  EXPECT_EQ(ekf->out.state->covariance, reference->out.state->covariance);
+}
+
+TEST(EstimationFilterExtendedKalman, BadParametersAreRejected) {
+  auto node = Registry::instance().create("EstimationFilter", "ExtendedKalman");
+  ASSERT_TRUE(node.isOk());
+  Status s = node.value()->configure(YAML::Load("{position_sigma: -1}"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
+  EXPECT_NE(s.message().find("position_sigma"), std::string::npos) << s.message();
+  s = node.value()->configure(YAML::Load("{process_noise: 1}"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
+  EXPECT_NE(s.message().find("process_noise"), std::string::npos) << s.message();
+}
+
+}  // namespace
+}  // namespace cdff::dfn
