@@ -36,9 +36,8 @@ using nlohmann::json;
 
 template <typename T>
 std::unique_ptr<T> create(const std::string& dfn, const std::string& dfi) {
-  auto node = dfn::Registry::instance().create(dfn, dfi);
-  if (!node) return nullptr;
-  return std::unique_ptr<T>(dynamic_cast<T*>(node.value().release()));
+  auto node = dfn::Registry::instance().createAs<T>(dfn, dfi);
+  return node ? std::move(node).value() : nullptr;
 }
 
 // The seed's Prosilica GC1600H (1624 x 1234, 4.4 um pixels) behind a 6 mm lens, with the barrel
@@ -109,8 +108,8 @@ Status cameraChain(json& report, std::vector<const dfn::Node*>& nodes,
   const cv::Mat h_true =
       (cv::Mat_<double>(3, 3) << 0.98, -0.08, 60, 0.08, 0.98, -25, 2e-6, -1e-6, 1);
   cv::Mat scene_b;
-  cv::warpPerspective(scene, scene_b, h_true, scene.size(), cv::INTER_LINEAR,
-                      cv::BORDER_CONSTANT, 90);
+  cv::warpPerspective(scene, scene_b, h_true, scene.size(), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                      90);
 
   auto undistort = create<dfn::ImageUndistortion>("ImageUndistortion", "RemapCached");
   auto edges = create<dfn::EdgeDetection>("EdgeDetection", "Canny");
@@ -163,11 +162,11 @@ Status cameraChain(json& report, std::vector<const dfn::Node*>& nodes,
       {"matches", c.size()},
       {"inlier_fraction_3px", inlier_fraction},
       {"inlier_mean_error_px", inliers ? sum_error / inliers : 0.0}};
-  fmt::print("camera chain   {}x{}: {} / {} ORB features, {} matches, {:.1f} % within 3 px of the "
-             "true homography (mean {:.2f} px)\n",
-             camera.width, camera.height, extract_a->out.features->size(),
-             extract_b->out.features->size(), c.size(), 100.0 * inlier_fraction,
-             inliers ? sum_error / inliers : 0.0);
+  fmt::print(
+      "camera chain   {}x{}: {} / {} ORB features, {} matches, {:.1f} % within 3 px of the "
+      "true homography (mean {:.2f} px)\n",
+      camera.width, camera.height, extract_a->out.features->size(), extract_b->out.features->size(),
+      c.size(), 100.0 * inlier_fraction, inliers ? sum_error / inliers : 0.0);
   for (dfn::Node* n : std::initializer_list<dfn::Node*>{undistort.get(), edges.get(),
                                                         extract_a.get(), match.get()})
     nodes.push_back(n);
@@ -239,13 +238,13 @@ Status stereoChain(json& report, std::vector<const dfn::Node*>& nodes,
     if (best < 10) row_errors.push_back(best);
   }
   std::sort(row_errors.begin(), row_errors.end());
-  const double median =
-      row_errors.empty() ? std::nan("") : row_errors[row_errors.size() / 2];
+  const double median = row_errors.empty() ? std::nan("") : row_errors[row_errors.size() / 2];
   report["stereo_chain"] = {{"baseline_m", *rectify->out.baseline},
                             {"matched_discs", row_errors.size()},
                             {"median_row_error_px", median}};
-  fmt::print("stereo chain   baseline {:.3f} m, {} discs matched, median row misalignment {:.2f} px\n",
-             *rectify->out.baseline, row_errors.size(), median);
+  fmt::print(
+      "stereo chain   baseline {:.3f} m, {} discs matched, median row misalignment {:.2f} px\n",
+      *rectify->out.baseline, row_errors.size(), median);
   nodes.push_back(rectify.get());
   keep.push_back(std::move(rectify));
   return Status::ok();
@@ -292,9 +291,10 @@ Status filterChain(json& report, std::vector<const dfn::Node*>& nodes,
                                  {"measurement_position_rmse_m", raw_p},
                                  {"attitude_rmse_deg", rmse_r * 180.0 / M_PI},
                                  {"measurement_attitude_sigma_deg", 1.0}};
-  fmt::print("pose filter    60 s at 10 Hz: position RMSE {:.1f} mm (measurements {:.1f} mm), "
-             "attitude RMSE {:.2f} deg (measurements 1 deg per axis)\n",
-             rmse_p * 1e3, raw_p * 1e3, rmse_r * 180.0 / M_PI);
+  fmt::print(
+      "pose filter    60 s at 10 Hz: position RMSE {:.1f} mm (measurements {:.1f} mm), "
+      "attitude RMSE {:.2f} deg (measurements 1 deg per axis)\n",
+      rmse_p * 1e3, raw_p * 1e3, rmse_r * 180.0 / M_PI);
   nodes.push_back(ekf.get());
   keep.push_back(std::move(ekf));
   return Status::ok();

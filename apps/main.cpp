@@ -21,7 +21,8 @@ bool subcommandsAreKnown(CLI::App& app, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string word = argv[i];
     if (word.empty() || word[0] == '-') continue;
-    const std::vector<CLI::App*> children = current->get_subcommands([](CLI::App*) { return true; });
+    const std::vector<CLI::App*> children =
+        current->get_subcommands([](CLI::App*) { return true; });
     if (children.empty()) return true;  // a leaf command: the rest are its arguments
     std::vector<std::string> names;
     CLI::App* next = nullptr;

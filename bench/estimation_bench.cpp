@@ -3,14 +3,13 @@
 #include <benchmark/benchmark.h>
 
 #include "EstimationFilter.gen.hpp"
-#include "cdff/dfn/registry.hpp"
+#include "bench_support.hpp"
 
 namespace {
 
 std::unique_ptr<cdff::dfn::EstimationFilter> initialisedFilter() {
-  auto node = cdff::dfn::Registry::instance().create("EstimationFilter", "ExtendedKalman");
-  std::unique_ptr<cdff::dfn::EstimationFilter> ekf(
-      dynamic_cast<cdff::dfn::EstimationFilter*>(node.value().release()));
+  auto ekf = cdff::bench::createConfigured<cdff::dfn::EstimationFilter>("EstimationFilter",
+                                                                        "ExtendedKalman");
   cdff::RigidBodyState s;
   s.pose = cdff::Transform::identity("servicer", "target", 0);
   s.pose.translation = {0.5, -0.2, 10.0};

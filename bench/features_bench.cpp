@@ -10,7 +10,7 @@
 #include "EdgeDetection.gen.hpp"
 #include "FeaturesExtraction2D.gen.hpp"
 #include "FeaturesMatching2D.gen.hpp"
-#include "cdff/dfn/registry.hpp"
+#include "bench_support.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace {
@@ -43,17 +43,10 @@ cv::Mat secondView() {
   return rotated;
 }
 
-template <typename Dfn>
-std::unique_ptr<Dfn> create(const char* dfn, const char* dfi, const std::string& yaml) {
-  auto node = cdff::dfn::Registry::instance().create(dfn, dfi);
-  if (!node) return nullptr;
-  std::unique_ptr<Dfn> typed(dynamic_cast<Dfn*>(node.value().release()));
-  if (!typed || !typed->configure(YAML::Load(yaml))) return nullptr;
-  return typed;
-}
+using cdff::bench::createConfigured;
 
 void BM_EdgeDetection(benchmark::State& state, const char* dfi) {
-  auto dfn = create<cdff::dfn::EdgeDetection>("EdgeDetection", dfi, "{}");
+  auto dfn = createConfigured<cdff::dfn::EdgeDetection>("EdgeDetection", dfi, "{}");
   dfn->in.image.set(cdff::fromMat(scene(1)).value());
   for (auto _ : state)
     if (!dfn->process()) state.SkipWithError("EdgeDetection failed");
@@ -71,8 +64,8 @@ void BM_OpenCV_Canny(benchmark::State& state) {
 BENCHMARK(BM_OpenCV_Canny)->Unit(benchmark::kMillisecond);
 
 void BM_FeaturesExtraction2D(benchmark::State& state, const char* dfi) {
-  auto dfn = create<cdff::dfn::FeaturesExtraction2D>("FeaturesExtraction2D", dfi,
-                                                      "max_features: 2000");
+  auto dfn = createConfigured<cdff::dfn::FeaturesExtraction2D>("FeaturesExtraction2D", dfi,
+                                                               "max_features: 2000");
   dfn->in.image.set(cdff::fromMat(scene(1)).value());
   for (auto _ : state)
     if (!dfn->process()) state.SkipWithError("FeaturesExtraction2D failed");
@@ -92,9 +85,9 @@ void BM_OpenCV_ORB_detectAndCompute(benchmark::State& state) {
 BENCHMARK(BM_OpenCV_ORB_detectAndCompute)->Unit(benchmark::kMillisecond);
 
 void BM_FeaturesMatching2D(benchmark::State& state, const char* dfi) {
-  auto extract =
-      create<cdff::dfn::FeaturesExtraction2D>("FeaturesExtraction2D", "Orb", "max_features: 2000");
-  auto match = create<cdff::dfn::FeaturesMatching2D>("FeaturesMatching2D", dfi, "{}");
+  auto extract = createConfigured<cdff::dfn::FeaturesExtraction2D>("FeaturesExtraction2D", "Orb",
+                                                                   "max_features: 2000");
+  auto match = createConfigured<cdff::dfn::FeaturesMatching2D>("FeaturesMatching2D", dfi, "{}");
   extract->in.image.set(cdff::fromMat(scene(1)).value());
   (void)extract->process();
   match->in.query.set(extract->out.features.shared());

@@ -8,7 +8,7 @@
 
 #include "ImageUndistortion.gen.hpp"
 #include "StereoRectification.gen.hpp"
-#include "cdff/dfn/registry.hpp"
+#include "bench_support.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace {
@@ -44,14 +44,7 @@ Image frame(std::uint64_t seed) {
   return image;
 }
 
-template <typename Dfn>
-std::unique_ptr<Dfn> create(const char* dfn, const char* dfi, const char* yaml) {
-  auto node = cdff::dfn::Registry::instance().create(dfn, dfi);
-  if (!node) return nullptr;
-  std::unique_ptr<Dfn> typed(dynamic_cast<Dfn*>(node.value().release()));
-  if (!typed || !typed->configure(YAML::Load(yaml))) return nullptr;
-  return typed;
-}
+using cdff::bench::createConfigured;
 
 void setPixels(benchmark::State& state, int images) {
   state.SetItemsProcessed(state.iterations() * images);
@@ -60,7 +53,7 @@ void setPixels(benchmark::State& state, int images) {
 }
 
 void BM_ImageUndistortion(benchmark::State& state, const char* dfi, const char* yaml) {
-  auto dfn = create<cdff::dfn::ImageUndistortion>("ImageUndistortion", dfi, yaml);
+  auto dfn = createConfigured<cdff::dfn::ImageUndistortion>("ImageUndistortion", dfi, yaml);
   if (!dfn) {
     state.SkipWithError("cannot create or configure the DFI");
     return;
@@ -88,7 +81,8 @@ BENCHMARK_CAPTURE(BM_ImageUndistortion, Direct, "Direct", "{}")->Unit(benchmark:
 // The camera model changes every frame (e.g. an online-calibrated principal point): the cache
 // never hits, RemapCached pays initUndistortRectifyMap each call.
 void BM_ImageUndistortion_RemapCached_calibrationChangesEveryFrame(benchmark::State& state) {
-  auto dfn = create<cdff::dfn::ImageUndistortion>("ImageUndistortion", "RemapCached", "{}");
+  auto dfn =
+      createConfigured<cdff::dfn::ImageUndistortion>("ImageUndistortion", "RemapCached", "{}");
   Image images[2] = {frame(1), frame(1)};
   images[1].camera = camera(0.5);
   std::size_t i = 0;
@@ -147,7 +141,8 @@ cdff::StereoImagePair stereoPair() {
 }
 
 void BM_StereoRectification_OpenCV(benchmark::State& state) {
-  auto dfn = create<cdff::dfn::StereoRectification>("StereoRectification", "OpenCV", "{}");
+  auto dfn =
+      createConfigured<cdff::dfn::StereoRectification>("StereoRectification", "OpenCV", "{}");
   if (!dfn) {
     state.SkipWithError("cannot create or configure the DFI");
     return;

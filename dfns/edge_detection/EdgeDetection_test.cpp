@@ -6,6 +6,7 @@
 #include "EdgeDetection.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/types/opencv.hpp"
+#include "support/dfn_testing.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::dfn {
@@ -14,11 +15,7 @@ namespace {
 const cv::Rect kRect(40, 30, 100, 60);
 
 std::unique_ptr<EdgeDetection> make(const std::string& dfi, const char* yaml = "{}") {
-  auto node = Registry::instance().create("EdgeDetection", dfi);
-  EXPECT_TRUE(node.isOk()) << node.status().toString();
-  auto* dfn = dynamic_cast<EdgeDetection*>(node.value().release());
-  EXPECT_OK(dfn->configure(YAML::Load(yaml)));
-  return std::unique_ptr<EdgeDetection>(dfn);
+  return testing::makeDfn<EdgeDetection>("EdgeDetection", dfi, yaml);
 }
 
 // Distance from every edge pixel to the rectangle border, and the share of the border covered.

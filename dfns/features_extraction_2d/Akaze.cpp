@@ -2,7 +2,8 @@
 
 namespace cdff::dfn {
 
-class FeaturesExtraction2DAkaze final : public FeaturesExtraction2DAkazeBase {
+class FeaturesExtraction2DAkaze final
+    : public extraction::Extractor<FeaturesExtraction2DAkazeBase> {
  protected:
   Status onConfigure() override {
     akaze_ =
@@ -11,18 +12,14 @@ class FeaturesExtraction2DAkaze final : public FeaturesExtraction2DAkazeBase {
     return Status::ok();
   }
 
-  Status onProcess() override {
-    Result<extraction::PreparedInput> input = extraction::prepare(in);
-    if (!input) return input.status();
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    akaze_->detectAndCompute(input->gray, input->mask, keypoints, descriptors);
-    if (keypoints.empty())
-      warn(fmt::format("no AKAZE feature found in the {}x{} image (threshold {})", in.image->width,
-                       in.image->height, params_.threshold));
-    return extraction::publish(*in.image, keypoints, descriptors,
-                               DescriptorMatrix::Distance::kHamming, params_.max_features,
-                               out.features);
+  Detection detect(const extraction::PreparedInput& input) override {
+    Detection d;
+    akaze_->detectAndCompute(input.gray, input.mask, d.keypoints, d.descriptors);
+    return d;
+  }
+
+  std::string sensitivity() const override {
+    return fmt::format("threshold {}", params_.threshold);
   }
 
  private:

@@ -8,17 +8,14 @@
 #include "FeaturesExtraction2D.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/types/opencv.hpp"
+#include "support/dfn_testing.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::dfn {
 namespace {
 
 std::unique_ptr<FeaturesExtraction2D> make(const std::string& dfi, const std::string& yaml = "{}") {
-  auto node = Registry::instance().create("FeaturesExtraction2D", dfi);
-  EXPECT_TRUE(node.isOk()) << node.status().toString();
-  auto* dfn = dynamic_cast<FeaturesExtraction2D*>(node.value().release());
-  EXPECT_OK(dfn->configure(YAML::Load(yaml)));
-  return std::unique_ptr<FeaturesExtraction2D>(dfn);
+  return testing::makeDfn<FeaturesExtraction2D>("FeaturesExtraction2D", dfi, yaml);
 }
 
 Features2D extract(FeaturesExtraction2D& dfn, const cv::Mat& image, Timestamp stamp = 0) {
@@ -134,22 +131,14 @@ TEST_P(Extractors, AUniformImageGivesNoFeatureAndAWarning) {
 
 TEST_P(Extractors, BadInputsAreReportedAndLeaveTheOutputUntouched) {
   auto dfn = make(GetParam());
-  const Features2D good = extract(*dfn, testing::texturedScene(320, 240, 1), 7);
-  const auto expect_error = [&](const std::string& fragment) {
-    const Status s = dfn->process();
-    EXPECT_EQ(s.code(), StatusCode::kInvalidInput) << s.toString();
-    EXPECT_NE(s.message().find(fragment), std::string::npos) << s.message();
-    ASSERT_TRUE(dfn->out.features.hasValue());
-    EXPECT_EQ(dfn->out.features->stamp, 7);
-    EXPECT_EQ(dfn->out.features->size(), good.size());
-  };
+  extract(*dfn, testing::texturedScene(320, 240, 1), 7);
   dfn->in.image.set(Image{});
-  expect_error("empty");
+  testing::expectRejected(*dfn, "empty");
   dfn->in.image.set(testing::toImage(cv::Mat(240, 320, CV_16UC1, cv::Scalar(1000))));
-  expect_error("16UC1");
+  testing::expectRejected(*dfn, "16UC1");
   dfn->in.image.set(testing::toImage(testing::texturedScene(320, 240, 1)));
   dfn->in.mask.set(testing::toImage(cv::Mat(100, 100, CV_8UC1, cv::Scalar(255))));
-  expect_error("mask");
+  testing::expectRejected(*dfn, "mask");
 }
 
 INSTANTIATE_TEST_SUITE_P(FeaturesExtraction2D, Extractors, ::testing::Values("Orb", "Akaze"));

@@ -2,7 +2,7 @@
 
 namespace cdff::dfn {
 
-class FeaturesExtraction2DOrb final : public FeaturesExtraction2DOrbBase {
+class FeaturesExtraction2DOrb final : public extraction::Extractor<FeaturesExtraction2DOrbBase> {
  protected:
   Status onConfigure() override {
     if (params_.edge_threshold < params_.patch_size / 2)
@@ -20,19 +20,16 @@ class FeaturesExtraction2DOrb final : public FeaturesExtraction2DOrbBase {
     return Status::ok();
   }
 
-  Status onProcess() override {
-    Result<extraction::PreparedInput> input = extraction::prepare(in);
-    if (!input) return input.status();
-    std::vector<cv::KeyPoint> keypoints;
-    cv::Mat descriptors;
-    orb_->detectAndCompute(input->gray, input->mask, keypoints, descriptors);
-    if (keypoints.empty())
-      warn(fmt::format("no ORB feature found in the {}x{} image (FAST threshold {})",
-                       in.image->width, in.image->height, params_.fast_threshold));
-    return extraction::publish(*in.image, keypoints, descriptors,
-                               params_.wta_k == 2 ? DescriptorMatrix::Distance::kHamming
-                                                  : DescriptorMatrix::Distance::kHamming2,
-                               params_.max_features, out.features);
+  Detection detect(const extraction::PreparedInput& input) override {
+    Detection d;
+    orb_->detectAndCompute(input.gray, input.mask, d.keypoints, d.descriptors);
+    d.distance = params_.wta_k == 2 ? DescriptorMatrix::Distance::kHamming
+                                    : DescriptorMatrix::Distance::kHamming2;
+    return d;
+  }
+
+  std::string sensitivity() const override {
+    return fmt::format("fast_threshold {}", params_.fast_threshold);
   }
 
  private:

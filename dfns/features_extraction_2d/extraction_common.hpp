@@ -1,8 +1,10 @@
 #pragma once
-// Shared by the FeaturesExtraction2D DFIs: input checks, grey conversion and publishing.
+// What the FeaturesExtraction2D DFIs share: input checks, grey conversion, the budget and
+// publishing. A DFI only says how it detects and describes (Extractor::detect).
 
 #include <algorithm>
 #include <numeric>
+#include <string>
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -39,7 +41,7 @@ inline Result<PreparedInput> prepare(const FeaturesExtraction2D::Inputs& in) {
 }
 
 /// Keeps the `max_features` strongest keypoints (and their descriptor rows), strongest first.
-inline Status publish(const Image& image, std::vector<cv::KeyPoint>& keypoints,
+inline Status publish(const Image& image, const std::vector<cv::KeyPoint>& keypoints,
                       const cv::Mat& descriptors, DescriptorMatrix::Distance distance,
                       int max_features, OutputPort<Features2D>& out) {
   std::vector<int> order(keypoints.size());
@@ -69,5 +71,30 @@ inline Status publish(const Image& image, std::vector<cv::KeyPoint>& keypoints,
   out.set(std::move(features));
   return Status::ok();
 }
+
+/// The process() of every extractor DFI; `GeneratedBase` is the DFI's generated base class.
+template <typename GeneratedBase>
+class Extractor : public GeneratedBase {
+ protected:
+  struct Detection {
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    DescriptorMatrix::Distance distance = DescriptorMatrix::Distance::kHamming;
+  };
+  virtual Detection detect(const PreparedInput& input) = 0;
+  /// The setting that most decides how many features are found, for the "none found" warning.
+  virtual std::string sensitivity() const = 0;
+
+  Status onProcess() override {
+    Result<PreparedInput> input = prepare(this->in);
+    if (!input) return input.status();
+    const Detection found = detect(*input);
+    if (found.keypoints.empty())
+      this->warn(fmt::format("no feature found in the {}x{} image ({})", this->in.image->width,
+                             this->in.image->height, sensitivity()));
+    return publish(*this->in.image, found.keypoints, found.descriptors, found.distance,
+                   this->params_.max_features, this->out.features);
+  }
+};
 
 }  // namespace cdff::dfn::extraction

@@ -13,17 +13,14 @@
 #include "FeaturesMatching2D.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/types/opencv.hpp"
+#include "support/dfn_testing.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::dfn {
 namespace {
 
 std::unique_ptr<FeaturesMatching2D> make(const std::string& dfi, const std::string& yaml = "{}") {
-  auto node = Registry::instance().create("FeaturesMatching2D", dfi);
-  EXPECT_TRUE(node.isOk()) << node.status().toString();
-  auto* dfn = dynamic_cast<FeaturesMatching2D*>(node.value().release());
-  EXPECT_OK(dfn->configure(YAML::Load(yaml)));
-  return std::unique_ptr<FeaturesMatching2D>(dfn);
+  return testing::makeDfn<FeaturesMatching2D>("FeaturesMatching2D", dfi, yaml);
 }
 
 Features2D featuresFrom(const cv::Mat& descriptors) {
@@ -196,14 +193,10 @@ TEST_P(Matchers, IncompatibleDescriptorsAreReportedAndLeaveTheOutputsUntouched) 
   dfn->in.query.set(p.query);
   dfn->in.train.set(p.train);
   ASSERT_OK(dfn->process());
-  const std::size_t good = dfn->out.matches->size();
   const auto expect_error = [&](const Features2D& query, const std::string& fragment) {
     dfn->in.query.set(query);
     dfn->in.train.set(p.train);
-    const Status s = dfn->process();
-    EXPECT_EQ(s.code(), StatusCode::kInvalidInput) << s.toString();
-    EXPECT_NE(s.message().find(fragment), std::string::npos) << s.message();
-    EXPECT_EQ(dfn->out.matches->size(), good);
+    testing::expectRejected(*dfn, fragment);
   };
   cv::Mat short_rows(50, 16, CV_8UC1, cv::Scalar(3));
   expect_error(featuresFrom(short_rows), "16 and 32 bytes");
@@ -227,9 +220,7 @@ TEST(FeaturesMatching2DFlannLsh, HammingTwoDescriptorsAreRefusedWithAnAlternativ
       DescriptorMatrix::Distance::kHamming2;
   dfn->in.query.set(p.query);
   dfn->in.train.set(p.train);
-  const Status s = dfn->process();
-  EXPECT_EQ(s.code(), StatusCode::kInvalidInput);
-  EXPECT_NE(s.message().find("BruteForceHamming"), std::string::npos) << s.message();
+  testing::expectRejected(*dfn, "BruteForceHamming");
 }
 
 TEST(FeaturesMatching2D, OutOfRangeParametersAreRejected) {

@@ -70,16 +70,6 @@ inline std::vector<cv::DMatch> filter(const std::vector<std::vector<cv::DMatch>>
   return kept;
 }
 
-/// Keeps the matches whose train feature has the same query feature as its own nearest
-/// neighbour (`train_best[train]` is that query index, -1 if none).
-inline std::vector<cv::DMatch> mutual(const std::vector<cv::DMatch>& matches,
-                                      const std::vector<int>& train_best) {
-  std::vector<cv::DMatch> kept;
-  for (const cv::DMatch& m : matches)
-    if (train_best[m.trainIdx] == m.queryIdx) kept.push_back(m);
-  return kept;
-}
-
 inline void publish(std::vector<cv::DMatch> matches, const Features2D& query,
                     const Features2D& train, FeaturesMatching2D::Outputs& out) {
   std::stable_sort(matches.begin(), matches.end(), [](const cv::DMatch& a, const cv::DMatch& b) {
@@ -98,5 +88,46 @@ inline void publish(std::vector<cv::DMatch> matches, const Features2D& query,
   out.matches.set(std::move(pairs));
   out.correspondences.set(std::move(points));
 }
+
+/// The process() of every matcher DFI: checks, ratio and distance tests, cross-check and
+/// publishing; a DFI only says how it finds nearest neighbours (Matcher::nearest).
+template <typename GeneratedBase>
+class Matcher : public GeneratedBase {
+ protected:
+  /// The k nearest rows of `indexed` for each row of `queries`, nearest first (fewer when the
+  /// search finds fewer).
+  virtual std::vector<std::vector<cv::DMatch>> nearest(const cv::Mat& queries,
+                                                       const cv::Mat& indexed, int norm, int k) = 0;
+  /// Ok when this DFI can compare such descriptors.
+  virtual Status supports(const DescriptorMatrix&) const { return Status::ok(); }
+
+  Status onProcess() override {
+    const Features2D& query = *this->in.query;
+    const Features2D& train = *this->in.train;
+    Result<bool> matchable = validate(query, train);
+    if (!matchable) return matchable.status();
+    if (!*matchable) {
+      this->warn(fmt::format("nothing to match: {} query and {} train features", query.size(),
+                             train.size()));
+      publish({}, query, train, this->out);
+      return Status::ok();
+    }
+    CDFF_RETURN_IF_ERROR(supports(query.descriptors));
+    const cv::Mat q = toMat(query.descriptors), t = toMat(train.descriptors);
+    const int norm = cvNorm(query.descriptors);
+    std::vector<cv::DMatch> kept =
+        filter(nearest(q, t, norm, 2), {this->params_.ratio, this->params_.max_distance});
+    if (this->params_.cross_check) {
+      // A match survives when the query feature is also its train feature's nearest neighbour.
+      std::vector<int> train_best(train.size(), -1);
+      for (const auto& candidates : nearest(t, q, norm, 1))
+        if (!candidates.empty()) train_best[candidates[0].queryIdx] = candidates[0].trainIdx;
+      std::erase_if(kept,
+                    [&](const cv::DMatch& m) { return train_best[m.trainIdx] != m.queryIdx; });
+    }
+    publish(std::move(kept), query, train, this->out);
+    return Status::ok();
+  }
+};
 
 }  // namespace cdff::dfn::matching

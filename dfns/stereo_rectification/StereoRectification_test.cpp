@@ -12,6 +12,7 @@
 #include "StereoRectification.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/types/opencv.hpp"
+#include "support/dfn_testing.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::dfn {
@@ -25,11 +26,7 @@ constexpr int kWindow = 7;             // px, half-size of the centroid window (
 constexpr int kMargin = kWindow + 3;   // px, dots closer to the border are not measured
 
 std::unique_ptr<StereoRectification> make(const std::string& yaml = "{}") {
-  auto node = Registry::instance().create("StereoRectification", "OpenCV");
-  EXPECT_TRUE(node.isOk()) << node.status().toString();
-  auto* dfn = dynamic_cast<StereoRectification*>(node.value().release());
-  EXPECT_OK(dfn->configure(YAML::Load(yaml)));
-  return std::unique_ptr<StereoRectification>(dfn);
+  return testing::makeDfn<StereoRectification>("StereoRectification", "OpenCV", yaml);
 }
 
 CameraModel camera(double fx, double fy, double cx, double cy, DistortionModel model,
@@ -364,18 +361,13 @@ class StereoRectificationBadInput : public ::testing::Test {
     good_ = renderPair(radialTangentialRig(), scene());
     dfn_->in.stereo.set(good_);
     ASSERT_OK(dfn_->process());
-    before_ = dfn_->out.rectified.get();
   }
   void expectRejected(const StereoImagePair& pair, const std::string& fragment) {
     dfn_->in.stereo.set(pair);
-    const Status s = dfn_->process();
-    EXPECT_EQ(s.code(), StatusCode::kInvalidInput) << s.toString();
-    EXPECT_NE(s.message().find(fragment), std::string::npos) << s.message();
-    EXPECT_EQ(dfn_->out.rectified.get(), before_);
+    testing::expectRejected(*dfn_, fragment);
   }
   std::unique_ptr<StereoRectification> dfn_;
   StereoImagePair good_;
-  const StereoImagePair* before_ = nullptr;
 };
 
 TEST_F(StereoRectificationBadInput, SizeMismatch) {

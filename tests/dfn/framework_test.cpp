@@ -12,10 +12,10 @@ namespace cdff::dfn {
 namespace {
 
 std::unique_ptr<FrameworkProbeArithmeticBase> makeProbe() {
-  auto node = Registry::instance().create("FrameworkProbe", "Arithmetic");
+  auto node =
+      Registry::instance().createAs<FrameworkProbeArithmeticBase>("FrameworkProbe", "Arithmetic");
   EXPECT_TRUE(node.isOk()) << node.status().toString();
-  return std::unique_ptr<FrameworkProbeArithmeticBase>(
-      dynamic_cast<FrameworkProbeArithmeticBase*>(node.value().release()));
+  return std::move(node).value();
 }
 
 Status configureYaml(Node& node, const std::string& yaml) {
@@ -35,8 +35,8 @@ TEST(Parameters, DefaultsComeFromTheDescription) {
 
 TEST(Parameters, YamlValuesOfEveryKindAreApplied) {
   auto probe = makeProbe();
-  ASSERT_OK(configureYaml(*probe,
-                          "gain: 3\niterations: 2\nmode: add\nenabled: false\noffsets: [0.5, -1, 1]"));
+  ASSERT_OK(configureYaml(
+      *probe, "gain: 3\niterations: 2\nmode: add\nenabled: false\noffsets: [0.5, -1, 1]"));
   const auto& p = probe->parameters();
   EXPECT_EQ(p.gain, 3.0);
   EXPECT_EQ(p.iterations, 2);
@@ -60,8 +60,7 @@ TEST(Parameters, WrongTypeNamesKeyValueAndExpectation) {
   auto probe = makeProbe();
   Status s = configureYaml(*probe, "iterations: 2.5");
   EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
-  EXPECT_NE(s.message().find("'iterations' = 2.5 is not an int"), std::string::npos)
-      << s.message();
+  EXPECT_NE(s.message().find("'iterations' = 2.5 is not an int"), std::string::npos) << s.message();
   s = configureYaml(*probe, "gain: fast");
   EXPECT_NE(s.message().find("'gain' = fast is not a number; expected [0, 10] 1"),
             std::string::npos)
@@ -85,13 +84,11 @@ TEST(Parameters, OutOfRangeValuesNameTheAcceptedRange) {
   s = configureYaml(*probe, "gain: .nan");
   EXPECT_NE(s.message().find("not a finite number"), std::string::npos) << s.message();
   s = configureYaml(*probe, "mode: divide");
-  EXPECT_NE(s.message().find("expected one of {multiply, add}"), std::string::npos)
-      << s.message();
+  EXPECT_NE(s.message().find("expected one of {multiply, add}"), std::string::npos) << s.message();
   s = configureYaml(*probe, "offsets: [0, 0]");
   EXPECT_NE(s.message().find("has 2 values; expected 3"), std::string::npos) << s.message();
   s = configureYaml(*probe, "offsets: [0, 2, 0]");
-  EXPECT_NE(s.message().find("element 1 = 2 is out of range; expected [-1, 1]"),
-            std::string::npos)
+  EXPECT_NE(s.message().find("element 1 = 2 is out of range; expected [-1, 1]"), std::string::npos)
       << s.message();
 }
 
@@ -245,6 +242,17 @@ TEST(Registry, UnknownNamesListTheKnownOnes) {
   r = Registry::instance().create("FrameworkProbe", "Quantum");
   EXPECT_NE(r.status().message().find("expected one of {Arithmetic}"), std::string::npos)
       << r.status().message();
+}
+
+TEST(Registry, CreateAsRefusesAClassTheInstanceIsNot) {
+  auto typed = Registry::instance().createAs<FrameworkProbe>("FrameworkProbe", "Arithmetic");
+  ASSERT_TRUE(typed.isOk()) << typed.status().toString();
+  EXPECT_EQ(typed.value()->name(), "FrameworkProbe/Arithmetic");
+  struct Unrelated : Node {};
+  auto wrong = Registry::instance().createAs<Unrelated>("FrameworkProbe", "Arithmetic");
+  EXPECT_FALSE(wrong.isOk());
+  EXPECT_NE(wrong.status().message().find("not an instance"), std::string::npos)
+      << wrong.status().message();
 }
 
 }  // namespace

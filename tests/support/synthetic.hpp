@@ -25,14 +25,14 @@ Image toImage(const cv::Mat& mat, Timestamp stamp = 0);
 
 }  // namespace cdff::testing
 
-#define EXPECT_OK(expr)                                          \
-  do {                                                           \
-    const ::cdff::Status cdff_test_status_ = (expr);             \
+#define EXPECT_OK(expr)                                                    \
+  do {                                                                     \
+    const ::cdff::Status cdff_test_status_ = (expr);                       \
     EXPECT_TRUE(cdff_test_status_.isOk()) << cdff_test_status_.toString(); \
   } while (false)
 
-#define ASSERT_OK(expr)                                          \
-  do {                                                           \
-    const ::cdff::Status cdff_test_status_ = (expr);             \
+#define ASSERT_OK(expr)                                                    \
+  do {                                                                     \
+    const ::cdff::Status cdff_test_status_ = (expr);                       \
     ASSERT_TRUE(cdff_test_status_.isOk()) << cdff_test_status_.toString(); \
   } while (false)

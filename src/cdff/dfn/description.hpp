@@ -23,12 +23,12 @@ const char* toString(ParameterType type);
 struct ParameterSpec {
   std::string name;
   ParameterType type = ParameterType::kDouble;
-  std::string default_text;             // the default as written in YAML
-  std::string unit;                     // SI unit, "" when dimensionless
-  std::optional<double> min;            // inclusive bounds for numbers (and list elements)
+  std::string default_text;   // the default as written in YAML
+  std::string unit;           // SI unit, "" when dimensionless
+  std::optional<double> min;  // inclusive bounds for numbers (and list elements)
   std::optional<double> max;
-  std::vector<std::string> allowed;     // for strings: the accepted values (empty: any)
-  std::optional<std::size_t> list_size; // for lists: the required length (empty: any)
+  std::vector<std::string> allowed;      // for strings: the accepted values (empty: any)
+  std::optional<std::size_t> list_size;  // for lists: the required length (empty: any)
   std::string doc;
 
   /// "[0, 255]", "{a, b}", "any" ...

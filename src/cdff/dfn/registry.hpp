@@ -33,6 +33,22 @@ class Registry {
   /// A new, unconfigured instance; an error lists the known DFNs or DFIs when a name is wrong.
   Result<std::unique_ptr<Node>> create(const std::string& dfn, const std::string& dfi) const;
 
+  /// As create(), typed as the DFN's generated class (e.g. EdgeDetection) or a DFI's base, so
+  /// that its ports and parameters are reachable; an error if the instance is not a T.
+  template <typename T>
+  Result<std::unique_ptr<T>> createAs(const std::string& dfn, const std::string& dfi) const {
+    Result<std::unique_ptr<Node>> node = create(dfn, dfi);
+    if (!node) return node.status();
+    T* typed = dynamic_cast<T*>(node.value().get());
+    if (!typed)
+      return Status(StatusCode::kInvalidInput,
+                    fmt::format("{}/{} is not an instance of the requested C++ class; expected "
+                                "the generated class of DFN '{}' or one of its DFI bases",
+                                dfn, dfi, dfn));
+    node.value().release();
+    return std::unique_ptr<T>(typed);
+  }
+
  private:
   std::map<std::string, const DfnDescription*> descriptions_;
   std::map<std::pair<std::string, std::string>, Factory> factories_;
@@ -54,6 +70,6 @@ struct DfiRegistrar {
 }  // namespace cdff::dfn
 
 /// Registers a DFI class (derived from its generated <Dfn><Dfi>Base) with the registry.
-#define CDFF_REGISTER_DFI(Class)                                                         \
+#define CDFF_REGISTER_DFI(Class)                                                            \
   static_assert(std::is_base_of_v<::cdff::dfn::Node, Class>, #Class " must be a DFN node"); \
   static const ::cdff::dfn::detail::DfiRegistrar<Class> cdff_dfi_registrar_##Class {}
