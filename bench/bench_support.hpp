@@ -4,7 +4,9 @@
 #include <memory>
 #include <string>
 
+#include <benchmark/benchmark.h>
 #include <yaml-cpp/yaml.h>
+#include <opencv2/core.hpp>
 
 #include "cdff/dfn/registry.hpp"
 
@@ -21,3 +23,16 @@ std::unique_ptr<Dfn> createConfigured(const std::string& dfn, const std::string&
 }
 
 }  // namespace cdff::bench
+
+/// main() of the benchmark programs: OpenCV runs on one thread, so that every figure is the
+/// cost on one core (the CPU time column) and a DFI and the library call it wraps compare
+/// fairly whatever else the machine is doing.
+#define CDFF_BENCHMARK_MAIN()                                         \
+  int main(int argc, char** argv) {                                   \
+    cv::setNumThreads(1);                                             \
+    benchmark::Initialize(&argc, argv);                               \
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1; \
+    benchmark::RunSpecifiedBenchmarks();                              \
+    benchmark::Shutdown();                                            \
+    return 0;                                                         \
+  }

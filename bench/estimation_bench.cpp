@@ -45,4 +45,4 @@ BENCHMARK(BM_EstimationFilter_predictAndCorrect);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+CDFF_BENCHMARK_MAIN();

@@ -116,4 +116,4 @@ BENCHMARK(BM_OpenCV_BFMatcher_knn2)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+CDFF_BENCHMARK_MAIN();

@@ -4,6 +4,7 @@
 
 #include <cstring>
 
+#include "bench_support.hpp"
 #include "cdff/dfn/port.hpp"
 #include "cdff/types/opencv.hpp"
 #include "cdff/types/pcl.hpp"
@@ -105,4 +106,4 @@ BENCHMARK(BM_PointCloudToPclCopy30k)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+CDFF_BENCHMARK_MAIN();

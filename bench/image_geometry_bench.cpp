@@ -191,4 +191,4 @@ void BM_OpenCV_stereo_remap_linear(benchmark::State& state) {
 BENCHMARK(BM_OpenCV_stereo_remap_linear)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-BENCHMARK_MAIN();
+CDFF_BENCHMARK_MAIN();

@@ -315,7 +315,7 @@ TEST(ImageUndistortion, BothDfisAgree) {
   // Both compute the same fixed-point bilinear maps (cv::undistort builds them stripe by
   // stripe): a map entry may differ by one 1/32 px step, which on the dots' steepest slope
   // (250 * exp(-1/2) / 1.5 ~ 100 grey/px) is ~3 grey levels; almost all pixels are equal.
-  for (const std::string& parameters : {"{}", "{new_camera_matrix: optimal, alpha: 0.5}"}) {
+  for (const std::string parameters : {"{}", "{new_camera_matrix: optimal, alpha: 0.5}"}) {
     for (bool fisheye : {false, true}) {
       SCOPED_TRACE(parameters + (fisheye ? " equidistant" : " radial_tangential"));
       auto cached = make("RemapCached", parameters);
