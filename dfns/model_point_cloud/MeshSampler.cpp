@@ -50,7 +50,7 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
  private:
   Result<PointCloud> sample(const TriangleMesh& mesh, const char* what) const {
     const double area = mesh.surfaceArea();
-    const double count = std::ceil(area / (params_.point_spacing * params_.point_spacing));
+    const double count = std::round(area / (params_.point_spacing * params_.point_spacing));
     if (count > params_.max_points)
       return invalidParameter(
           "{} has {:.4g} m^2 of surface: {:.0f} points at point_spacing = {} m, more than "

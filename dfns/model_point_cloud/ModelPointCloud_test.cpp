@@ -12,6 +12,7 @@
 
 #include "ModelPointCloud.gen.hpp"
 #include "cdff/dfn/registry.hpp"
+#include "cdff/types/mesh_io.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
@@ -31,7 +32,7 @@ TEST(ModelPointCloudMeshSampler, SamplesLieOnTheBoxFacesWithOutwardNormalsAndFai
   ASSERT_OK(sampler->process());
   const PointCloud& model = *sampler->out.model;
   const double area = 8 * (kHalf.x() * kHalf.y() + kHalf.y() * kHalf.z() + kHalf.x() * kHalf.z());
-  EXPECT_EQ(model.size(), static_cast<std::size_t>(std::ceil(area / 1e-4)));
+  EXPECT_EQ(model.size(), static_cast<std::size_t>(std::round(area / 1e-4)));
   ASSERT_EQ(model.normals.size(), model.size());
   EXPECT_EQ(model.frame_id, "target");
   std::array<int, 6> per_face{};  // -x, +x, -y, +y, -z, +z

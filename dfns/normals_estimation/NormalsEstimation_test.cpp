@@ -73,8 +73,9 @@ TYPED_TEST(NormalsEstimationTest, NormalsOfASphericalCapAreRadialAndFaceTheViewp
 }
 
 TYPED_TEST(NormalsEstimationTest, NormalsOfANoisyPlaneArePerpendicularToIt) {
-  // A tilted plane with 2 mm noise and 1 cm spacing; the radius neighbourhood (5 cm) holds about
-  // 80 points, so a fitted normal errs by about atan(0.002 / (0.05 * sqrt(80) / 2)) ~ 0.5 deg.
+  // A tilted plane with 2 mm noise, 20 000 points on 4 m^2 (2 cm^2 each): a 5 cm radius holds
+  // about 40 points spread by R/2 = 2.5 cm, so each normal errs by about
+  // 0.002 / (0.025 sqrt(40)) = 0.73 deg per axis, 0.9 deg on average (Rayleigh mean).
   std::mt19937 rng(2);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   std::normal_distribution<float> noise(0.0f, 0.002f);
@@ -94,7 +95,7 @@ TYPED_TEST(NormalsEstimationTest, NormalsOfANoisyPlaneArePerpendicularToIt) {
     EXPECT_LT(n.dot(normal), 0.0f) << "point " << i << " faces away from the viewpoint";
     sum += std::acos(std::min(1.0f, std::abs(n.dot(normal))));
   }
-  EXPECT_LT(sum / out.size(), 1.0 * M_PI / 180.0);
+  EXPECT_LT(sum / out.size(), 1.3 * M_PI / 180.0);
 }
 
 TYPED_TEST(NormalsEstimationTest, IsolatedPointsGetNoNormalAndAWarning) {

@@ -78,5 +78,34 @@ TEST(KdTree3f, EmptyAndTinyTrees) {
   EXPECT_EQ(found[1].index, 0u);
 }
 
+TEST(KdTree3f, NearestFacingSkipsPointsWhoseNormalFacesAway) {
+  // Two parallel sheets 2 cm apart, like the faces of a thin panel: the top one faces +z, the
+  // bottom one -z. A sensor above sees only the top; a query just above the bottom sheet must
+  // get a top point although bottom points are nearer.
+  std::vector<Point4f> points, normals;
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j) {
+      points.emplace_back(0.01f * i, 0.01f * j, 0.0f);
+      normals.emplace_back(0, 0, 1);
+      points.emplace_back(0.01f * i, 0.01f * j, -0.02f);
+      normals.emplace_back(0, 0, -1);
+    }
+  const KdTree3f tree(points, 4, normals);
+  const Eigen::Vector3f q(0.1f, 0.1f, -0.015f), eye(0.1f, 0.1f, 5.0f);
+  KdTree3f::Neighbour plain, facing;
+  ASSERT_TRUE(tree.nearest(q, 1.0f, plain));
+  EXPECT_EQ(points[plain.index].z, -0.02f);
+  ASSERT_TRUE(tree.nearestFacing(q, eye, 1.0f, facing));
+  EXPECT_EQ(points[facing.index].z, 0.0f);
+  EXPECT_NEAR(facing.squared_distance, 0.015f * 0.015f, 1e-7f);
+  // Seen from below, the bottom sheet is the visible one.
+  ASSERT_TRUE(tree.nearestFacing(Eigen::Vector3f(0.1f, 0.1f, -0.004f), Eigen::Vector3f(0, 0, -5),
+                                 1.0f, facing));
+  EXPECT_EQ(points[facing.index].z, -0.02f);
+  // Without normals at build there is nothing to face.
+  const KdTree3f bare(points, 4);
+  EXPECT_FALSE(bare.nearestFacing(q, eye, 1.0f, facing));
+}
+
 }  // namespace
 }  // namespace cdff
