@@ -5,12 +5,10 @@
 # the DFIs and generated code into the object library `cdff_dfn_<area>` (object files, so that
 # every DFI's self-registration is linked in), and the tests into one GoogleTest executable per
 # folder that links only its own area. `cdff_dfns` (dfns/CMakeLists.txt) gathers every area.
-#
-# An area that needs more than the common libraries (e.g. PCL components) adds an optional
-# <area>/dfn.cmake, included inside this function after the library is made: it sees `${lib}`
-# (the area's object library) and `${area}`, and links what it needs, e.g.
-#   find_package(PCL 1.13 REQUIRED COMPONENTS common filters)
-#   target_link_libraries(${lib} PUBLIC cdff_types_pcl ${PCL_FILTERS_LIBRARIES})
+# An area that needs more than the common libraries adds an `area.cmake` beside its YAML: it is
+# included last, with `${lib}` (the area's target), `${dir}` (the folder) and `${area}` set (the
+# test target is `test_dfn_${area}` when it exists), e.g.
+# `target_link_libraries(${lib} PUBLIC cdff_tracking)`.
 set(CDFF_DFN_CODEGEN ${PROJECT_SOURCE_DIR}/scripts/dfn_codegen.py)
 set(CDFF_DFN_GEN_DIR ${PROJECT_BINARY_DIR}/generated/dfns)
 
@@ -44,12 +42,12 @@ function(cdff_add_dfn_area dir)
     list(REMOVE_ITEM sources ${tests})
   endif()
   target_sources(${lib} PRIVATE ${sources})
-  if(EXISTS ${dir}/dfn.cmake)
-    include(${dir}/dfn.cmake)
-  endif()
   if(tests AND CDFF_BUILD_TESTS)
     add_executable(test_dfn_${area} ${tests})
     target_link_libraries(test_dfn_${area} PRIVATE ${lib} cdff_test_support GTest::gtest_main)
     gtest_discover_tests(test_dfn_${area} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS dfn)
+  endif()
+  if(EXISTS ${dir}/area.cmake)
+    include(${dir}/area.cmake)
   endif()
 endfunction()
