@@ -1,0 +1,106 @@
+#include "cdff/dfpc/clock.hpp"
+
+#include <chrono>
+
+namespace cdff::dfpc {
+
+namespace {
+std::chrono::steady_clock::time_point toTimePoint(Timestamp t) {
+  return std::chrono::steady_clock::time_point(std::chrono::microseconds(t));
+}
+}  // namespace
+
+Timestamp SteadyClock::now() const {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+bool SteadyClock::sleepUntil(Timestamp t) {
+  std::unique_lock lock(mutex_);
+  const std::uint64_t interrupts = interrupts_;
+  while (now() < t) {
+    if (interrupts_ != interrupts) return false;
+    if (t == kForever)
+      wake_.wait(lock);
+    else
+      wake_.wait_until(lock, toTimePoint(t));
+  }
+  return true;
+}
+
+void SteadyClock::interrupt() {
+  {
+    std::lock_guard lock(mutex_);
+    ++interrupts_;
+  }
+  wake_.notify_all();
+}
+
+SimulatedClock::SimulatedClock(Timestamp start, Mode mode) : now_(start), mode_(mode) {}
+
+Timestamp SimulatedClock::now() const {
+  std::lock_guard lock(mutex_);
+  return now_;
+}
+
+bool SimulatedClock::sleepUntil(Timestamp t) {
+  std::unique_lock lock(mutex_);
+  if (mode_ == Mode::kAutoAdvance) {
+    if (t > now_ && t != kForever) now_ = t;
+    return t != kForever;
+  }
+  if (now_ >= t) return true;
+  const std::uint64_t interrupts = interrupts_;
+  auto entry = sleepers_.insert(t);
+  settled_.notify_all();
+  wake_.wait(lock, [&] { return now_ >= t || interrupts_ != interrupts; });
+  sleepers_.erase(entry);
+  return now_ >= t;
+}
+
+void SimulatedClock::interrupt() {
+  {
+    std::lock_guard lock(mutex_);
+    ++interrupts_;
+  }
+  wake_.notify_all();
+}
+
+bool SimulatedClock::participantsSettled() const {
+  // Every participant sleeps, and none of them is due (it would be about to wake and work).
+  int waiting_for_later = 0;
+  for (auto it = sleepers_.upper_bound(now_); it != sleepers_.end(); ++it) ++waiting_for_later;
+  return waiting_for_later >= participants_;
+}
+
+void SimulatedClock::advanceTo(Timestamp t) {
+  std::unique_lock lock(mutex_);
+  if (t > now_) now_ = t;
+  wake_.notify_all();
+  settled_.wait(lock, [&] { return participantsSettled(); });
+}
+
+void SimulatedClock::advanceBy(Timestamp dt) {
+  Timestamp target;
+  {
+    std::lock_guard lock(mutex_);
+    target = now_ + dt;
+  }
+  advanceTo(target);
+}
+
+void SimulatedClock::addParticipant() {
+  std::lock_guard lock(mutex_);
+  ++participants_;
+}
+
+void SimulatedClock::removeParticipant() {
+  {
+    std::lock_guard lock(mutex_);
+    --participants_;
+  }
+  settled_.notify_all();
+}
+
+}  // namespace cdff::dfpc
