@@ -71,10 +71,21 @@ Status Dfpc::createNode(Instance& inst, const std::string& dfi, const YAML::Node
                                      "'");
   node.value()->setName(spec_.name + "." + inst.spec->name);
   Status configured = node.value()->configure(parameters, source);
-  if (!configured)
-    return configured.withContext(fmt::format("{}instance '{}' ({}/{})",
-                                              inst.spec->at("parameters").prefix(), inst.spec->name,
-                                              inst.spec->dfn, dfi));
+  if (!configured) {
+    // Parameter errors already start with their location (file:line:column: ); keep it first.
+    const std::string& message = configured.message();
+    std::string location = inst.spec->at("parameters").prefix(), rest = message;
+    if (!source.empty() && message.rfind(source + ":", 0) == 0) {
+      const std::size_t end = message.find(": ", source.size());
+      if (end != std::string::npos &&
+          message.find_first_not_of("0123456789:", source.size()) == end) {
+        location = message.substr(0, end + 2);
+        rest = message.substr(end + 2);
+      }
+    }
+    return Status(configured.code(), fmt::format("{}instance '{}' ({}/{}): {}", location,
+                                                 inst.spec->name, inst.spec->dfn, dfi, rest));
+  }
   out = std::move(node).value();
   return Status::ok();
 }
