@@ -78,7 +78,7 @@ Status Dfpc::createNode(Instance& inst, const std::string& dfi, const YAML::Node
     if (!source.empty() && message.rfind(source + ":", 0) == 0) {
       const std::size_t end = message.find(": ", source.size());
       if (end != std::string::npos &&
-          message.find_first_not_of("0123456789:", source.size()) == end) {
+          message.find_first_not_of("0123456789:", source.size()) == end + 1) {
         location = message.substr(0, end + 2);
         rest = message.substr(end + 2);
       }
