@@ -37,8 +37,10 @@ std::string replaced(std::string text, const std::string& from, const std::strin
   return text;
 }
 
-#define EXPECT_CONTAINS(text, fragment) \
-  EXPECT_NE(std::string(text).find(fragment), std::string::npos) << "'" << (fragment) << "' not in:\n" << (text)
+#define EXPECT_CONTAINS(text, fragment)                          \
+  EXPECT_NE(std::string(text).find(fragment), std::string::npos) \
+      << "'" << (fragment) << "' not in:\n"                      \
+      << (text)
 
 TEST(GraphYaml, ASoundGraphLoadsIntoItsSpec) {
   EXPECT_EQ(graphErrors(kChain), "");
@@ -64,21 +66,24 @@ TEST(GraphYaml, UnknownDfnNamesTheLineAndTheKnownDfns) {
 
 TEST(GraphYaml, UnknownDfiNamesTheLineAndTheDfnsImplementations) {
   const std::string e = graphErrors(replaced(kChain, "dfi: Plain\n", "dfi: Fancy\n"));
-  EXPECT_CONTAINS(e, "graph.yaml:10:10: instance 'second': DFN 'ProbeRelay' has no "
-                     "implementation 'Fancy'; expected one of {Plain, Alternative}");
+  EXPECT_CONTAINS(e,
+                  "graph.yaml:10:10: instance 'second': DFN 'ProbeRelay' has no "
+                  "implementation 'Fancy'; expected one of {Plain, Alternative}");
 }
 
 TEST(GraphYaml, TypeMismatchBetweenConnectedPortsNamesBothTypes) {
-  const std::string e = graphErrors(
-      replaced(kChain, "first.result -> second.a", "first.calls -> second.a"));
-  EXPECT_CONTAINS(e, "graph.yaml:14:5: type mismatch: 'first.calls' is Int but 'second.a' is "
-                     "Double");
+  const std::string e =
+      graphErrors(replaced(kChain, "first.result -> second.a", "first.calls -> second.a"));
+  EXPECT_CONTAINS(e,
+                  "graph.yaml:14:5: type mismatch: 'first.calls' is Int but 'second.a' is "
+                  "Double");
 }
 
 TEST(GraphYaml, UnconnectedRequiredInputIsAnError) {
   const std::string e = graphErrors(replaced(kChain, "  - first.result -> second.a\n", ""));
-  EXPECT_CONTAINS(e, "graph.yaml:8:3: instance 'second' (ProbeRelay): required input 'a' "
-                     "(Double) is not connected");
+  EXPECT_CONTAINS(e,
+                  "graph.yaml:8:3: instance 'second' (ProbeRelay): required input 'a' "
+                  "(Double) is not connected");
 }
 
 TEST(GraphYaml, CycleWithoutDelayIsAnErrorAndADelayBreaksIt) {
@@ -96,11 +101,13 @@ TEST(GraphYaml, CycleWithoutDelayIsAnErrorAndADelayBreaksIt) {
 }
 
 TEST(GraphYaml, UnknownPortsAndInstancesInConnections) {
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "first.result -> second.a", "first.output -> second.a")),
-                  "graph.yaml:14:5: connection source 'first.output': ProbeRelay has no output "
-                  "'output'; expected one of {result, calls}");
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "first.result -> second.a", "third.out -> second.a")),
-                  "graph.yaml:14:5: connection source 'third.out' names unknown instance 'third'");
+  EXPECT_CONTAINS(
+      graphErrors(replaced(kChain, "first.result -> second.a", "first.output -> second.a")),
+      "graph.yaml:14:5: connection source 'first.output': ProbeRelay has no output "
+      "'output'; expected one of {result, calls}");
+  EXPECT_CONTAINS(
+      graphErrors(replaced(kChain, "first.result -> second.a", "third.out -> second.a")),
+      "graph.yaml:14:5: connection source 'third.out' names unknown instance 'third'");
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "x -> first.a", "z -> first.a")),
                   "graph.yaml:13:5: connection source 'z' is not a DFPC input");
 }
@@ -108,22 +115,24 @@ TEST(GraphYaml, UnknownPortsAndInstancesInConnections) {
 TEST(GraphYaml, DfpcPortsMustBeUsedAndOutputsFedOnce) {
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "  - second.result -> y\n", "")),
                   "graph.yaml:5:5: DFPC output 'y' is not connected");
+  EXPECT_CONTAINS(graphErrors(replaced(kChain, "outputs:",
+                                       "  - {name: w, type: Double, channel: /in/w}\n"
+                                       "outputs:")),
+                  "graph.yaml:4:5: DFPC input 'w' feeds nothing");
   EXPECT_CONTAINS(
-      graphErrors(replaced(kChain, "outputs:", "  - {name: w, type: Double, channel: /in/w}\n"
-                                               "outputs:")),
-      "graph.yaml:4:5: DFPC input 'w' feeds nothing");
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "type: Double, channel: /in/x",
-                                       "type: Duoble, channel: /in/x")),
-                  "graph.yaml:3:5: DFPC input 'x': unknown type 'Duoble'");
+      graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x")),
+      "graph.yaml:3:5: DFPC input 'x': unknown type 'Duoble'");
 }
 
 TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "    parameters:", "    paramters:")),
                   "graph.yaml:11:5: instance 'second': unknown key 'paramters'");
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "first.result -> second.a", "first.result => second.a")),
-                  "graph.yaml:14:5: connection 'first.result => second.a' must read 'from -> to'");
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "  - x -> first.a\n", "  - {from: x, to: first.a, delay: 2}\n")),
-                  "graph.yaml:13:35: delay = 2; expected 0 or 1");
+  EXPECT_CONTAINS(
+      graphErrors(replaced(kChain, "first.result -> second.a", "first.result => second.a")),
+      "graph.yaml:14:5: connection 'first.result => second.a' must read 'from -> to'");
+  EXPECT_CONTAINS(
+      graphErrors(replaced(kChain, "  - x -> first.a\n", "  - {from: x, to: first.a, delay: 2}\n")),
+      "graph.yaml:13:35: delay = 2; expected 0 or 1");
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "name: chain", "name: chain\nname: again")),
                   "graph.yaml:");
   EXPECT_CONTAINS(graphErrors("name: broken\nnodes: {a: [1, 2}\n"), "graph.yaml:2:");
@@ -132,8 +141,9 @@ TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
 
 TEST(GraphYaml, ParameterErrorsPointIntoTheGraphFile) {
   const std::string e = graphErrors(replaced(kChain, "{offset: 1}", "{offest: 1}"));
-  EXPECT_CONTAINS(e, "graph.yaml:11:18: instance 'second' (ProbeRelay/Plain): chain.second has "
-                     "no parameter 'offest' (did you mean 'offset'?)");
+  EXPECT_CONTAINS(e,
+                  "graph.yaml:11:18: instance 'second' (ProbeRelay/Plain): chain.second has "
+                  "no parameter 'offest' (did you mean 'offset'?)");
 }
 
 TEST(GraphYaml, ParametersMayComeFromAFileBesideTheGraph) {
@@ -161,8 +171,9 @@ TEST(GraphYaml, ConditionErrorsPointAtTheCharacter) {
   const std::string bad_type = replaced(kChain, "    parameters: {offset: 1}\n",
                                         "    parameters: {offset: 1}\n"
                                         "    active_when: first.result in [LOST]\n");
-  EXPECT_CONTAINS(graphErrors(bad_type), "'first.result' is a Double; expected a number or unset, "
-                                         "got 'LOST' (at character 18)");
+  EXPECT_CONTAINS(graphErrors(bad_type),
+                  "'first.result' is a Double; expected a number or unset, "
+                  "got 'LOST' (at character 18)");
   const std::string bad_ref = replaced(kChain, "    parameters: {offset: 1}\n",
                                        "    parameters: {offset: 1}\n"
                                        "    active_when: first.value > 3\n");
@@ -183,9 +194,10 @@ TEST(GraphYaml, RecoveriesMustNameWhatTheyActOn) {
   EXPECT_CONTAINS(with("    on_fault: {error: [{reinitialise: nobody}]}\n"),
                   "recovery 'reinitialise' names unknown instance 'nobody'");
   EXPECT_CONTAINS(with("    on_fault: {error: [restart]}\n"), "unknown recovery 'restart'");
-  EXPECT_EQ(with("    fallback: {dfi: Alternative}\n    budget_s: 0.01\n"
-                 "    on_fault: {over_budget: [switch_dfi], error: {after: 3, do: [reinitialise]}}\n"),
-            "");
+  EXPECT_EQ(
+      with("    fallback: {dfi: Alternative}\n    budget_s: 0.01\n"
+           "    on_fault: {over_budget: [switch_dfi], error: {after: 3, do: [reinitialise]}}\n"),
+      "");
 }
 
 TEST(GraphYaml, TriggerErrors) {
@@ -240,10 +252,10 @@ TEST(GraphDot, ShowsInstancesPortsDelaysAndConditions) {
   const std::string text =
       replaced(kChain, "  - second.result -> y\n",
                "  - second.result -> y\n  - {from: second.result, to: first.b, delay: 1}\n");
-  Result<GraphSpec> spec = parseGraph(
-      replaced(text, "    parameters: {offset: 1}\n",
-               "    parameters: {offset: 1}\n    active_when: first.result > 2\n"),
-      "graph.yaml");
+  Result<GraphSpec> spec =
+      parseGraph(replaced(text, "    parameters: {offset: 1}\n",
+                          "    parameters: {offset: 1}\n    active_when: first.result > 2\n"),
+                 "graph.yaml");
   ASSERT_OK(spec.status());
   const std::string dot = toDot(*spec);
   EXPECT_CONTAINS(dot, "digraph \"chain\"");

@@ -525,6 +525,14 @@ void Dfpc::trySync(std::size_t n, Timestamp now, bool final) {
   auto& pivot = inst.queues[0];
   while (!pivot.empty()) {
     const Timestamp p = pivot.front().stamp;
+    // Pivots come in non-decreasing order: what is older than p - tolerance can match none.
+    for (std::size_t k = 1; k < inst.queues.size(); ++k) {
+      auto& q = inst.queues[k];
+      while (!q.empty() && q.front().stamp < p - inst.tolerance) {
+        dropSync(n, static_cast<int>(k), q.front().stamp, "no partner within the tolerance");
+        q.pop_front();
+      }
+    }
     // A better partner may still come for a queue without an entry at or after p, until stream
     // time has passed p + tolerance (messages arrive in timestamp order).
     const bool time_passed = final || now > p + inst.tolerance;
@@ -631,6 +639,12 @@ void Dfpc::finish() {
       trySync(n, stream_time_, true);
       if (!instances_[n].pending) break;
       runPending();
+    }
+    auto& queues = instances_[n].queues;
+    for (std::size_t k = 0; k < queues.size(); ++k) {
+      for (const SyncEntry& e : queues[k])
+        dropSync(n, static_cast<int>(k), e.stamp, "unmatched at the end of the stream");
+      queues[k].clear();
     }
   }
 }

@@ -25,7 +25,8 @@ class Relay : public Base {
     const auto& p = this->params_;
     if (p.duration_s > 0) dfpc::testing::probeExecutionClock().advanceBy(fromSeconds(p.duration_s));
     const double a = *this->in.a;
-    if (a > p.fail_above) return numericalFailure("a = {} is above fail_above = {}", a, p.fail_above);
+    if (a > p.fail_above)
+      return numericalFailure("a = {} is above fail_above = {}", a, p.fail_above);
     double out = a + p.offset;
     if (this->in.b.hasValue()) out += *this->in.b;
     this->out.result.set(out);
