@@ -51,8 +51,7 @@ TEST(DataProducts, LatestAtOrBeforeAndBoundedHistory) {
   EXPECT_EQ(stamps, (std::vector<Timestamp>{30, 35, 40}));
   // A product keeps its type.
   const Status wrong = dpm.publish<int>("a/x", 50, 1);
-  EXPECT_NE(wrong.message().find("product 'a/x' holds Double values; got a Int"),
-            std::string::npos)
+  EXPECT_NE(wrong.message().find("product 'a/x' holds Double values; got a Int"), std::string::npos)
       << wrong.message();
   EXPECT_EQ(dpm.latestAs<int>("a/x").status().code(), StatusCode::kInvalidInput);
   ASSERT_OK(dpm.setHistoryLimit("a/x", 1));
@@ -187,8 +186,8 @@ TEST(DataProducts, SaveAndRestoreEveryStoredKind) {
   mesh.frame_id = "target";
   mesh.stamp = 3;
   mesh.vertices = Buffer<Eigen::Vector3f>::fromVector({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
-  mesh.triangles =
-      Buffer<std::array<std::uint32_t, 3>>::fromVector({{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}});
+  mesh.triangles = Buffer<std::array<std::uint32_t, 3>>::fromVector(
+      {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}});
   ASSERT_OK(dpm.publish("model/mesh", 3, mesh));
 
   const fs::path dir = freshDirectory("roundtrip");
@@ -232,8 +231,8 @@ TEST(DataProducts, SaveAndRestoreEveryStoredKind) {
 TEST(DataProducts, SaveReportsWhatItCannotWriteAndRestoreRejectsCorruptFiles) {
   DataProductManager dpm;
   ASSERT_OK(dpm.publish<double>("ok/value", 1, 2.0));
-  ASSERT_OK(dpm.publish("camera/image",
-                        1, testing::toImage(cv::Mat(4, 4, CV_8UC1, cv::Scalar(3)), 1)));
+  ASSERT_OK(
+      dpm.publish("camera/image", 1, testing::toImage(cv::Mat(4, 4, CV_8UC1, cv::Scalar(3)), 1)));
   const fs::path dir = freshDirectory("partial");
   const Status s = dpm.save(dir.string());
   EXPECT_EQ(s.code(), StatusCode::kIoError);
@@ -251,8 +250,8 @@ TEST(DataProducts, SaveReportsWhatItCannotWriteAndRestoreRejectsCorruptFiles) {
 
   // A truncated PLY names its file.
   DataProductManager clouds;
-  ASSERT_OK(clouds.publish("map/cloud", 1,
-                           PointCloud::fromXyz({{1, 2, 3}, {4, 5, 6}}, "lidar", 1)));
+  ASSERT_OK(
+      clouds.publish("map/cloud", 1, PointCloud::fromXyz({{1, 2, 3}, {4, 5, 6}}, "lidar", 1)));
   const fs::path cloud_dir = freshDirectory("truncated");
   ASSERT_OK(clouds.save(cloud_dir.string()));
   fs::path ply;

@@ -16,11 +16,15 @@ Timestamp SteadyClock::now() const {
       .count();
 }
 
-bool SteadyClock::sleepUntil(Timestamp t) {
+std::uint64_t SteadyClock::interrupts() const {
+  std::lock_guard lock(mutex_);
+  return interrupts_;
+}
+
+bool SteadyClock::sleepUntil(Timestamp t, std::uint64_t since) {
   std::unique_lock lock(mutex_);
-  const std::uint64_t interrupts = interrupts_;
   while (now() < t) {
-    if (interrupts_ != interrupts) return false;
+    if (interrupts_ != since) return false;
     if (t == kForever)
       wake_.wait(lock);
     else
@@ -44,17 +48,22 @@ Timestamp SimulatedClock::now() const {
   return now_;
 }
 
-bool SimulatedClock::sleepUntil(Timestamp t) {
+std::uint64_t SimulatedClock::interrupts() const {
+  std::lock_guard lock(mutex_);
+  return interrupts_;
+}
+
+bool SimulatedClock::sleepUntil(Timestamp t, std::uint64_t since) {
   std::unique_lock lock(mutex_);
-  if (mode_ == Mode::kAutoAdvance) {
-    if (t > now_ && t != kForever) now_ = t;
-    return t != kForever;
+  if (mode_ == Mode::kAutoAdvance && t != kForever) {
+    if (t > now_) now_ = t;
+    return true;
   }
   if (now_ >= t) return true;
-  const std::uint64_t interrupts = interrupts_;
+  if (interrupts_ != since) return false;
   auto entry = sleepers_.insert(t);
   settled_.notify_all();
-  wake_.wait(lock, [&] { return now_ >= t || interrupts_ != interrupts; });
+  wake_.wait(lock, [&] { return now_ >= t || interrupts_ != since; });
   sleepers_.erase(entry);
   return now_ >= t;
 }

@@ -25,8 +25,13 @@ class Clock {
   virtual ~Clock() = default;
   /// Microseconds since the clock's epoch.
   virtual Timestamp now() const = 0;
-  /// Blocks until now() >= t or interrupt() is called; returns true when t was reached.
-  virtual bool sleepUntil(Timestamp t) = 0;
+  /// How many times interrupt() has been called.
+  virtual std::uint64_t interrupts() const = 0;
+  /// Blocks until now() >= t, or until interrupts() differs from `since` (returns at once if it
+  /// already does: read interrupts() before deciding to sleep, and no interrupt is missed).
+  /// Returns true when t was reached.
+  virtual bool sleepUntil(Timestamp t, std::uint64_t since) = 0;
+  bool sleepUntil(Timestamp t) { return sleepUntil(t, interrupts()); }
   /// Wakes every thread sleeping in sleepUntil() early (it returns false and re-checks its work).
   virtual void interrupt() = 0;
 };
@@ -35,11 +40,13 @@ class Clock {
 class SteadyClock final : public Clock {
  public:
   Timestamp now() const override;
-  bool sleepUntil(Timestamp t) override;
+  std::uint64_t interrupts() const override;
+  using Clock::sleepUntil;
+  bool sleepUntil(Timestamp t, std::uint64_t since) override;
   void interrupt() override;
 
  private:
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::uint64_t interrupts_ = 0;
 };
@@ -52,14 +59,17 @@ class SteadyClock final : public Clock {
 /// time, so a test that advances the clock sees every effect of that time before it goes on.
 ///
 /// In auto-advance mode sleepUntil(t) itself moves the clock to t and returns at once: a real-time
-/// replay then runs as fast as possible while its pacing can still be checked.
+/// replay then runs as fast as possible while its pacing can still be checked. Sleeping until
+/// kForever still blocks until interrupt().
 class SimulatedClock final : public Clock {
  public:
   enum class Mode { kManual, kAutoAdvance };
   explicit SimulatedClock(Timestamp start = 0, Mode mode = Mode::kManual);
 
   Timestamp now() const override;
-  bool sleepUntil(Timestamp t) override;
+  std::uint64_t interrupts() const override;
+  using Clock::sleepUntil;
+  bool sleepUntil(Timestamp t, std::uint64_t since) override;
   void interrupt() override;
 
   /// Moves the clock forward to t (never backwards) and waits for the participants (see above).

@@ -1,5 +1,6 @@
 #include "cdff/dfpc/condition.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -244,15 +245,22 @@ Status Condition::bind(const std::vector<dfn::PortType>& types, const std::strin
     else if (t == dfn::PortType::of<Timestamp>())
       kinds_.push_back(ValueKind::kTimestamp);
     else
-      return fail(1,
-                  fmt::format("'{}' has type {}; expected String, Bool, Int, Double or Timestamp",
-                              refs_[kinds_.size()].text(), t.name));
+      kinds_.push_back(ValueKind::kOther);
   }
   for (auto& conjunction : disjunction_) {
     for (Comparison& c : conjunction) {
       const ValueKind kind = kinds_[c.ref];
       const std::string& name = refs_[c.ref].text();
       const bool ordered = c.op == Op::kLt || c.op == Op::kLe || c.op == Op::kGt || c.op == Op::kGe;
+      if (kind == ValueKind::kOther) {
+        const bool only_unset = std::all_of(c.literals.begin(), c.literals.end(),
+                                            [](const Literal& l) { return l.unset; });
+        if (c.op == Op::kTruthy || ordered || !only_unset)
+          return fail(c.column, fmt::format("'{}' is a {}; it can only be compared with unset "
+                                            "(== unset, != unset)",
+                                            name, types[c.ref].name));
+        continue;
+      }
       if (c.op == Op::kTruthy && kind != ValueKind::kBool)
         return fail(c.column, fmt::format("'{}' is a {}, not a Bool; compare it with a value", name,
                                           types[c.ref].name));
@@ -301,6 +309,8 @@ bool Condition::evaluate(const Comparison& c, const void* value) const {
         return *static_cast<const double*>(value) == lit.number;
       case ValueKind::kTimestamp:
         return static_cast<double>(*static_cast<const Timestamp*>(value)) == lit.number;
+      case ValueKind::kOther:
+        return false;  // bind() allows only `unset` literals
     }
     return false;
   };

@@ -13,6 +13,8 @@
 // A ref reads the latest value of a DFN output (String, Bool, Int, Double or Timestamp) or the
 // DFPC's track state. Before the output has ever been produced it is `unset`: it equals only the
 // literal `unset`, so `tracker.status in [LOST, unset]` holds until the tracker first runs.
+// Outputs of other types (a state, a cloud...) can only be compared with unset
+// (`ekf.state != unset`: the filter has produced a state).
 // Comparisons with <, >... are false for an unset ref. Examples:
 //   tracker.status in [LOST, UNINITIALISED, unset]
 //   track_state != TRACKING
@@ -68,7 +70,7 @@ class Condition {
     std::vector<Literal> literals;
     int column = 0;
   };
-  enum class ValueKind { kString, kBool, kInt, kDouble, kTimestamp };
+  enum class ValueKind { kString, kBool, kInt, kDouble, kTimestamp, kOther };
 
   friend class ConditionParser;
   bool evaluate(const Comparison& c, const void* value) const;
