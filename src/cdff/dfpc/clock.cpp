@@ -61,7 +61,7 @@ bool SimulatedClock::sleepUntil(Timestamp t, std::uint64_t since) {
   }
   if (now_ >= t) return true;
   if (interrupts_ != since) return false;
-  auto entry = sleepers_.insert(t);
+  auto entry = sleepers_.insert({t, since});
   settled_.notify_all();
   wake_.wait(lock, [&] { return now_ >= t || interrupts_ != since; });
   sleepers_.erase(entry);
@@ -74,12 +74,15 @@ void SimulatedClock::interrupt() {
     ++interrupts_;
   }
   wake_.notify_all();
+  settled_.notify_all();
 }
 
 bool SimulatedClock::participantsSettled() const {
-  // Every participant sleeps, and none of them is due (it would be about to wake and work).
+  // Every participant sleeps, none of them is due, and none has been interrupted (it would be
+  // about to wake and work).
   int waiting_for_later = 0;
-  for (auto it = sleepers_.upper_bound(now_); it != sleepers_.end(); ++it) ++waiting_for_later;
+  for (const auto& [deadline, since] : sleepers_)
+    if (deadline > now_ && since == interrupts_) ++waiting_for_later;
   return waiting_for_later >= participants_;
 }
 

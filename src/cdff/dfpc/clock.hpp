@@ -12,6 +12,7 @@
 #include <limits>
 #include <mutex>
 #include <set>
+#include <utility>
 
 #include "cdff/types/time.hpp"
 
@@ -90,7 +91,9 @@ class SimulatedClock final : public Clock {
   Timestamp now_;
   Mode mode_;
   int participants_ = 0;
-  std::multiset<Timestamp> sleepers_;  // the deadline of each sleeping thread
+  // Each sleeping thread: its deadline and the interrupt count it sleeps on (an interrupted
+  // sleeper is about to wake even before it has left the set).
+  std::multiset<std::pair<Timestamp, std::uint64_t>> sleepers_;
   std::uint64_t interrupts_ = 0;
 };
 
