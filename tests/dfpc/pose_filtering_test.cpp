@@ -174,11 +174,64 @@ TEST(PoseFilteringDfpc, NoMeasurementsIsANoProductFault) {
   // The pose channel is missing from this input: the run refuses to start.
   EXPECT_EQ(o.run(input).status().code(), StatusCode::kNotFound);
   // Message by message (a live system), the watchdog reports the silence every 2 s.
-  MemoryStream again;
   for (int k = 0; k <= 50; ++k) ASSERT_OK(o.process(testing::number("/other/clock", 0.1 * k, 0)));
   std::vector<Timestamp> at;
   for (const Event& e : sink.events(EventType::kNoProduct)) at.push_back(e.stamp);
   EXPECT_EQ(at, (std::vector<Timestamp>{fromSeconds(2.1), fromSeconds(4.2)}));
+}
+
+// The graph of dfpcs/pose_filtering.yaml written in C++ (docs/dfpc.md): the same products.
+TEST(PoseFilteringDfpc, TheSameGraphBuiltInCppGivesTheSameProducts) {
+  GraphBuilder g("pose_filtering");
+  g.input("pose", "PoseWithCovariance", "/chaser/target_pose_measurement");
+  g.output("state", "RigidBodyState", "", "target_state");
+  g.output("nis", "Double");
+  g.node("ekf", "EstimationFilter", "ExtendedKalman")
+      .parameters(
+          "{linear_acceleration_psd: 1.0e-4, angular_acceleration_psd: 1.0e-5, "
+          "max_prediction_interval: 10}")
+      .on({"pose_measurement"})
+      .every(0.05, "time", "ekf.state != unset")
+      .divergedWhen("ekf.innovation_nis > 1000")
+      .onFault(FaultKind::kDivergence, {{RecoveryActionKind::kReinitialise}});
+  g.connect("pose", "ekf.pose_measurement")
+      .connect("ekf.state", "state")
+      .connect("ekf.innovation_nis", "nis");
+  Result<std::unique_ptr<Dfpc>> built = Dfpc::create(g.spec());
+  ASSERT_OK(built.status());
+
+  Scenario scenario;
+  scenario.jump_at = 4.0;
+  scenario.jump = Eigen::Vector3d(0, 2.0, 0);
+  auto run = [&](std::unique_ptr<Dfpc> dfpc, MemorySink& sink) {
+    MemoryStream input = measurements(scenario, 8.0, 3);
+    OrchestratorOptions options;
+    options.sink = &sink;
+    options.record_timing = false;
+    Orchestrator o(options);
+    ASSERT_OK(o.add(std::move(dfpc)));
+    ASSERT_OK(o.startAll());
+    ASSERT_OK(o.run(input).status());
+  };
+  MemorySink from_cpp, from_yaml;
+  run(std::move(built).value(), from_cpp);
+  Result<GraphSpec> yaml = loadGraphFile(kGraph);
+  ASSERT_OK(yaml.status());
+  Result<std::unique_ptr<Dfpc>> loaded = Dfpc::create(std::move(yaml).value());
+  ASSERT_OK(loaded.status());
+  run(std::move(loaded).value(), from_yaml);
+
+  const auto a = from_cpp.messages("/cdff/pose_filtering/state");
+  const auto b = from_yaml.messages("/cdff/pose_filtering/state");
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 200u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    ASSERT_EQ(a[i].stamp, b[i].stamp);
+    EXPECT_EQ(a[i].as<RigidBodyState>()->pose.translation,
+              b[i].as<RigidBodyState>()->pose.translation);
+  }
+  EXPECT_EQ(from_cpp.events(EventType::kDivergence).size(), 1u);
+  EXPECT_EQ(from_yaml.events(EventType::kDivergence).size(), 1u);
 }
 
 }  // namespace
