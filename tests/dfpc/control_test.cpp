@@ -86,6 +86,28 @@ connections:
   EXPECT_EQ(sink.messages("/cdff/ticking/ticks").size(), 5u);
 }
 
+TEST(Triggers, PeriodicTicksDoNotCatchUpTheTimeSpentStopped) {
+  const std::string graph = R"(name: ticking
+inputs: [{name: v, type: Double, channel: /in/v}]
+outputs: [{name: when, type: Timestamp}]
+nodes:
+  ticker: {dfn: ProbeTicker, dfi: Counter, trigger: {on: [], period_s: 0.5, time_input: time}}
+connections: [v -> ticker.value, ticker.time_seen -> when]
+)";
+  MemorySink sink;
+  auto o = runningOrchestrator(graph, sink);
+  ASSERT_TRUE(o);
+  ASSERT_OK(o->process(number("/in/v", 0.0, 0)));
+  ASSERT_OK(o->process(number("/in/v", 1.0, 0)));  // ticks at 0, 0.5, 1.0
+  ASSERT_OK(o->stop("ticking"));
+  ASSERT_OK(o->process(number("/in/v", 5.0, 0)));
+  ASSERT_OK(o->start("ticking"));
+  ASSERT_OK(o->process(number("/in/v", 10.2, 0)));  // ticks again from 10.2
+  ASSERT_OK(o->process(number("/in/v", 10.8, 0)));  // and at 10.7
+  EXPECT_EQ(testing::stamps(sink, "/cdff/ticking/when"),
+            (std::vector<Timestamp>{0, 500000, 1000000, 10200000, 10700000}));
+}
+
 const std::string kPair = R"(name: pairing
 inputs:
   - {name: camera, type: Double, channel: /camera}

@@ -140,7 +140,13 @@ struct Cdff::Impl {
           stream_start = m.stamp;
         }
         const Timestamp due = *wall_start + (m.stamp - *stream_start);
-        while (clock->now() < due && !isShuttingDown()) clock->sleepUntil(due);
+        for (;;) {
+          // The interrupt count is read before checking for shutdown: the destructor's
+          // interrupt cannot fall between the check and the sleep.
+          const std::uint64_t interrupts = clock->interrupts();
+          if (isShuttingDown() || clock->now() >= due) break;
+          clock->sleepUntil(due, interrupts);
+        }
       }
       // Faults are events; an error here is a message that fits no input (also an event).
       (void)orchestrator->process(m);

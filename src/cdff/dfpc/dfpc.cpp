@@ -297,6 +297,9 @@ Status Dfpc::init() {
 Status Dfpc::start() {
   if (state_ == DfpcState::kRunning) return invalidInput("DFPC '{}' is already running", name());
   state_ = DfpcState::kRunning;
+  // Periodic triggers and watchdogs start again from the next stream time: the time spent
+  // stopped is neither ticked through nor a silence.
+  started_ = false;
   emit(EventType::kStarted, "", "");
   return Status::ok();
 }
