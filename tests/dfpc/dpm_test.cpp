@@ -47,7 +47,8 @@ TEST(DataProducts, LatestAtOrBeforeAndBoundedHistory) {
   // Out of order: kept sorted.
   ASSERT_OK(dpm.publish<double>("a/x", 35, 3.5));
   std::vector<Timestamp> stamps;
-  for (const Product& p : dpm.history("a/x").value()) stamps.push_back(p.stamp);
+  const std::vector<Product> history = dpm.history("a/x").value();
+  for (const Product& p : history) stamps.push_back(p.stamp);
   EXPECT_EQ(stamps, (std::vector<Timestamp>{30, 35, 40}));
   // A product keeps its type.
   const Status wrong = dpm.publish<int>("a/x", 50, 1);
