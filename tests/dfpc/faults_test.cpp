@@ -139,6 +139,28 @@ connections: [x -> relay.a, relay.result -> y]
             "switch_dfi: already on its fallback Alternative");
 }
 
+TEST(Faults, TheFallbackMayBeAFlavourOfTheSameDfi) {
+  const std::string graph = R"(name: flavoured
+inputs: [{name: x, type: Double, channel: /in/x}]
+outputs: [{name: y, type: Double}]
+nodes:
+  relay:
+    dfn: ProbeRelay
+    dfi: Plain
+    parameters: {fail_above: 10}
+    fallback: {dfi: Plain, parameters: {offset: 7, fail_above: 100}}
+    on_fault: {error: [switch_dfi]}
+connections: [x -> relay.a, relay.result -> y]
+)";
+  MemorySink sink;
+  auto o = runningOrchestrator(graph, sink);
+  ASSERT_TRUE(o);
+  for (double x : {1.0, 20.0, 20.0}) ASSERT_OK(o->process(number("/in/x", x, x)));
+  EXPECT_EQ(values(sink, "/cdff/flavoured/y"), (std::vector<double>{1, 27}));
+  EXPECT_EQ(sink.events(EventType::kSwitchDfi)[0].message, "ProbeRelay/Plain -> ProbeRelay/Plain");
+  EXPECT_TRUE(o->status("flavoured")->instances[0].on_fallback);
+}
+
 // A tracker whose estimate runs away: the divergence recovery declares the track lost and
 // re-initialises the tracker, which wakes the detector through the track state.
 const std::string kDiverging = R"(name: tracking
