@@ -271,10 +271,11 @@ class McapReader {
 
   MessageIterator messages(const ReadOptions& options = {}) const;
 
-  /// Reads the whole file: decompresses every chunk, checks its CRC and its records, and checks
-  /// the data-section CRC when the file has one. O(file size). Returns what is damaged (empty
-  /// for a sound file); open() alone only reads the summary.
-  std::vector<Damage> verify() const;
+  /// Reads the whole file: decompresses every chunk, checks its CRC and its records (unless
+  /// `chunks` is false: a message iteration already does that), and checks the data-section CRC
+  /// when the file has one. O(file size). Returns what is damaged (empty for a sound file);
+  /// open() alone only reads the summary.
+  std::vector<Damage> verify(bool chunks = true) const;
 
   Result<std::vector<std::uint8_t>> readAttachment(const AttachmentInfo& attachment) const;
   Result<std::map<std::string, std::string>> readMetadata(const MetadataInfo& metadata) const;

@@ -1123,12 +1123,13 @@ Result<std::map<std::string, std::string>> McapReader::readMetadata(const Metada
   return values;
 }
 
-std::vector<Damage> McapReader::verify() const {
+std::vector<Damage> McapReader::verify(bool chunks) const {
   std::vector<Damage> damages;
   if (!impl_) return damages;
   const Impl& r = *impl_;
   Decompressor d;
   for (const ChunkInfo& chunk : r.chunks) {
+    if (!chunks) break;
     std::shared_ptr<std::vector<std::uint8_t>> storage;
     Bytes records;
     std::string error = r.loadChunk(chunk, d, storage, records);

@@ -94,18 +94,32 @@ bool Reader::next() {
   }
 }
 
+bool unpackVarints(Bytes data, std::vector<std::int64_t>& out) {
+  std::size_t pos = 0;
+  while (pos < data.size()) {
+    std::uint64_t v = 0;
+    bool done = false;
+    for (int shift = 0; shift < 64 && pos < data.size(); shift += 7) {
+      const std::uint8_t b = data[pos++];
+      v |= static_cast<std::uint64_t>(b & 0x7F) << shift;
+      if ((b & 0x80) == 0) {
+        done = true;
+        break;
+      }
+    }
+    if (!done) return false;
+    out.push_back(static_cast<std::int64_t>(v));
+  }
+  return true;
+}
+
 bool Reader::appendVarint(std::vector<std::int64_t>& out) {
   if (type_ == WireType::kVarint) {
     out.push_back(static_cast<std::int64_t>(scalar_));
     return true;
   }
   if (type_ != WireType::kLen) return fail("a repeated varint field has a wrong wire type");
-  Reader inner(span_, offset());
-  while (inner.pos_ < span_.size()) {
-    std::uint64_t v = 0;
-    if (!inner.readVarint(v)) return fail("truncated packed varint");
-    out.push_back(static_cast<std::int64_t>(v));
-  }
+  if (!unpackVarints(span_, out)) return fail("truncated packed varint");
   return true;
 }
 

@@ -179,6 +179,9 @@ class Reader {
   std::string error_;
 };
 
+/// Parses the payload of a packed repeated varint field; false when it ends inside a varint.
+bool unpackVarints(Bytes data, std::vector<std::int64_t>& out);
+
 // ---- descriptors ---------------------------------------------------------------------------
 
 enum class FieldType : std::uint8_t {
