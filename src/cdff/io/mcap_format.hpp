@@ -4,8 +4,10 @@
 
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include <fmt/format.h>
@@ -13,6 +15,28 @@
 #include "cdff/io/mcap.hpp"
 
 namespace cdff::io::format {
+
+/// Grows without zero-filling: chunk and decompression buffers are overwritten right away, and
+/// clearing megabytes first would cost as much as copying them.
+template <typename T>
+struct DefaultInitAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = DefaultInitAllocator<U>;
+  };
+  DefaultInitAllocator() = default;
+  template <typename U>
+  DefaultInitAllocator(const DefaultInitAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+using ByteVector = std::vector<std::uint8_t, DefaultInitAllocator<std::uint8_t>>;
 
 inline constexpr std::uint8_t kMagic[8] = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
 
@@ -43,55 +67,55 @@ inline constexpr std::size_t kDataEndContent = 4;
 
 // ---- writing: append to a byte vector -------------------------------------------------------
 
-inline void putU8(std::vector<std::uint8_t>& b, std::uint8_t v) {
+inline void putU8(ByteVector& b, std::uint8_t v) {
   b.push_back(v);
 }
 template <typename T>
-inline void putLe(std::vector<std::uint8_t>& b, T v) {
+inline void putLe(ByteVector& b, T v) {
   const std::size_t at = b.size();
   b.resize(at + sizeof(T));
   std::memcpy(b.data() + at, &v, sizeof(T));  // little-endian hosts
 }
-inline void putU16(std::vector<std::uint8_t>& b, std::uint16_t v) {
+inline void putU16(ByteVector& b, std::uint16_t v) {
   putLe(b, v);
 }
-inline void putU32(std::vector<std::uint8_t>& b, std::uint32_t v) {
+inline void putU32(ByteVector& b, std::uint32_t v) {
   putLe(b, v);
 }
-inline void putU64(std::vector<std::uint8_t>& b, std::uint64_t v) {
+inline void putU64(ByteVector& b, std::uint64_t v) {
   putLe(b, v);
 }
-inline void putBytes(std::vector<std::uint8_t>& b, const void* data, std::size_t size) {
+inline void putBytes(ByteVector& b, const void* data, std::size_t size) {
   if (size == 0) return;
   const std::size_t at = b.size();
   b.resize(at + size);
   std::memcpy(b.data() + at, data, size);
 }
-inline void putString(std::vector<std::uint8_t>& b, std::string_view s) {
+inline void putString(ByteVector& b, std::string_view s) {
   putU32(b, static_cast<std::uint32_t>(s.size()));
   putBytes(b, s.data(), s.size());
 }
-inline void patchU32(std::vector<std::uint8_t>& b, std::size_t at, std::uint32_t v) {
+inline void patchU32(ByteVector& b, std::size_t at, std::uint32_t v) {
   std::memcpy(b.data() + at, &v, 4);
 }
-inline void patchU64(std::vector<std::uint8_t>& b, std::size_t at, std::uint64_t v) {
+inline void patchU64(ByteVector& b, std::size_t at, std::uint64_t v) {
   std::memcpy(b.data() + at, &v, 8);
 }
 
 /// Starts a record: opcode and a length placeholder; returns the position to finish it at.
-inline std::size_t beginRecord(std::vector<std::uint8_t>& b, std::uint8_t opcode) {
+inline std::size_t beginRecord(ByteVector& b, std::uint8_t opcode) {
   b.push_back(opcode);
   const std::size_t at = b.size();
   putU64(b, 0);
   return at;
 }
-inline void endRecord(std::vector<std::uint8_t>& b, std::size_t length_at) {
+inline void endRecord(ByteVector& b, std::size_t length_at) {
   patchU64(b, length_at, b.size() - length_at - 8);
 }
 
-void putSchema(std::vector<std::uint8_t>& b, const Schema& schema);
-void putChannel(std::vector<std::uint8_t>& b, const Channel& channel);
-void putStringMap(std::vector<std::uint8_t>& b, const std::map<std::string, std::string>& map);
+void putSchema(ByteVector& b, const Schema& schema);
+void putChannel(ByteVector& b, const Channel& channel);
+void putStringMap(ByteVector& b, const std::map<std::string, std::string>& map);
 
 // ---- reading: a bounds-checked cursor over a byte range -------------------------------------
 

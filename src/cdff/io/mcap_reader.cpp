@@ -185,7 +185,7 @@ struct Decompressor {
   }
 
   // Decompresses `in` into exactly `out.size()` bytes; returns an empty string or what failed.
-  std::string run(Compression compression, Bytes in, std::vector<std::uint8_t>& out) {
+  std::string run(Compression compression, Bytes in, ByteVector& out) {
     if (compression == Compression::kZstd) {
       if (!zstd) zstd = ZSTD_createDCtx();
       const std::size_t n = ZSTD_decompressDCtx(zstd, out.data(), out.size(), in.data(), in.size());
@@ -245,7 +245,7 @@ struct McapReader::Impl {
 
   Status fileError(std::string what) const { return corrupt(fmt::format("'{}': {}", path, what)); }
 
-  Status readAt(std::uint64_t offset, std::size_t n, std::vector<std::uint8_t>& out) const {
+  Status readAt(std::uint64_t offset, std::size_t n, ByteVector& out) const {
     out.resize(n);
     return source->read(offset, n, out.data());
   }
@@ -264,7 +264,7 @@ struct McapReader::Impl {
 
   /// Reads and decompresses a chunk (or an unchunked run); `records` points into `storage`.
   std::string loadChunk(const ChunkInfo& chunk, Decompressor& d,
-                        std::shared_ptr<std::vector<std::uint8_t>>& storage, Bytes& records) const;
+                        std::shared_ptr<ByteVector>& storage, Bytes& records) const;
 };
 
 Status McapReader::Impl::readHeader() {
@@ -299,7 +299,7 @@ Status McapReader::Impl::readHeader() {
                     length, size - 8 - kRecordPrefix));
   if (length > (64u << 20))
     return fileError(fmt::format("byte offset 8: implausible Header record length {}", length));
-  std::vector<std::uint8_t> body;
+  ByteVector body;
   CDFF_RETURN_IF_ERROR(readAt(8 + kRecordPrefix, static_cast<std::size_t>(length), body));
   Cursor c(body.data(), body.size(), 8 + kRecordPrefix);
   if (!c.string(profile, "Header profile") || !c.string(library, "Header library"))
@@ -344,7 +344,7 @@ McapReader::Impl::Summary McapReader::Impl::readSummary(std::string& why,
         summary_start, summary_offset_start, header_end, footer_at);
     return Summary::kDamaged;
   }
-  std::vector<std::uint8_t> summary;
+  ByteVector summary;
   if (!readAt(summary_start, static_cast<std::size_t>(footer_at - summary_start), summary).isOk()) {
     why = "cannot read the summary section";
     return Summary::kDamaged;
@@ -552,12 +552,12 @@ McapReader::Impl::Summary McapReader::Impl::readSummary(std::string& why,
 }
 
 std::string McapReader::Impl::loadChunk(const ChunkInfo& chunk, Decompressor& d,
-                                        std::shared_ptr<std::vector<std::uint8_t>>& storage,
+                                        std::shared_ptr<ByteVector>& storage,
                                         Bytes& records) const {
   if (chunk.length > options.max_chunk_bytes)
     return fmt::format("record of {} bytes exceeds the reader's limit of {} bytes", chunk.length,
                        options.max_chunk_bytes);
-  auto raw = std::make_shared<std::vector<std::uint8_t>>();
+  auto raw = std::make_shared<ByteVector>();
   if (Status s = readAt(chunk.offset, static_cast<std::size_t>(chunk.length), *raw); !s.isOk())
     return s.message();
   if (chunk.unchunked) {
@@ -589,6 +589,24 @@ std::string McapReader::Impl::loadChunk(const ChunkInfo& chunk, Decompressor& d,
   if (uncompressed_size > options.max_chunk_bytes)
     return fmt::format("chunk claims {} uncompressed bytes, beyond the reader's limit of {}",
                        uncompressed_size, options.max_chunk_bytes);
+  // Refuse sizes the compressed bytes cannot produce before allocating for them: lz4 expands at
+  // most ~255:1, zstd (RLE blocks) ~32768:1, and a zstd frame usually states its size.
+  if (*comp == Compression::kLz4 && uncompressed_size > body.size() * 256 + 65536)
+    return fmt::format(
+        "chunk claims {} uncompressed bytes from {} lz4 bytes, more than lz4 can "
+        "expand",
+        uncompressed_size, body.size());
+  if (*comp == Compression::kZstd) {
+    const unsigned long long stated = ZSTD_getFrameContentSize(body.data(), body.size());
+    if (stated == ZSTD_CONTENTSIZE_ERROR) return "the chunk records are not a zstd frame";
+    if (stated != ZSTD_CONTENTSIZE_UNKNOWN && stated != uncompressed_size)
+      return fmt::format("zstd frame holds {} bytes; the chunk says {}", stated, uncompressed_size);
+    if (uncompressed_size > body.size() * 32768 + 65536)
+      return fmt::format(
+          "chunk claims {} uncompressed bytes from {} zstd bytes, more than zstd "
+          "can expand",
+          uncompressed_size, body.size());
+  }
   const std::size_t body_offset = static_cast<std::size_t>(body.data() - raw->data());
   if (*comp == Compression::kNone) {
     if (uncompressed_size != body.size())
@@ -597,8 +615,7 @@ std::string McapReader::Impl::loadChunk(const ChunkInfo& chunk, Decompressor& d,
     records = Bytes(raw->data() + body_offset, body.size());
     storage = std::move(raw);
   } else {
-    auto out =
-        std::make_shared<std::vector<std::uint8_t>>(static_cast<std::size_t>(uncompressed_size));
+    auto out = std::make_shared<ByteVector>(static_cast<std::size_t>(uncompressed_size));
     if (std::string e = d.run(*comp, body, *out); !e.empty()) return e;
     records = Bytes(*out);
     storage = std::move(out);
@@ -733,7 +750,7 @@ void McapReader::Impl::scan() {
     run_channels.clear();
   };
 
-  std::vector<std::uint8_t> buf;
+  ByteVector buf;
   while (pos < size) {
     if (size - pos < kRecordPrefix) {
       addDamage(pos,
@@ -857,7 +874,7 @@ void McapReader::Impl::scan() {
         const auto comp = compressionFromString(compression);
         ci.compression = comp && compression != "none" ? *comp : Compression::kNone;
         ci.compressed_size = len - std::min<std::uint64_t>(len, sizeof(h) + name_len + 8);
-        std::shared_ptr<std::vector<std::uint8_t>> storage;
+        std::shared_ptr<ByteVector> storage;
         Bytes records;
         std::string error = loadChunk(ci, d, storage, records);
         if (!error.empty()) {
@@ -1075,7 +1092,7 @@ Result<std::vector<std::uint8_t>> McapReader::readAttachment(const AttachmentInf
         fmt::format("attachment '{}' at byte offset {} (+{}) lies outside "
                     "the file",
                     a.name, a.offset, a.length));
-  std::vector<std::uint8_t> rec;
+  ByteVector rec;
   CDFF_RETURN_IF_ERROR(impl_->readAt(a.offset, static_cast<std::size_t>(a.length), rec));
   Cursor c(rec.data(), rec.size(), a.offset);
   std::uint8_t op = 0;
@@ -1109,7 +1126,7 @@ Result<std::map<std::string, std::string>> McapReader::readMetadata(const Metada
       m.length > impl_->options.max_chunk_bytes)
     return impl_->fileError(
         fmt::format("metadata '{}' at byte offset {} lies outside the file", m.name, m.offset));
-  std::vector<std::uint8_t> rec;
+  ByteVector rec;
   CDFF_RETURN_IF_ERROR(impl_->readAt(m.offset, static_cast<std::size_t>(m.length), rec));
   Cursor c(rec.data(), rec.size(), m.offset);
   std::uint8_t op = 0;
@@ -1130,7 +1147,7 @@ std::vector<Damage> McapReader::verify(bool chunks) const {
   Decompressor d;
   for (const ChunkInfo& chunk : r.chunks) {
     if (!chunks) break;
-    std::shared_ptr<std::vector<std::uint8_t>> storage;
+    std::shared_ptr<ByteVector> storage;
     Bytes records;
     std::string error = r.loadChunk(chunk, d, storage, records);
     if (error.empty()) {
@@ -1153,7 +1170,7 @@ std::vector<Damage> McapReader::verify(bool chunks) const {
     if (!error.empty()) damages.push_back({chunk.offset, error});
   }
   if (r.recovery.indexed && r.data_section_crc != 0 && r.options.verify_crcs && r.data_end > 0) {
-    std::vector<std::uint8_t> block;
+    ByteVector block;
     std::uint32_t crc = 0;
     for (std::uint64_t at = 0; at < r.data_end;) {
       const std::size_t n =
@@ -1187,7 +1204,7 @@ struct Entry {
 };
 
 struct LoadedChunk {
-  std::shared_ptr<std::vector<std::uint8_t>> storage;
+  std::shared_ptr<ByteVector> storage;
   Bytes records;
   std::vector<Entry> entries;
   std::size_t next = 0;

@@ -42,7 +42,7 @@ std::optional<Compression> compressionFromString(std::string_view name) {
 
 namespace format {
 
-void putStringMap(std::vector<std::uint8_t>& b, const std::map<std::string, std::string>& map) {
+void putStringMap(ByteVector& b, const std::map<std::string, std::string>& map) {
   const std::size_t at = b.size();
   putU32(b, 0);
   for (const auto& [key, value] : map) {
@@ -52,7 +52,7 @@ void putStringMap(std::vector<std::uint8_t>& b, const std::map<std::string, std:
   patchU32(b, at, static_cast<std::uint32_t>(b.size() - at - 4));
 }
 
-void putSchema(std::vector<std::uint8_t>& b, const Schema& schema) {
+void putSchema(ByteVector& b, const Schema& schema) {
   const std::size_t at = beginRecord(b, kSchema);
   putU16(b, schema.id);
   putString(b, schema.name);
@@ -62,7 +62,7 @@ void putSchema(std::vector<std::uint8_t>& b, const Schema& schema) {
   endRecord(b, at);
 }
 
-void putChannel(std::vector<std::uint8_t>& b, const Channel& channel) {
+void putChannel(ByteVector& b, const Channel& channel) {
   const std::size_t at = beginRecord(b, kChannel);
   putU16(b, channel.id);
   putU16(b, channel.schema_id);
@@ -105,13 +105,13 @@ struct McapWriter::Impl {
   std::vector<std::uint64_t> schema_in_chunk, channel_in_chunk;
   std::uint64_t generation = 1;
 
-  std::vector<std::uint8_t> chunk;
+  ByteVector chunk;
   bool chunk_has_messages = false;
   std::uint64_t chunk_start = 0, chunk_end = 0;
   std::vector<std::vector<std::pair<std::uint64_t, std::uint64_t>>> index;  // per channel
   std::vector<std::uint16_t> chunk_channels;  // in order of first message
 
-  std::vector<std::uint8_t> compressed, head, tail;
+  ByteVector compressed, head, tail;
   ZSTD_CCtx* zstd = nullptr;
 
   Statistics stats;
@@ -168,7 +168,7 @@ struct McapWriter::Impl {
     return Status::ok();
   }
 
-  Status compress(const std::vector<std::uint8_t>& in, Bytes& out) {
+  Status compress(const ByteVector& in, Bytes& out) {
     switch (options.compression) {
       case Compression::kNone:
         out = Bytes(in);
@@ -308,7 +308,7 @@ Status McapWriter::open(const std::string& path, const McapWriterOptions& option
   if (impl->fd < 0) return ioError("cannot create '{}': {}", path, std::strerror(errno));
   impl->chunk.reserve(options.chunk_size + (64u << 10));
 
-  std::vector<std::uint8_t> b;
+  ByteVector b;
   putBytes(b, kMagic, sizeof(kMagic));
   const std::size_t at = beginRecord(b, kHeader);
   putString(b, options.profile);
@@ -441,7 +441,7 @@ Status McapWriter::writeAttachment(const std::string& name, const std::string& m
   if (!impl_) return Status{StatusCode::kInvalidInput, "MCAP writer is not open"};
   Impl& w = *impl_;
   CDFF_RETURN_IF_ERROR(w.check());
-  std::vector<std::uint8_t> head;
+  ByteVector head;
   head.push_back(kAttachment);
   putU64(head, 8 + 8 + 4 + name.size() + 4 + media_type.size() + 8 + data.size() + 4);
   putU64(head, log_time);
@@ -472,7 +472,7 @@ Status McapWriter::writeMetadata(const std::string& name,
   if (!impl_) return Status{StatusCode::kInvalidInput, "MCAP writer is not open"};
   Impl& w = *impl_;
   CDFF_RETURN_IF_ERROR(w.check());
-  std::vector<std::uint8_t> b;
+  ByteVector b;
   const std::size_t at = beginRecord(b, kMetadata);
   putString(b, name);
   putStringMap(b, values);
@@ -499,7 +499,7 @@ Status McapWriter::close() {
   Status status = w.error;
   if (status.isOk()) status = w.finishChunk();
   if (status.isOk()) {
-    std::vector<std::uint8_t> b;
+    ByteVector b;
     b.push_back(kDataEnd);
     putU64(b, kDataEndContent);
     putU32(b, w.options.data_section_crc ? w.data_crc : 0);
@@ -507,7 +507,7 @@ Status McapWriter::close() {
   }
   if (status.isOk()) {
     const std::uint64_t summary_start = w.position;
-    std::vector<std::uint8_t> s;
+    ByteVector s;
     struct Group {
       std::uint8_t opcode;
       std::uint64_t start, length;

@@ -227,7 +227,9 @@ Status Replay::open(const std::vector<std::string>& paths, const ReplayOptions& 
   for (std::size_t f = 0; f < impl->readers.size(); ++f) {
     const McapReader& r = *impl->readers[f];
     auto& types = impl->cdff_types.emplace_back();
-    for (const auto& [id, ch] : r.channels()) {
+    for (const auto& entry : r.channels()) {
+      const std::uint16_t id = entry.first;
+      const Channel& ch = entry.second;  // named: lambdas below capture it (clang 14)
       const Schema* schema = r.schemaOf(ch);
       const std::string_view type = cdffTypeOf(ch, schema);
       types[id] = type;

@@ -42,7 +42,9 @@ json bytesExpect(const Buffer<T>& b) {
 json timeExpect(Timestamp us) {
   return {{"seconds", us / 1'000'000}, {"nanos", (us % 1'000'000) * 1000}};
 }
-json xyzExpect(const Eigen::Vector3d& v) { return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}}; }
+json xyzExpect(const Eigen::Vector3d& v) {
+  return {{"x", v.x()}, {"y", v.y()}, {"z", v.z()}};
+}
 json quatExpect(const Eigen::Quaterniond& q) {
   return {{"x", q.x()}, {"y", q.y()}, {"z", q.z()}, {"w", q.w()}};
 }
@@ -103,14 +105,13 @@ std::map<std::string, json> expectations(const testing::IoSamples& s) {
                                          {"data", bytesExpect(s.compressed.data)}};
   json right = imageExpect(s.stereo.right, "mono8");
   right["cdff_camera"] = cameraExpect(*s.stereo.right.camera, "kannala_brandt");
-  e["/chaser/stereo/pair"] = {
-      {"left", imageExpect(s.stereo.left, "mono8")},
-      {"right", right},
-      {"right_T_left",
-       {{"parent_frame_id", s.stereo.right_T_left.parent_frame},
-        {"child_frame_id", s.stereo.right_T_left.child_frame},
-        {"translation", xyzExpect(s.stereo.right_T_left.translation)},
-        {"rotation", quatExpect(s.stereo.right_T_left.rotation)}}}};
+  e["/chaser/stereo/pair"] = {{"left", imageExpect(s.stereo.left, "mono8")},
+                              {"right", right},
+                              {"right_T_left",
+                               {{"parent_frame_id", s.stereo.right_T_left.parent_frame},
+                                {"child_frame_id", s.stereo.right_T_left.child_frame},
+                                {"translation", xyzExpect(s.stereo.right_T_left.translation)},
+                                {"rotation", quatExpect(s.stereo.right_T_left.rotation)}}}};
   json depth = imageExpect(s.depth_m.image, "32FC1");
   depth["cdff_meters_per_unit"] = 1.0;
   e["/chaser/tof/depth"] = depth;
@@ -120,34 +121,36 @@ std::map<std::string, json> expectations(const testing::IoSamples& s) {
 
   const Point4f& p0 = s.cloud.points[0];
   const Point4f& n0 = s.cloud.normals[0];
-  e["/chaser/lidar/points"] = {
-      {"frame_id", "lidar"},
-      {"timestamp", timeExpect(s.cloud.stamp)},
-      {"point_stride", 36},
-      {"fields",
-       {{{"name", "x"}, {"offset", 0}, {"type", "FLOAT32"}},
-        {{"name", "y"}, {"offset", 4}, {"type", "FLOAT32"}},
-        {{"name", "z"}, {"offset", 8}, {"type", "FLOAT32"}},
-        {{"name", "normal_x"}, {"offset", 12}, {"type", "FLOAT32"}},
-        {{"name", "normal_y"}, {"offset", 16}, {"type", "FLOAT32"}},
-        {{"name", "normal_z"}, {"offset", 20}, {"type", "FLOAT32"}},
-        {{"name", "intensity"}, {"offset", 24}, {"type", "FLOAT32"}},
-        {{"name", "time_offset_us"}, {"offset", 28}, {"type", "INT32"}},
-        {{"name", "ring"}, {"offset", 32}, {"type", "UINT16"}}}},
-      {"data", {{"$len", 36 * s.cloud.size()}}},
-      {"$point0",
-       {{"x", p0.x}, {"y", p0.y}, {"z", p0.z}, {"normal_z", n0.z},
-        {"intensity", s.cloud.intensity[0]}, {"ring", s.cloud.ring[0]},
-        {"time_offset_us", s.cloud.time_offset_us[0]}}}};
+  e["/chaser/lidar/points"] = {{"frame_id", "lidar"},
+                               {"timestamp", timeExpect(s.cloud.stamp)},
+                               {"point_stride", 36},
+                               {"fields",
+                                {{{"name", "x"}, {"offset", 0}, {"type", "FLOAT32"}},
+                                 {{"name", "y"}, {"offset", 4}, {"type", "FLOAT32"}},
+                                 {{"name", "z"}, {"offset", 8}, {"type", "FLOAT32"}},
+                                 {{"name", "normal_x"}, {"offset", 12}, {"type", "FLOAT32"}},
+                                 {{"name", "normal_y"}, {"offset", 16}, {"type", "FLOAT32"}},
+                                 {{"name", "normal_z"}, {"offset", 20}, {"type", "FLOAT32"}},
+                                 {{"name", "intensity"}, {"offset", 24}, {"type", "FLOAT32"}},
+                                 {{"name", "time_offset_us"}, {"offset", 28}, {"type", "INT32"}},
+                                 {{"name", "ring"}, {"offset", 32}, {"type", "UINT16"}}}},
+                               {"data", {{"$len", 36 * s.cloud.size()}}},
+                               {"$point0",
+                                {{"x", p0.x},
+                                 {"y", p0.y},
+                                 {"z", p0.z},
+                                 {"normal_z", n0.z},
+                                 {"intensity", s.cloud.intensity[0]},
+                                 {"ring", s.cloud.ring[0]},
+                                 {"time_offset_us", s.cloud.time_offset_us[0]}}}};
   const Point4f& q0 = s.cloud_xyz.points[0];
-  e["/chaser/lidar/points_xyz"] = {
-      {"point_stride", 16},
-      {"fields",
-       {{{"name", "x"}, {"offset", 0}, {"type", "FLOAT32"}},
-        {{"name", "y"}, {"offset", 4}, {"type", "FLOAT32"}},
-        {{"name", "z"}, {"offset", 8}, {"type", "FLOAT32"}}}},
-      {"data", bytesExpect(s.cloud_xyz.points)},
-      {"$point0", {{"x", q0.x}, {"y", q0.y}, {"z", q0.z}}}};
+  e["/chaser/lidar/points_xyz"] = {{"point_stride", 16},
+                                   {"fields",
+                                    {{{"name", "x"}, {"offset", 0}, {"type", "FLOAT32"}},
+                                     {{"name", "y"}, {"offset", 4}, {"type", "FLOAT32"}},
+                                     {{"name", "z"}, {"offset", 8}, {"type", "FLOAT32"}}}},
+                                   {"data", bytesExpect(s.cloud_xyz.points)},
+                                   {"$point0", {{"x", q0.x}, {"y", q0.y}, {"z", q0.z}}}};
   e["/chaser/tf/camera_left"] = {{"timestamp", timeExpect(s.transform.stamp)},
                                  {"parent_frame_id", "chaser"},
                                  {"child_frame_id", "camera_left_optical"},
@@ -198,16 +201,15 @@ std::map<std::string, json> expectations(const testing::IoSamples& s) {
     xs.push_back(k.position.x());
     octaves.push_back(k.octave);
   }
-  e["/cdff/tracking/features"] = {
-      {"frame_id", "camera_left_optical"},
-      {"x", firstOf(xs, xs.size())},
-      {"octave", firstOf(octaves, octaves.size(), 10)},
-      {"descriptors",
-       {{"element", "UINT8"},
-        {"distance", "HAMMING"},
-        {"rows", s.features2d.descriptors.rows},
-        {"cols", 32},
-        {"data", bytesExpect(s.features2d.descriptors.data)}}}};
+  e["/cdff/tracking/features"] = {{"frame_id", "camera_left_optical"},
+                                  {"x", firstOf(xs, xs.size())},
+                                  {"octave", firstOf(octaves, octaves.size(), 10)},
+                                  {"descriptors",
+                                   {{"element", "UINT8"},
+                                    {"distance", "HAMMING"},
+                                    {"rows", s.features2d.descriptors.rows},
+                                    {"cols", 32},
+                                    {"data", bytesExpect(s.features2d.descriptors.data)}}}};
   e["/cdff/tracking/features3d"] = {
       {"frame_id", "target"},
       {"positions", {{"$len", 3 * s.features3d.keypoints.size()}}},
@@ -305,20 +307,23 @@ int writeFiles(const std::string& dir) {
                           {"first_log_time_ns", std::to_string(first_time[topic])},
                           {"expect", expect[topic]}});
     }
-    manifest["files"].push_back({{"path", name},
-                                 {"compression", io::mcapName(compression)},
-                                 {"message_count", total},
-                                 {"range", {std::to_string(io::toMcapTime(range_lo)),
-                                            std::to_string(io::toMcapTime(range_hi))}},
-                                 {"range_count", range_count},
-                                 {"channels", channels}});
+    manifest["files"].push_back(
+        {{"path", name},
+         {"compression", io::mcapName(compression)},
+         {"message_count", total},
+         {"range",
+          {std::to_string(io::toMcapTime(range_lo)), std::to_string(io::toMcapTime(range_hi))}},
+         {"range_count", range_count},
+         {"channels", channels}});
   }
   std::ofstream(dir + "/cdff_manifest.json") << manifest.dump(1);
   fmt::print("wrote 3 files and cdff_manifest.json to {}\n", dir);
   return failures == 0 ? 0 : 1;
 }
 
-bool near(double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); }
+bool near(double a, double b) {
+  return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b));
+}
 
 int checkFiles(const std::string& dir) {
   std::ifstream in(dir + "/node_manifest.json");
@@ -356,8 +361,8 @@ int checkFiles(const std::string& dir) {
       checked[m.channel()] = true;
       const json& e = file.at("first").at(m.channel());
       if (m.logTimeNs() != std::stoull(e.at("log_time_ns").get<std::string>()))
-        fail(fmt::format("{} {}: first log time {}, expected {}", path, m.channel(),
-                         m.logTimeNs(), e.at("log_time_ns").get<std::string>()));
+        fail(fmt::format("{} {}: first log time {}, expected {}", path, m.channel(), m.logTimeNs(),
+                         e.at("log_time_ns").get<std::string>()));
       auto any = m.decode();
       if (!any) {
         fail(any.status().toString());
@@ -371,13 +376,13 @@ int checkFiles(const std::string& dir) {
       if (auto pose = any->as<PoseWithCovariance>()) {
         const json& v = e.at("value");
         const auto& p = pose->pose;
-        const bool ok = p.parent_frame == v.at("frame_id") &&
-                        p.child_frame == v.at("child_frame_id") &&
-                        near(p.translation.x(), v.at("x")) && near(p.translation.y(), v.at("y")) &&
-                        near(p.translation.z(), v.at("z")) && near(p.rotation.w(), v.at("qw")) &&
-                        near(p.rotation.x(), v.at("qx")) && near(pose->covariance(0, 0), v.at("c00")) &&
-                        near(pose->covariance(2, 3), v.at("c23")) &&
-                        near(pose->covariance(3, 2), v.at("c32")) && p.stamp == v.at("stamp_us");
+        const bool ok =
+            p.parent_frame == v.at("frame_id") && p.child_frame == v.at("child_frame_id") &&
+            near(p.translation.x(), v.at("x")) && near(p.translation.y(), v.at("y")) &&
+            near(p.translation.z(), v.at("z")) && near(p.rotation.w(), v.at("qw")) &&
+            near(p.rotation.x(), v.at("qx")) && near(pose->covariance(0, 0), v.at("c00")) &&
+            near(pose->covariance(2, 3), v.at("c23")) &&
+            near(pose->covariance(3, 2), v.at("c32")) && p.stamp == v.at("stamp_us");
         if (!ok) fail(fmt::format("{} {}: pose differs from {}", path, m.channel(), v.dump()));
       } else if (auto imu = any->as<ImuSample>()) {
         const json& v = e.at("value");
@@ -386,7 +391,8 @@ int checkFiles(const std::string& dir) {
                         near(imu->linear_acceleration.x(), v.at("ax")) &&
                         near(imu->angular_velocity_covariance(1, 1), v.at("cov11")) &&
                         imu->stamp == v.at("stamp_us");
-        if (!ok) fail(fmt::format("{} {}: IMU sample differs from {}", path, m.channel(), v.dump()));
+        if (!ok)
+          fail(fmt::format("{} {}: IMU sample differs from {}", path, m.channel(), v.dump()));
       } else if (auto tf = any->as<Transform>()) {
         const json& v = e.at("value");
         const bool ok = tf->parent_frame == v.at("parent") && tf->child_frame == v.at("child") &&
