@@ -132,7 +132,9 @@ void BM_WriteCloud30k(benchmark::State& state) {
   const PointCloud c = cloud(1, state.range(2) != 0);
   writeLoop(state, c, cloudBytes(c), "/chaser/lidar/points");
 }
-BENCHMARK(BM_WriteCloud30k)->ArgNames({"compression", "fields"})->ArgsProduct({{0, 1, 2}, {0, 1}});
+BENCHMARK(BM_WriteCloud30k)
+    ->ArgNames({"compression", "sink", "fields"})
+    ->ArgsProduct({{0, 1, 2}, {0, 1}, {0, 1}});
 
 // Reads (and decodes) 32 messages written beforehand.
 template <typename T>
