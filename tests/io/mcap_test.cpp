@@ -437,6 +437,8 @@ TEST(McapDamage, BitFlipsAnywhereNeverCrashAndAreDetected) {
     const bool found = r.recovery().damaged() || !it_status.isOk() || !r.verify().empty();
     if (found) ++detected;
   }
+  ::testing::Test::RecordProperty("flips", static_cast<int>(trials));
+  ::testing::Test::RecordProperty("detected", static_cast<int>(detected));
   // Every flip lands in a CRC-protected byte except a few fields (e.g. timestamps in the
   // chunk header, or the library name), so nearly all are caught.
   EXPECT_GE(static_cast<double>(detected), 0.9 * static_cast<double>(trials))
