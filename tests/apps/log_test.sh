@@ -38,13 +38,13 @@ check log-unknown-subcommand 2 "unknown subcommand 'lst'" -- "$cdff" log lst
 check log-info-no-file 2 'FILE' -- "$cdff" log info
 check log-cut-no-output 2 'output' -- "$cdff" log cut "$good"
 
-check info-channels 0 'channels: +26' -- "$cdff" log info "$good"
+check info-channels 0 'channels: +27' -- "$cdff" log info "$good"
 check info-rate 0 '/chaser/imu +ImuSample +cdff.ImuSample +json +120 +100.00 Hz' -- "$cdff" log info "$good"
 check info-compression 0 'compression: lz4 \(40 chunks' -- "$cdff" log info "$good"
 check info-time 0 'duration 1.190 s' -- "$cdff" log info "$good"
 check info-checked 0 'every chunk read, CRCs match' -- "$cdff" log info "$good"
-check info-quick 0 'messages: +420 \(from the statistics record\)' -- "$cdff" log info --quick "$good"
-check info-json 0 '^ok$' -- bash -c "'$cdff' log info --json '$good' | python3 -c 'import json,sys; d=json.load(sys.stdin); assert d[\"messages\"] == 420 and len(d[\"channels\"]) == 26 and d[\"damage\"] == []; print(\"ok\")'"
+check info-quick 0 'messages: +431 \(from the statistics record\)' -- "$cdff" log info --quick "$good"
+check info-json 0 '^ok$' -- bash -c "'$cdff' log info --json '$good' | python3 -c 'import json,sys; d=json.load(sys.stdin); assert d[\"messages\"] == 431 and len(d[\"channels\"]) == 27 and d[\"damage\"] == []; print(\"ok\")'"
 
 check cat-lines 0 '^3$' -- bash -c "'$cdff' log cat '$good' -c /chaser/imu -n 3 | python3 -c 'import json,sys; l=[json.loads(x) for x in sys.stdin]; assert all(m[\"channel\"] == \"/chaser/imu\" and m[\"type\"] == \"ImuSample\" for m in l); print(len(l))'"
 check cat-summarised 0 '"data":\{"\$bytes":960,"head":"[0-9a-f]{12}"' -- "$cdff" log cat "$good" -c /chaser/camera/left/image -n 1

@@ -10,6 +10,7 @@
 
 #include "cdff/dfn/port.hpp"
 #include "cdff/io/codec.hpp"
+#include "cdff/io/inspect.hpp"
 #include "cdff/io/protobuf.hpp"
 #include "cdff/io/recorder.hpp"
 #include "cdff/io/replay.hpp"
@@ -422,6 +423,66 @@ TEST(Codec, MalformedMessagesAreRefusedWithTheFieldAndOffset) {
       }
     }
   }
+}
+
+TEST(Inspector, ShowsEveryChannelAsJsonThroughTheFilesOwnSchemas) {
+  const std::string path = tempPath("inspect.mcap");
+  const IoSamples s = testing::makeIoSamples(2, 1'000'000);
+  {
+    Recorder rec;
+    ASSERT_TRUE(rec.open(path).isOk());
+    ASSERT_TRUE(testing::writeIoSamples(rec, s, 1'000'000).isOk());
+    ASSERT_TRUE(rec.close().isOk());
+  }
+  McapReader reader;
+  ASSERT_TRUE(reader.open(path).isOk());
+  InspectOptions options;
+  options.max_array = 8;
+  options.head = 3;
+  std::map<std::string, nlohmann::json> shown;
+  auto it = reader.messages();
+  while (it.next()) {
+    const MessageView& m = it.message();
+    auto inspector = MessageInspector::create(*m.channel, m.schema, options);
+    ASSERT_TRUE(inspector.isOk()) << m.channel->topic;
+    auto j = inspector->toJson(m.data);
+    ASSERT_TRUE(j.isOk()) << m.channel->topic << ": " << j.status().toString();
+    shown[m.channel->topic] = *j;
+  }
+  ASSERT_EQ(shown.size(), 26u);
+  const auto& image = shown["/chaser/camera/left/image"];
+  EXPECT_EQ(image["width"], s.image_mono.width);
+  EXPECT_EQ(image["encoding"], "mono8");
+  EXPECT_EQ(image["frame_id"], "camera_left_optical");
+  EXPECT_EQ(image["data"]["$bytes"], s.image_mono.pixels.size());
+  EXPECT_EQ(image["cdff_camera"]["distortion_model"], "plumb_bob");
+  EXPECT_EQ(image["timestamp"]["seconds"], 1);
+  const auto& matches = shown["/cdff/tracking/matches"];
+  EXPECT_EQ(matches["query"]["$array"], s.matches.size());
+  EXPECT_EQ(matches["query"]["head"][0], -1);  // negative int32 varints
+  const auto& features = shown["/cdff/tracking/features"];
+  EXPECT_EQ(features["descriptors"]["element"], "UINT8");  // enum names from the descriptor
+  EXPECT_EQ(features["descriptors"]["distance"], "HAMMING");
+  const auto& cloud = shown["/chaser/lidar/points"];
+  EXPECT_EQ(cloud["fields"]["$array"], 9);
+  EXPECT_EQ(cloud["fields"]["head"][0]["type"], "FLOAT32");
+  const auto& imu = shown["/chaser/imu"];
+  EXPECT_TRUE(imu["linear_acceleration_covariance"]["head"].is_array());
+  EXPECT_EQ(shown["/cdff/pose_estimation/pose"]["cdff_child_frame_id"], "target");
+
+  Channel opaque;
+  opaque.topic = "/ros";
+  opaque.message_encoding = "cdr";
+  auto raw = MessageInspector::create(opaque, nullptr);
+  ASSERT_TRUE(raw.isOk());
+  const std::vector<std::uint8_t> bytes(10, 1);
+  EXPECT_EQ((*raw->toJson(bytes))["$bytes"], 10);
+
+  Schema broken{1, "foxglove.RawImage", "protobuf", {0x0A, 0xFF, 0x01}};
+  Channel ch;
+  ch.topic = "/bad";
+  ch.message_encoding = "protobuf";
+  EXPECT_FALSE(MessageInspector::create(ch, &broken).isOk());
 }
 
 TEST(Recorder, RefusesAnotherTypeOnAChannelAndNegativeStamps) {

@@ -233,6 +233,10 @@ struct McapWriter::Impl {
     tail.clear();
     for (std::uint16_t id : chunk_channels) {
       auto& entries = index[id - 1];
+      // Readers seek in message indexes by time: keep them sorted even when messages are not.
+      if (!std::is_sorted(entries.begin(), entries.end()))
+        std::stable_sort(entries.begin(), entries.end(),
+                         [](const auto& a, const auto& b) { return a.first < b.first; });
       entry.message_index_offsets.emplace_back(id, entry.offset + entry.length + tail.size());
       tail.push_back(kMessageIndex);
       putU64(tail, 2 + 4 + 16 * entries.size());

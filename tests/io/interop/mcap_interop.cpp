@@ -266,9 +266,24 @@ int writeFiles(const std::string& dir) {
       }
       if (i == 0) expect = expectations(s);
       for (const auto& [topic, e] : expect) {
+        if (topic == "/chaser/tf/late") continue;
         ++counts[topic];
         if (i == 0) first_time[topic] = io::toMcapTime(t);
         if (t >= range_lo && t <= range_hi) ++range_count;
+      }
+      if (i > 0) {  // a stream that arrives 50 ms late: messages out of log-time order
+        Transform late = s.transform;
+        late.stamp = t - 50'000;
+        if (Status st = rec.write("/chaser/tf/late", late); !st.isOk()) {
+          fail(st.toString());
+          return 1;
+        }
+        if (i == 1) {
+          first_time["/chaser/tf/late"] = io::toMcapTime(late.stamp);
+          expect["/chaser/tf/late"] = {{"child_frame_id", "camera_left_optical"}};
+        }
+        ++counts["/chaser/tf/late"];
+        if (late.stamp >= range_lo && late.stamp <= range_hi) ++range_count;
       }
       for (int k = 1; k < 10; ++k) {  // the IMU runs at 100 Hz
         ImuSample imu = s.imu;
