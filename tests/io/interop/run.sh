@@ -21,6 +21,8 @@ done
 echo "node $(node --version), npm $(npm --version)"
 
 mkdir -p "$work"
+# npm's cache inside the build directory: no dependency on $HOME (CI runs as root, maybe without).
+export npm_config_cache="$work/.npm-cache"
 cp "$src/package.json" "$src/package-lock.json" "$src/interop.mjs" "$work/"
 # The pinned packages are installed into the build directory, once per version of the lock file;
 # later runs work offline.
