@@ -6,8 +6,9 @@
 # every DFI's self-registration is linked in), and the tests into one GoogleTest executable per
 # folder that links only its own area. `cdff_dfns` (dfns/CMakeLists.txt) gathers every area.
 # An area that needs more than the common libraries adds an `area.cmake` beside its YAML: it is
-# included after the area's target exists, with `${lib}` (the target) and `${dir}` (the folder)
-# set, e.g. `target_link_libraries(${lib} PUBLIC cdff_tracking)`.
+# included last, with `${lib}` (the area's target), `${dir}` (the folder) and `${area}` set (the
+# test target is `test_dfn_${area}` when it exists), e.g.
+# `target_link_libraries(${lib} PUBLIC cdff_tracking)`.
 set(CDFF_DFN_CODEGEN ${PROJECT_SOURCE_DIR}/scripts/dfn_codegen.py)
 set(CDFF_DFN_GEN_DIR ${PROJECT_BINARY_DIR}/generated/dfns)
 
@@ -22,9 +23,6 @@ function(cdff_add_dfn_area dir)
   target_include_directories(${lib} PUBLIC ${CDFF_DFN_GEN_DIR} ${dir})
   target_link_libraries(${lib} PUBLIC cdff_dfn cdff_types_opencv ${CDFF_DFN_COMMON_LIBS})
   set_property(GLOBAL APPEND PROPERTY CDFF_DFN_AREA_LIBS ${lib})
-  if(EXISTS ${dir}/area.cmake)
-    include(${dir}/area.cmake)
-  endif()
   foreach(description ${descriptions})
     get_filename_component(name ${description} NAME_WE)
     set(gen_hpp ${CDFF_DFN_GEN_DIR}/${name}.gen.hpp)
@@ -48,5 +46,8 @@ function(cdff_add_dfn_area dir)
     add_executable(test_dfn_${area} ${tests})
     target_link_libraries(test_dfn_${area} PRIVATE ${lib} cdff_test_support GTest::gtest_main)
     gtest_discover_tests(test_dfn_${area} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS dfn)
+  endif()
+  if(EXISTS ${dir}/area.cmake)
+    include(${dir}/area.cmake)
   endif()
 endfunction()

@@ -30,7 +30,7 @@ struct Halfspace {  // n . x - d >= 0
 };
 
 // A convex piece of a face in the camera frame, as the half-spaces of its occlusion volume:
-// the cone from the camera through the piece (shrunk by a fraction of a pixel) and the far side
+// the cone from the camera through the piece and the far side
 // of its plane.
 struct Occluder {
   std::vector<Halfspace> sides;
@@ -39,17 +39,31 @@ struct Occluder {
   std::int32_t face;
 };
 
-// Sutherland-Hodgman clip of a polygon to z >= near.
-std::vector<Eigen::Vector3d> clipNear(const std::vector<Eigen::Vector3d>& polygon, double near) {
+// Sutherland-Hodgman clip of a polygon to z >= near. `outline[i]` says whether the edge from
+// vertex i to the next is part of the face's outline (not a diagonal of its triangulation); the
+// edge the clip creates counts as outline.
+void clipNear(std::vector<Eigen::Vector3d>& polygon, std::vector<bool>& outline, double near) {
   std::vector<Eigen::Vector3d> out;
+  std::vector<bool> out_outline;
   for (std::size_t i = 0; i < polygon.size(); ++i) {
     const Eigen::Vector3d& a = polygon[i];
     const Eigen::Vector3d& b = polygon[(i + 1) % polygon.size()];
     const bool in_a = a.z() >= near, in_b = b.z() >= near;
-    if (in_a) out.push_back(a);
-    if (in_a != in_b) out.push_back(a + (b - a) * ((near - a.z()) / (b.z() - a.z())));
+    const auto cut = [&] { return Eigen::Vector3d(a + (b - a) * ((near - a.z()) / (b.z() - a.z()))); };
+    if (in_a) {
+      out.push_back(a);
+      out_outline.push_back(outline[i]);
+      if (!in_b) {
+        out.push_back(cut());
+        out_outline.push_back(true);
+      }
+    } else if (in_b) {
+      out.push_back(cut());
+      out_outline.push_back(outline[i]);
+    }
   }
-  return out;
+  polygon = std::move(out);
+  outline = std::move(out_outline);
 }
 
 Eigen::Vector2d project(const CameraModel& c, const Eigen::Vector3d& p) {
@@ -113,8 +127,11 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
   if (!options.compute_segments) return out;
 
   // Occlusion volumes of every face piece in front of the camera.
-  const double f_min = std::min(camera.fx, camera.fy);
-  const double cone_shrink = 0.25 / f_min;  // a quarter pixel, as a slope
+  // The cones are exact up to rounding: narrowed by a hair at the face's outline (a point on
+  // the outline, like the corner an edge shares with the face, is not hidden by it) and widened
+  // by a hair at the diagonals between a face's triangles (no crack between them). Any wider
+  // margin would open cracks between neighbouring faces that hide an edge together.
+  constexpr double kHair = 1e-9;
   std::vector<Occluder> occluders;
   for (std::size_t f = 0; f < nf; ++f) {
     const TrackingModel::Face& face = model.faces[f];
@@ -122,10 +139,22 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
     const double d_c = n_c.dot(c_T_m * face.centroid);
     if (std::abs(d_c) < 1e-12) continue;  // seen edge-on: hides nothing
     const double sigma = d_c > 0 ? 1.0 : -1.0;
+    const std::size_t n_loop = face.loop.size();
+    const auto onOutline = [&](std::uint32_t u, std::uint32_t v) {
+      for (std::size_t i = 0; i < n_loop; ++i) {
+        const std::uint32_t a = face.loop[i], b = face.loop[(i + 1) % n_loop];
+        if ((a == u && b == v) || (a == v && b == u)) return true;
+      }
+      return false;
+    };
     for (const auto& piece : face.convex_pieces) {
       std::vector<Eigen::Vector3d> poly;
-      for (std::uint32_t p : piece) poly.push_back(pc[p]);
-      poly = clipNear(poly, options.near_clipping * 0.5);
+      std::vector<bool> outline;
+      for (std::size_t i = 0; i < piece.size(); ++i) {
+        poly.push_back(pc[piece[i]]);
+        outline.push_back(piece.size() == n_loop || onOutline(piece[i], piece[(i + 1) % piece.size()]));
+      }
+      clipNear(poly, outline, options.near_clipping * 0.5);
       if (poly.size() < 3) continue;
       Occluder o;
       o.face = static_cast<std::int32_t>(f);
@@ -139,8 +168,10 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
         if (norm < 1e-15) continue;  // repeated vertex after clipping
         m /= norm;
         if (m.dot(centroid) < 0) m = -m;
-        // m . x - shrink * z >= 0
-        o.sides.push_back({m - Eigen::Vector3d(0, 0, cone_shrink), 0.0});
+        // m . x -+ shrink * z >= 0: narrowed at the face's outline, widened at the diagonals
+        // between its triangles so that neighbouring pieces overlap instead of leaving a crack.
+        const double slope = outline[i] ? kHair : -kHair;
+        o.sides.push_back({m - Eigen::Vector3d(0, 0, slope), 0.0});
       }
       if (o.sides.size() < 3) degenerate = true;
       if (degenerate) continue;
