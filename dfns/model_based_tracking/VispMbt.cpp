@@ -84,8 +84,9 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     if (!depth_T_camera) return depth_T_camera.status();
     // Our parser first: its errors name the file and line, ViSP's do not.
     CDFF_RETURN_IF_ERROR(models_.load(p.model_file));
-    settings_ = s;
     wants_depth_ = p.mode == "edges_depth" || p.mode == "edges_klt_depth";
+    s.covariance = !wants_depth_ || p.depth_covariance;
+    settings_ = s;
     depth_T_camera_ = *depth_T_camera;
     configured_key_.reset();
     return Status::ok();
@@ -176,6 +177,24 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     }
 
     const Eigen::Isometry3d prediction = predicted.pose.isometry();
+    // ViSP does not check that the model is in front of a camera: a prediction behind them all
+    // is a lost track before ViSP sees it.
+    const Eigen::AlignedBox3d box = (*model)->bounds();
+    const double radius = 0.5 * box.diagonal().norm();
+    bool in_front = false;
+    for (const tracking::CameraFrame& f : cameras->frames)
+      in_front = in_front || (f.camera_T_reference.isometry() * prediction * box.center()).z() +
+                                     radius > params_.near_clipping;
+    if (!in_front) {
+      warn(fmt::format("lost: the predicted pose puts the model behind the camera (centre at z = "
+                       "{:.3f} m, radius {:.3f} m)",
+                       (prediction * box.center()).z(), radius));
+      out.pose.set(predicted);
+      out.status.set(static_cast<int>(TrackingStatus::kLost));
+      out.inlier_ratio.set(0.0);
+      out.feature_count.set(0);
+      return Status::ok();
+    }
     const Eigen::Isometry3d current = fromMatrix4(tracker_.pose());
     const bool reseed =
         !tracker_.hasPose() || (current.translation() - prediction.translation()).norm() > 1e-6 ||

@@ -31,8 +31,6 @@ Matrix4 fromVisp(const vpHomogeneousMatrix& h) {
   return m;
 }
 
-std::string cameraName(std::size_t index) { return "Camera" + std::to_string(index + 1); }
-
 }  // namespace
 
 struct MbtTracker::Impl {
@@ -41,8 +39,10 @@ struct MbtTracker::Impl {
   bool has_depth = false;
   Camera depth;
   bool has_pose = false;
+  bool covariance = false;
   std::vector<vpImage<unsigned char>> images;  // ViSP owns its pixels: one copy per frame
   std::vector<vpColVector> cloud;              // reused between frames (no reallocation)
+  std::vector<std::string> names;  // ViSP's camera names: the image cameras, then the depth one
 
   void copyImages(const std::vector<GreyImage>& in) {
     images.resize(in.size());
@@ -59,7 +59,7 @@ struct MbtTracker::Impl {
 
   std::map<std::string, const vpImage<unsigned char>*> imageMap() const {
     std::map<std::string, const vpImage<unsigned char>*> map;
-    for (std::size_t i = 0; i < images.size(); ++i) map[cameraName(i)] = &images[i];
+    for (std::size_t i = 0; i < images.size(); ++i) map[names[i]] = &images[i];
     return map;
   }
 };
@@ -84,6 +84,11 @@ std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& 
     if (depth) types.push_back(vpMbGenericTracker::DEPTH_DENSE_TRACKER);
     impl_->tracker = std::make_unique<vpMbGenericTracker>(types);
     vpMbGenericTracker& t = *impl_->tracker;
+    // "Camera" for one camera, "Camera1", "Camera2", ... for several, in the order created.
+    impl_->names = t.getCameraNames();
+    if (impl_->names.size() != types.size())
+      return "ViSP created " + std::to_string(impl_->names.size()) + " cameras; expected " +
+             std::to_string(types.size());
 
     std::map<std::string, vpCameraParameters> intrinsics;
     std::map<std::string, vpHomogeneousMatrix> extrinsics;
@@ -93,8 +98,8 @@ std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& 
       vpCameraParameters p;
       p.initPersProjWithoutDistortion(c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx,
                                       c.intrinsics.cy);
-      intrinsics[cameraName(i)] = p;
-      extrinsics[cameraName(i)] = toVisp(c.camera_T_reference);
+      intrinsics[impl_->names[i]] = p;
+      extrinsics[impl_->names[i]] = toVisp(c.camera_T_reference);
     }
     t.setCameraParameters(intrinsics);
     t.setCameraTransformationMatrix(extrinsics);
@@ -129,7 +134,8 @@ std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& 
     t.setFarClippingDistance(s.far_clipping);
     if (s.fov_clipping) t.setClipping(t.getClipping() | vpMbtPolygon::FOV_CLIPPING);
     t.setScanLineVisibilityTest(s.scanline_visibility);
-    t.setCovarianceComputation(true);
+    t.setCovarianceComputation(s.covariance);
+    impl_->covariance = s.covariance;
     t.loadModel(model_path);
     return {};
   } catch (const vpException& e) {
@@ -157,9 +163,9 @@ std::string MbtTracker::setPose(const std::vector<GreyImage>& images,
       auto map = impl_->imageMap();
       std::map<std::string, vpHomogeneousMatrix> poses;
       for (std::size_t i = 0; i < impl_->cameras.size(); ++i)
-        poses[cameraName(i)] = toVisp(impl_->cameras[i].camera_T_reference) * r_T_m;
+        poses[impl_->names[i]] = toVisp(impl_->cameras[i].camera_T_reference) * r_T_m;
       if (impl_->has_depth) {
-        const std::string name = cameraName(impl_->cameras.size());
+        const std::string& name = impl_->names.back();
         map[name] = &impl_->images[0];
         poses[name] = toVisp(impl_->depth.camera_T_reference) * r_T_m;
       }
@@ -199,7 +205,7 @@ std::string MbtTracker::track(const std::vector<GreyImage>& images, const DepthI
           p[1] = zz * (v - k.cy) / k.fy;
           p[2] = zz;
         }
-      const std::string name = cameraName(impl_->cameras.size());
+      const std::string& name = impl_->names.back();
       std::map<std::string, const std::vector<vpColVector>*> clouds{{name, &impl_->cloud}};
       std::map<std::string, unsigned int> widths{{name, static_cast<unsigned>(depth->width)}};
       std::map<std::string, unsigned int> heights{{name, static_cast<unsigned>(depth->height)}};
@@ -208,10 +214,13 @@ std::string MbtTracker::track(const std::vector<GreyImage>& images, const DepthI
       t.track(map);
     }
     output.reference_T_model = fromVisp(t.getPose());
-    const vpMatrix cov = t.getCovarianceMatrix();
-    if (cov.getRows() == 6 && cov.getCols() == 6)
-      for (unsigned r = 0; r < 6; ++r)
-        for (unsigned c = 0; c < 6; ++c) output.covariance[r * 6 + c] = cov[r][c];
+    output.covariance.fill(0.0);
+    if (impl_->covariance) {
+      const vpMatrix cov = t.getCovarianceMatrix();
+      if (cov.getRows() == 6 && cov.getCols() == 6)
+        for (unsigned r = 0; r < 6; ++r)
+          for (unsigned c = 0; c < 6; ++c) output.covariance[r * 6 + c] = cov[r][c];
+    }
     const vpColVector w = t.getRobustWeights();
     unsigned good = 0;
     for (unsigned i = 0; i < w.getRows(); ++i) good += w[i] > 0.5 ? 1 : 0;

@@ -36,6 +36,7 @@ struct Settings {
   double angle_appear = 1.4835298641951802, angle_disappear = 1.5533430342749532;  // rad
   double near_clipping = 0.01, far_clipping = 100;                               // m
   bool fov_clipping = true, scanline_visibility = false;
+  bool covariance = true;
 };
 
 struct GreyImage {
