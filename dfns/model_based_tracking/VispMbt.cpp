@@ -85,7 +85,7 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     // Our parser first: its errors name the file and line, ViSP's do not.
     CDFF_RETURN_IF_ERROR(models_.load(p.model_file));
     wants_depth_ = p.mode == "edges_depth" || p.mode == "edges_klt_depth";
-    s.covariance = !wants_depth_ || p.depth_covariance;
+    s.covariance = p.covariance == "on" || (p.covariance == "auto" && !wants_depth_);
     settings_ = s;
     depth_T_camera_ = *depth_T_camera;
     configured_key_.reset();

@@ -15,17 +15,6 @@ struct Raster {
   cv::Mat face;   // CV_32S, -1 where empty
 };
 
-bool inside(const std::vector<Eigen::Vector2d>& poly, double x, double y) {
-  bool in = false;
-  for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
-    const Eigen::Vector2d& a = poly[i];
-    const Eigen::Vector2d& b = poly[j];
-    if ((a.y() > y) != (b.y() > y) && x < (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y()) + a.x())
-      in = !in;
-  }
-  return in;
-}
-
 // Nearest face per sub-pixel of an s-times finer grid (sub-pixel centres at (i + 0.5) / s - 0.5).
 Raster rasterise(const PolygonModel& model, const CameraModel& k, const Eigen::Isometry3d& c_T_m,
                  int s) {
@@ -60,23 +49,40 @@ Raster rasterise(const PolygonModel& model, const CameraModel& k, const Eigen::I
       y0 = std::min(y0, q.y());
       y1 = std::max(y1, q.y());
     }
-    const int i0 = std::max(0, static_cast<int>(std::ceil(x0)));
-    const int i1 = std::min(w - 1, static_cast<int>(std::floor(x1)));
-    const int j0 = std::max(0, static_cast<int>(std::ceil(y0)));
-    const int j1 = std::min(h - 1, static_cast<int>(std::floor(y1)));
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        if (!inside(px, i, j)) continue;
-        const double u = ((i + 0.5) / s - 0.5 - k.cx) / k.fx;
-        const double v = ((j + 0.5) / s - 0.5 - k.cy) / k.fy;
-        const double denom = normal.dot(Eigen::Vector3d(u, v, 1.0));
-        if (std::abs(denom) < 1e-12) continue;
-        const double z = offset / denom;
-        if (z > near && z < r.depth.at<double>(j, i)) {
-          r.depth.at<double>(j, i) = z;
-          r.face.at<int>(j, i) = static_cast<int>(f);
+    const int i0 = std::max(0, static_cast<int>(std::floor(x0)) - 1);
+    const int i1 = std::min(w - 1, static_cast<int>(std::ceil(x1)) + 1);
+    const int j0 = std::max(0, static_cast<int>(std::floor(y0)) - 1);
+    const int j1 = std::min(h - 1, static_cast<int>(std::ceil(y1)) + 1);
+    if (i0 > i1 || j0 > j1) continue;
+    // Exact scan-line coverage of the sub-pixel centres, depth from the face's plane.
+    std::vector<double> crossings;
+    for (int j = j0; j <= j1; ++j) {
+      crossings.clear();
+      for (std::size_t e = 0; e < px.size(); ++e) {
+        const Eigen::Vector2d& a = px[e];
+        const Eigen::Vector2d& b = px[(e + 1) % px.size()];
+        if ((a.y() > j) != (b.y() > j))
+          crossings.push_back(a.x() + (j - a.y()) * (b.x() - a.x()) / (b.y() - a.y()));
+      }
+      std::sort(crossings.begin(), crossings.end());
+      double* depth = r.depth.ptr<double>(j);
+      int* face = r.face.ptr<int>(j);
+      const double v = ((j + 0.5) / s - 0.5 - k.cy) / k.fy;
+      for (std::size_t c = 0; c + 1 < crossings.size(); c += 2) {
+        const int from = std::max(i0, static_cast<int>(std::ceil(crossings[c])));
+        const int to = std::min(i1, static_cast<int>(std::ceil(crossings[c + 1])) - 1);
+        for (int i = from; i <= to; ++i) {
+          const double u = ((i + 0.5) / s - 0.5 - k.cx) / k.fx;
+          const double denom = normal.dot(Eigen::Vector3d(u, v, 1.0));
+          if (std::abs(denom) < 1e-12) continue;
+          const double z = offset / denom;
+          if (z > near && z < depth[i]) {
+            depth[i] = z;
+            face[i] = static_cast<int>(f);
+          }
         }
       }
+    }
   }
   return r;
 }

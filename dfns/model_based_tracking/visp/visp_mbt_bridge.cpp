@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <exception>
+#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -136,7 +137,18 @@ std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& 
     t.setScanLineVisibilityTest(s.scanline_visibility);
     t.setCovarianceComputation(s.covariance);
     impl_->covariance = s.covariance;
-    t.loadModel(model_path);
+    {
+      // ViSP reports what it read on std::cout; the DFI reports through its status instead.
+      std::ostringstream chatter;
+      std::streambuf* previous = std::cout.rdbuf(chatter.rdbuf());
+      try {
+        t.loadModel(model_path);
+      } catch (...) {
+        std::cout.rdbuf(previous);
+        throw;
+      }
+      std::cout.rdbuf(previous);
+    }
     return {};
   } catch (const vpException& e) {
     impl_->tracker.reset();
@@ -153,13 +165,14 @@ std::string MbtTracker::setPose(const std::vector<GreyImage>& images,
   try {
     impl_->copyImages(images);
     const vpHomogeneousMatrix r_T_m = toVisp(reference_T_model);
-    if (impl_->cameras.size() == 1) {
-      // One image camera (with or without a depth camera): ViSP derives the other poses.
+    if (impl_->names.size() == 1) {
       if (impl_->has_pose)
         impl_->tracker->setPose(impl_->images[0], r_T_m);
       else
         impl_->tracker->initFromPose(impl_->images[0], r_T_m);
     } else {
+      // Several cameras (a depth camera counts): every one gets its pose and an image (the depth
+      // camera the reference image, of which ViSP only reads the size).
       auto map = impl_->imageMap();
       std::map<std::string, vpHomogeneousMatrix> poses;
       for (std::size_t i = 0; i < impl_->cameras.size(); ++i)
