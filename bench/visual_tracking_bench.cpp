@@ -133,12 +133,30 @@ void BM_Castle_VispMbt_edges_depth(benchmark::State& state) {
   trackCastle(state, "VispMbt", std::string(kVispSettings) + "edges_depth}", true);
 }
 // Whole passes over the sequence, so that the error counters cover all 40 frames.
-BENCHMARK(BM_Castle_EdgeTracker_edges)->Iterations(400)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Castle_EdgeTracker_edges_depth)->Iterations(400)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Castle_VispMbt_edges)->Iterations(200)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Castle_VispMbt_edges_no_covariance)->Iterations(200)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Castle_VispMbt_edges_klt)->Iterations(200)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Castle_VispMbt_edges_depth)->Iterations(200)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_EdgeTracker_edges)
+    ->Iterations(400)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_EdgeTracker_edges_depth)
+    ->Iterations(400)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_VispMbt_edges)
+    ->Iterations(200)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_VispMbt_edges_no_covariance)
+    ->Iterations(200)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_VispMbt_edges_klt)
+    ->Iterations(200)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Castle_VispMbt_edges_depth)
+    ->Iterations(200)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 // The atomic steps on frame 20 at its true pose.
 struct Steps {

@@ -9,8 +9,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "EdgeMatching.gen.hpp"
-#include "cdff/types/opencv.hpp"
 #include "cdff/tracking/contours.hpp"
+#include "cdff/types/opencv.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/model_rendering.hpp"
 #include "support/synthetic.hpp"
@@ -39,9 +39,9 @@ Image render(const Scene& s, double noise, double gain = 1.0) {
 
 ContourSamples samplesAt(const Scene& s, const Eigen::Isometry3d& pose) {
   auto model = tracking::TrackingModel::build(s.box).value();
-  auto contours = tracking::computeContours(model, s.camera,
-                                            Transform::fromIsometry(pose, "camera", "box"),
-                                            Transform::identity("camera", "camera"), {});
+  auto contours =
+      tracking::computeContours(model, s.camera, Transform::fromIsometry(pose, "camera", "box"),
+                                Transform::identity("camera", "camera"), {});
   return tracking::sampleContours(std::make_shared<const ModelContours>(contours.value()), {});
 }
 
@@ -73,8 +73,8 @@ TEST(EdgeMatching, FromAShiftedPoseTheOffsetsAreTheShiftAlongEachNormal) {
   const Scene scene;
   Eigen::Isometry3d predicted = scene.truth;
   predicted.translation() += Eigen::Vector3d(0.004, -0.003, 0.01);
-  predicted.linear() = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-                       predicted.linear();
+  predicted.linear() =
+      Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix() * predicted.linear();
   auto node = make();
   node->in.image.set(render(scene, 2.0));
   const ContourSamples samples = samplesAt(scene, predicted);

@@ -22,8 +22,9 @@ class EdgeMatchingNormalSearch final : public EdgeMatchingNormalSearchBase {
                              : static_cast<double>(matches->matchedCount()) /
                                    static_cast<double>(matches->samples.size());
     if (!matches->samples.empty() && ratio == 0.0)
-      warn("no sample found an image edge (dark, saturated or blurred image, or the model far "
-           "from the prediction)");
+      warn(
+          "no sample found an image edge (dark, saturated or blurred image, or the model far "
+          "from the prediction)");
     out.matched_ratio.set(ratio);
     out.matches.set(std::move(matches).value());
     return Status::ok();

@@ -22,9 +22,10 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
     for (std::size_t i = 0; i < inputs.size(); ++i) {
       CDFF_RETURN_IF_ERROR(inputs[i]->validate(names[i]));
       if (!inputs[i]->matched)
-        return invalidInput("{} holds samples that were never matched; expected the output of "
-                            "EdgeMatching",
-                            names[i]);
+        return invalidInput(
+            "{} holds samples that were never matched; expected the output of "
+            "EdgeMatching",
+            names[i]);
       const ModelContours& c = *inputs[i]->contours;
       const Eigen::Isometry3d r_T_m =
           c.camera_T_reference.isometry().inverse() * c.camera_T_model.isometry();
@@ -33,8 +34,9 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
       } else if ((r_T_m.translation() - prediction.translation()).norm() > 1e-6 ||
                  Eigen::AngleAxisd(r_T_m.linear().transpose() * prediction.linear()).angle() >
                      1e-6) {
-        return invalidInput("the two cameras' contours were computed for different poses of the "
-                            "model in the rig; expected the same prediction for both");
+        return invalidInput(
+            "the two cameras' contours were computed for different poses of the "
+            "model in the rig; expected the same prediction for both");
       }
     }
     const ModelContours& first = *in.matches->contours;
@@ -61,8 +63,8 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
       tracking::DepthAssociationOptions options;
       options.step_x = options.step_y = params_.depth_step;
       options.max_distance = params_.depth_max_distance;
-      Result<tracking::DepthPoints> associated = tracking::associateDepth(
-          *in.depth, depth_T_reference_, first.faces, prediction, options);
+      Result<tracking::DepthPoints> associated =
+          tracking::associateDepth(*in.depth, depth_T_reference_, first.faces, prediction, options);
       if (!associated) return associated.status().withContext("input 'depth'");
       depth_points = std::move(associated).value();
     }
@@ -82,6 +84,7 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
 
     PoseWithCovariance pose;
     pose.pose = predicted;
+    pose.covariance = tracking::noInformationCovariance();
     TrackingStatus status = TrackingStatus::kLost;
     double inlier_ratio = 0, rms = 0;
     std::string reason;
@@ -94,13 +97,14 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
         if (solution.status().code() != StatusCode::kNumericalFailure) return solution.status();
         reason = solution.status().message();
       } else if (solution->diverged) {
-        reason = fmt::format("the estimate diverged from the prediction (more than {} m or {} "
-                             "rad)",
-                             options.divergence_translation, options.divergence_rotation);
+        reason = fmt::format(
+            "the estimate diverged from the prediction (more than {} m or {} "
+            "rad)",
+            options.divergence_translation, options.divergence_rotation);
       } else {
-        status = tracking::assessTracking(*solution, inputs.size(), failed,
-                                          params_.min_inlier_ratio,
-                                          params_.degraded_inlier_ratio, reason);
+        status =
+            tracking::assessTracking(*solution, inputs.size(), failed, params_.min_inlier_ratio,
+                                     params_.degraded_inlier_ratio, reason);
         inlier_ratio = solution->inlierRatio();
         rms = solution->edge_rms;
         if (status != TrackingStatus::kLost) {

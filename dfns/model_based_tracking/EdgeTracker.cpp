@@ -54,8 +54,9 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   }
 
   Status onProcess() override {
-    const PoseWithCovariance& predicted = *in.predicted_pose;
-    CDFF_RETURN_IF_ERROR(predicted.validate().withContext("input 'predicted_pose'"));
+    Result<PoseWithCovariance> predicted_input = mbt::prediction(in);
+    if (!predicted_input) return predicted_input.status();
+    const PoseWithCovariance& predicted = *predicted_input;
     bool changed = false;
     Result<std::shared_ptr<const PolygonModel>> model = models_.select(in.model, changed);
     if (!model) return model.status();
@@ -66,7 +67,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (!cameras) return cameras.status();
     if (cameras->frames.empty() && !in.depth.hasValue())
       return invalidInput("no 'image', 'stereo_images' or 'depth'; expected at least one sensor");
-    if (in.depth.hasValue()) CDFF_RETURN_IF_ERROR(in.depth->validate().withContext("input 'depth'"));
+    if (in.depth.hasValue())
+      CDFF_RETURN_IF_ERROR(in.depth->validate().withContext("input 'depth'"));
 
     Result<tracking::TrackingResult> result =
         tracker_.track(cameras->frames, in.depth.hasValue() ? in.depth.get() : nullptr,
@@ -76,12 +78,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
 
     PoseWithCovariance pose;
-    if (result->status == TrackingStatus::kLost) {
-      pose = predicted;
-    } else {
-      pose.pose = result->reference_T_model;
-      pose.covariance = result->covariance;
-    }
+    pose.pose = result->reference_T_model;  // the prediction when lost
+    pose.covariance = result->covariance;
     out.pose.set(std::move(pose));
     out.status.set(static_cast<int>(result->status));
     out.inlier_ratio.set(result->inlier_ratio);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "EstimationFilter.gen.hpp"
 #include "ModelBasedTracking.gen.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/model_rendering.hpp"
@@ -38,7 +39,8 @@ struct Sequence {
     Eigen::Isometry3d start = testing::lookAt({0.3, -0.35, 0.22}, Eigen::Vector3d::Zero());
     Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
     step.translation() << 0.0015 * k, -0.001 * k, -0.002 * k;
-    step.linear() = expSO3(Eigen::Vector3d(0.2, 1.0, 0.4).normalized() * (0.006 * k)).toRotationMatrix();
+    step.linear() =
+        expSO3(Eigen::Vector3d(0.2, 1.0, 0.4).normalized() * (0.006 * k)).toRotationMatrix();
     return step * start;  // left_T_model
   }
 
@@ -107,11 +109,12 @@ TEST(ModelBasedTracking, EdgeTrackerStereoCarriesOnWhenACameraFails) {
   double previous_error = -1;
   for (int k = 0; k < 18; ++k) {
     SCOPED_TRACE("frame " + std::to_string(k));
-    const bool dark = k >= 5 && k < 10;     // right camera under-exposed
+    const bool dark = k >= 5 && k < 10;      // right camera under-exposed
     const bool missing = k >= 12 && k < 15;  // right camera drops frames
     StereoImagePair pair;
     pair.left = seq.image(seq.truth(k), k);
-    pair.right = missing ? Image{} : seq.image(seq.right_T_left * seq.truth(k), 100 + k, dark ? 0.03 : 1.0);
+    pair.right =
+        missing ? Image{} : seq.image(seq.right_T_left * seq.truth(k), 100 + k, dark ? 0.03 : 1.0);
     pair.right.frame_id = "right";
     pair.right_T_left = Transform::fromIsometry(seq.right_T_left, "right", "left");
     node->in.stereo_images.set(pair);
@@ -127,6 +130,27 @@ TEST(ModelBasedTracking, EdgeTrackerStereoCarriesOnWhenACameraFails) {
       EXPECT_LT(std::abs(error - previous_error), 0.0003);
     }
     previous_error = error;
+  }
+}
+
+TEST(ModelBasedTracking, VispMbtTracksAStereoPair) {
+  const Sequence seq;
+  auto node = make("VispMbt", "{me_range: 12}");
+  node->in.model.set(seq.model);
+  Eigen::Isometry3d pose = seq.truth(0);
+  for (int k = 0; k < 10; ++k) {
+    StereoImagePair pair;
+    pair.left = seq.image(seq.truth(k), k);
+    pair.right = seq.image(seq.right_T_left * seq.truth(k), 100 + k);
+    pair.right.frame_id = "right";
+    pair.right_T_left = Transform::fromIsometry(seq.right_T_left, "right", "left");
+    node->in.stereo_images.set(pair);
+    node->in.predicted_pose.set(prediction(pose));
+    ASSERT_OK(node->process());
+    ASSERT_EQ(*node->out.status, kTracking) << "frame " << k;
+    pose = node->out.pose->pose.isometry();
+    EXPECT_LT(translationError(*node->out.pose, seq.truth(k)), 0.003) << "frame " << k;
+    EXPECT_LT(angleError(*node->out.pose, seq.truth(k)), 0.5 * M_PI / 180) << "frame " << k;
   }
 }
 
@@ -237,6 +261,66 @@ TEST(ModelBasedTracking, TheModelCanComeFromItsFile) {
   ASSERT_OK(node->process());
   EXPECT_EQ(*node->out.status, kTracking);
   EXPECT_LT(translationError(*node->out.pose, seq.truth(0)), 0.0005);
+}
+
+// The chain of the visual tracking DFPC: EstimationFilter predicts to the image time, the tracker
+// measures from that prediction, the filter corrects with the measurement. The ports connect
+// as they are (type-erased, as the DFPC layer connects them), and the filtered state follows the
+// target, with its velocity, while the tracker reports lost frames that the filter then skips.
+TEST(ModelBasedTracking, ChainsWithTheEstimationFilter) {
+  const Sequence seq;
+  auto tracker = make("EdgeTracker");
+  auto filter = testing::makeDfn<EstimationFilter>(
+      "EstimationFilter", "ExtendedKalman",
+      "{linear_acceleration_psd: 1.0e-6, angular_acceleration_psd: 1.0e-6}");
+  tracker->in.model.set(seq.model);
+  PoseWithCovariance first;
+  first.pose = Transform::fromIsometry(seq.truth(0), "left", "model");
+  first.covariance = Matrix6d::Identity() * 1e-6;
+  filter->in.pose_measurement.set(first);
+  ASSERT_OK(filter->process());
+  const auto connect = [](dfn::OutputPortBase* from, dfn::InputPortBase* to) {
+    ASSERT_NE(from, nullptr);
+    ASSERT_NE(to, nullptr);
+    ASSERT_OK(to->setAny(from->anyValue(), from->type()));
+  };
+  int fused = 0;
+  for (int k = 1; k < 12; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    const bool dark = k == 6;
+    Image image = seq.image(seq.truth(k), k, dark ? 0.0 : 1.0);
+    filter->in.time.set(image.stamp);
+    ASSERT_OK(filter->process());
+    connect(filter->findOutput("state"), tracker->findInput("predicted_state"));
+    tracker->in.image.set(image);
+    ASSERT_OK(tracker->process());
+    EXPECT_EQ(*tracker->out.status, dark ? kLost : kTracking);
+    if (*tracker->out.status == kLost) continue;  // the DFPC's gate
+    connect(tracker->findOutput("pose"), filter->findInput("pose_measurement"));
+    ASSERT_OK(filter->process());
+    ++fused;
+    const RigidBodyState& state = *filter->out.state;
+    EXPECT_LT((state.pose.translation - seq.truth(k).translation()).norm(), 0.001);
+  }
+  EXPECT_EQ(fused, 10);
+  // The sequence moves 1.5, -1, -2 mm per frame (plus the rotation's effect on the origin) at
+  // 10 frames/s: the filter has picked up a velocity of the right size.
+  const double speed = filter->out.state->twist.linear.norm();
+  const double true_speed = (seq.truth(11).translation() - seq.truth(10).translation()).norm() * 10;
+  EXPECT_NEAR(speed, true_speed, 0.3 * true_speed);
+}
+
+TEST(ModelBasedTracking, ExactlyOnePredictionIsExpected) {
+  const Sequence seq;
+  auto node = make("EdgeTracker");
+  node->in.model.set(seq.model);
+  node->in.image.set(seq.image(seq.truth(0), 0));
+  testing::expectRejected(*node, "no prediction");
+  node->in.predicted_pose.set(prediction(seq.truth(0)));
+  RigidBodyState state;
+  state.pose = prediction(seq.truth(0)).pose;
+  node->in.predicted_state.set(state);
+  testing::expectRejected(*node, "both 'predicted_pose' and 'predicted_state' are set");
 }
 
 TEST(ModelBasedTracking, VispMbtNeedsTheDepthItsModeUses) {

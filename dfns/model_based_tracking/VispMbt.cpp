@@ -1,8 +1,8 @@
+#include <unistd.h>
 #include <atomic>
-#include <optional>
 #include <cmath>
 #include <filesystem>
-#include <unistd.h>
+#include <optional>
 
 #include "ModelBasedTracking.gen.hpp"
 #include "tracking_common.hpp"
@@ -25,7 +25,8 @@ Eigen::Isometry3d fromMatrix4(const visp_bridge::Matrix4& m) {
     for (int c = 0; c < 4; ++c) h(r, c) = m[static_cast<std::size_t>(r * 4 + c)];
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   // ViSP's matrices are orthonormal to double precision; re-normalise through a quaternion.
-  t.linear() = Eigen::Quaterniond(Eigen::Matrix3d(h.topLeftCorner<3, 3>())).normalized().toRotationMatrix();
+  t.linear() =
+      Eigen::Quaterniond(Eigen::Matrix3d(h.topLeftCorner<3, 3>())).normalized().toRotationMatrix();
   t.translation() = h.topRightCorner<3, 1>();
   return t;
 }
@@ -74,9 +75,10 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     s.fov_clipping = p.fov_clipping;
     s.scanline_visibility = p.scanline_visibility;
     if (p.angle_appear > p.angle_disappear)
-      return invalidParameter("angle_appear ({} rad) exceeds angle_disappear ({} rad); expected "
-                              "angle_appear <= angle_disappear",
-                              p.angle_appear, p.angle_disappear);
+      return invalidParameter(
+          "angle_appear ({} rad) exceeds angle_disappear ({} rad); expected "
+          "angle_appear <= angle_disappear",
+          p.angle_appear, p.angle_disappear);
     if (p.near_clipping >= p.far_clipping)
       return invalidParameter("near_clipping ({} m) is not below far_clipping ({} m)",
                               p.near_clipping, p.far_clipping);
@@ -93,8 +95,9 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
   }
 
   Status onProcess() override {
-    const PoseWithCovariance& predicted = *in.predicted_pose;
-    CDFF_RETURN_IF_ERROR(predicted.validate().withContext("input 'predicted_pose'"));
+    Result<PoseWithCovariance> predicted_input = mbt::prediction(in);
+    if (!predicted_input) return predicted_input.status();
+    const PoseWithCovariance& predicted = *predicted_input;
     bool model_changed = false;
     Result<std::shared_ptr<const PolygonModel>> model = models_.select(in.model, model_changed);
     if (!model) return model.status();
@@ -105,12 +108,12 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       return invalidInput("no 'image' or 'stereo_images'; ViSP's tracker needs at least one image");
     for (const tracking::CameraFrame& f : cameras->frames)
       if (f.camera.hasDistortion())
-        return invalidInput("an image has {} distortion; expected undistorted images (run "
-                            "ImageUndistortion first)",
-                            toString(f.camera.distortion_model));
+        return invalidInput(
+            "an image has {} distortion; expected undistorted images (run "
+            "ImageUndistortion first)",
+            toString(f.camera.distortion_model));
     if (wants_depth_ && !in.depth.hasValue())
-      return invalidInput("mode '{}' needs the 'depth' input; expected a depth map",
-                          params_.mode);
+      return invalidInput("mode '{}' needs the 'depth' input; expected a depth map", params_.mode);
 
     // ViSP needs an image for every camera: a missing frame becomes a black one.
     std::vector<Image> black;
@@ -118,10 +121,11 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     for (const tracking::CameraFrame& f : cameras->frames) {
       const Image* image = f.image;
       if (!image) {
-        std::vector<std::uint8_t> zeros(static_cast<std::size_t>(f.camera.width) * f.camera.height, 0);
-        black.push_back(Image::fromBytes(std::move(zeros), f.camera.width, f.camera.height,
-                                         PixelFormat::kGray8)
-                            .value());
+        std::vector<std::uint8_t> zeros(static_cast<std::size_t>(f.camera.width) * f.camera.height,
+                                        0);
+        black.push_back(
+            Image::fromBytes(std::move(zeros), f.camera.width, f.camera.height, PixelFormat::kGray8)
+                .value());
         image = &black.back();
         warn("a camera missed its frame: ViSP tracks on a black image in its place");
       }
@@ -135,8 +139,9 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       const DepthMap& depth = *in.depth;
       CDFF_RETURN_IF_ERROR(depth.validate().withContext("input 'depth'"));
       if (!depth.image.camera)
-        return invalidInput("input 'depth' has no camera model; expected the depth camera's "
-                            "intrinsics with the image");
+        return invalidInput(
+            "input 'depth' has no camera model; expected the depth camera's "
+            "intrinsics with the image");
       const Image& d = depth.image;
       depth_metres.resize(static_cast<std::size_t>(d.width) * d.height);
       for (int v = 0; v < d.height; ++v)
@@ -168,8 +173,8 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       } else {
         path = models_.file();
       }
-      const std::string error = tracker_.configure(settings_, key.cameras,
-                                                   wants_depth_ ? &depth_camera : nullptr, path);
+      const std::string error =
+          tracker_.configure(settings_, key.cameras, wants_depth_ ? &depth_camera : nullptr, path);
       removeTemporaryModel();  // ViSP has read it
       if (!error.empty())
         return Status(StatusCode::kInvalidInput, fmt::format("model '{}': {}", path, error));
@@ -183,13 +188,17 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     const double radius = 0.5 * box.diagonal().norm();
     bool in_front = false;
     for (const tracking::CameraFrame& f : cameras->frames)
-      in_front = in_front || (f.camera_T_reference.isometry() * prediction * box.center()).z() +
-                                     radius > params_.near_clipping;
+      in_front =
+          in_front || (f.camera_T_reference.isometry() * prediction * box.center()).z() + radius >
+                          params_.near_clipping;
     if (!in_front) {
-      warn(fmt::format("lost: the predicted pose puts the model behind the camera (centre at z = "
-                       "{:.3f} m, radius {:.3f} m)",
-                       (prediction * box.center()).z(), radius));
-      out.pose.set(predicted);
+      warn(
+          fmt::format("lost: the predicted pose puts the model behind the camera (centre at z = "
+                      "{:.3f} m, radius {:.3f} m)",
+                      (prediction * box.center()).z(), radius));
+      PoseWithCovariance lost = predicted;
+      lost.covariance = tracking::noInformationCovariance();
+      out.pose.set(std::move(lost));
       out.status.set(static_cast<int>(TrackingStatus::kLost));
       out.inlier_ratio.set(0.0);
       out.feature_count.set(0);
@@ -205,10 +214,10 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     }
 
     visp_bridge::TrackOutput result;
-    const std::string error =
-        tracker_.track(images, wants_depth_ ? &depth_image : nullptr, result);
+    const std::string error = tracker_.track(images, wants_depth_ ? &depth_image : nullptr, result);
     TrackingStatus status = TrackingStatus::kTracking;
     PoseWithCovariance pose = predicted;
+    pose.covariance = tracking::noInformationCovariance();  // until an estimate replaces it
     if (!error.empty()) {
       status = TrackingStatus::kLost;
       warn(fmt::format("lost: {}", error));
@@ -230,7 +239,8 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       // dt = -nu + [t]x omega, dtheta = -omega in the conventions' parent-frame perturbation.
       Matrix6d visp_cov;
       for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c) visp_cov(r, c) = result.covariance[static_cast<std::size_t>(r * 6 + c)];
+        for (int c = 0; c < 6; ++c)
+          visp_cov(r, c) = result.covariance[static_cast<std::size_t>(r * 6 + c)];
       Matrix6d J = Matrix6d::Zero();
       J.topLeftCorner<3, 3>() = -Eigen::Matrix3d::Identity();
       J.topRightCorner<3, 3>() = skew(estimate.translation());

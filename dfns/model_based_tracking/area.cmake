@@ -11,3 +11,7 @@ if(NOT TARGET cdff_visp_bridge)
   target_link_libraries(cdff_visp_bridge PRIVATE visp_mbt visp_klt visp_me visp_core)
 endif()
 target_link_libraries(${lib} PUBLIC cdff_visp_bridge)
+# Its tests also chain it with the EKF, as the visual tracking DFPC does.
+if(TARGET test_dfn_${area})
+  target_link_libraries(test_dfn_${area} PRIVATE cdff_dfn_estimation_filter)
+endif()

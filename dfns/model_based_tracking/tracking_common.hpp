@@ -54,15 +54,17 @@ inline Result<Cameras> gatherCameras(const ModelBasedTracking::Inputs& in,
                                      const std::string& reference_frame) {
   Cameras out;
   if (in.image.hasValue() && in.stereo_images.hasValue())
-    return invalidInput("both 'image' and 'stereo_images' are set; expected one of them (mono or "
-                        "stereo tracking)");
+    return invalidInput(
+        "both 'image' and 'stereo_images' are set; expected one of them (mono or "
+        "stereo tracking)");
   const auto addCamera = [&](const Image& image, const char* what, const Transform& extrinsics,
                              const CameraModel* fallback) -> Status {
     if (image.empty()) {  // a missing frame of this camera
       if (!fallback)
-        return invalidInput("{} is empty; expected an image (only one camera of a stereo pair "
-                            "may miss a frame)",
-                            what);
+        return invalidInput(
+            "{} is empty; expected an image (only one camera of a stereo pair "
+            "may miss a frame)",
+            what);
       out.grey.emplace_back();
       out.frames.push_back({nullptr, *fallback, extrinsics});
       return Status::ok();
@@ -88,8 +90,9 @@ inline Result<Cameras> gatherCameras(const ModelBasedTracking::Inputs& in,
     const CameraModel* left_model = pair.left.camera ? &*pair.left.camera : nullptr;
     const CameraModel* right_model = pair.right.camera ? &*pair.right.camera : nullptr;
     if (!left_model && !right_model)
-      return invalidInput("input 'stereo_images' has no camera model; expected calibrated, "
-                          "undistorted images");
+      return invalidInput(
+          "input 'stereo_images' has no camera model; expected calibrated, "
+          "undistorted images");
     const CameraModel left_fallback = left_model ? *left_model : *right_model;
     const CameraModel right_fallback = right_model ? *right_model : *left_model;
     CDFF_RETURN_IF_ERROR(
@@ -104,6 +107,21 @@ inline Result<Cameras> gatherCameras(const ModelBasedTracking::Inputs& in,
   for (std::size_t i = 0; i < out.frames.size(); ++i)
     out.frames[i].image = out.grey[i].empty() ? nullptr : &out.grey[i];
   return out;
+}
+
+/// The prediction: `predicted_pose`, or the pose of `predicted_state` (EstimationFilter's output).
+inline Result<PoseWithCovariance> prediction(const ModelBasedTracking::Inputs& in) {
+  if (in.predicted_pose.hasValue() == in.predicted_state.hasValue())
+    return invalidInput("{}; expected exactly one of 'predicted_pose' and 'predicted_state'",
+                        in.predicted_pose.hasValue()
+                            ? "both 'predicted_pose' and 'predicted_state' "
+                              "are set"
+                            : "no prediction");
+  PoseWithCovariance p =
+      in.predicted_pose.hasValue() ? *in.predicted_pose : in.predicted_state->poseWithCovariance();
+  CDFF_RETURN_IF_ERROR(p.validate().withContext(
+      in.predicted_pose.hasValue() ? "input 'predicted_pose'" : "input 'predicted_state'"));
+  return p;
 }
 
 inline Result<Eigen::Isometry3d> depthExtrinsics(const std::vector<double>& values) {

@@ -24,16 +24,17 @@ class VisibilityDeterminationHiddenLineRemoval final
     const CameraModel* camera = in.camera.get();
     if (!camera && in.image.hasValue()) {
       if (!in.image->camera)
-        return invalidInput("input 'image' has no camera model; expected a calibrated image or "
-                            "the 'camera' input");
+        return invalidInput(
+            "input 'image' has no camera model; expected a calibrated image or "
+            "the 'camera' input");
       camera = &*in.image->camera;
     }
     if (!camera)
       return invalidInput("neither 'camera' nor 'image' is set; expected the camera's intrinsics");
-    const Transform extrinsics = in.camera_extrinsics.hasValue()
-                                     ? *in.camera_extrinsics
-                                     : Transform::identity(in.pose->parent_frame,
-                                                           in.pose->parent_frame, in.pose->stamp);
+    const Transform extrinsics =
+        in.camera_extrinsics.hasValue()
+            ? *in.camera_extrinsics
+            : Transform::identity(in.pose->parent_frame, in.pose->parent_frame, in.pose->stamp);
     CDFF_RETURN_IF_ERROR(extrinsics.validate().withContext("input 'camera_extrinsics'"));
     Result<Transform> camera_T_model = extrinsics.compose(*in.pose);
     if (!camera_T_model)
@@ -51,8 +52,9 @@ class VisibilityDeterminationHiddenLineRemoval final
         tracking::computeContours(*model_, *camera, *camera_T_model, extrinsics, options);
     if (!contours) return contours.status();
     if (contours->segments.empty())
-      warn("no contour of the model is visible from this pose (behind the camera or out of "
-           "view)");
+      warn(
+          "no contour of the model is visible from this pose (behind the camera or out of "
+          "view)");
     out.segment_count.set(static_cast<int>(contours->segments.size()));
     out.contours.set(std::move(contours).value());
     return Status::ok();

@@ -90,7 +90,8 @@ Coverage compare(const PolygonModel& polygon_model, const ModelContours& contour
       for (const ContourSegment& s : contours.segments) {
         if (s.edge != e) continue;
         const double t = (x - s.a).dot(s.b - s.a) / (s.b - s.a).squaredNorm();
-        if (t >= -1e-9 && t <= 1 + 1e-9 && (s.a + t * (s.b - s.a) - x).norm() < 1e-9) reported = true;
+        if (t >= -1e-9 && t <= 1 + 1e-9 && (s.a + t * (s.b - s.a) - x).norm() < 1e-9)
+          reported = true;
       }
       if (state[i]) {
         ++c.visible;

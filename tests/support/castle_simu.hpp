@@ -31,7 +31,9 @@ inline const char* kDirectory = "/usr/share/visp-images-data/ViSP-images/mbt-dep
 constexpr int kFrames = 40;
 constexpr double kDepthScale = 0.000030518;  // m per depth unit
 
-inline bool available() { return std::filesystem::exists(std::string(kDirectory) + "/Models/chateau.cao"); }
+inline bool available() {
+  return std::filesystem::exists(std::string(kDirectory) + "/Models/chateau.cao");
+}
 
 inline CameraModel camera() {
   CameraModel c;
@@ -74,8 +76,8 @@ inline Result<PolygonModel> model() {
 }
 
 struct Frame {
-  Image image;            // 8UC1 with its camera model
-  DepthMap depth;         // 16UC1, kDepthScale m per unit, with its camera model
+  Image image;     // 8UC1 with its camera model
+  DepthMap depth;  // 16UC1, kDepthScale m per unit, with its camera model
   Eigen::Isometry3d camera_T_model = Eigen::Isometry3d::Identity();  // ground truth
 };
 
@@ -112,8 +114,8 @@ inline Result<Frame> frame(int index, bool with_depth = true) {
     std::vector<std::uint8_t> raw(static_cast<std::size_t>(w) * h * 2);
     in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size()));
     if (!in || w == 0 || h == 0) return ioError("cannot read the depth map '{}{}'", dir, name);
-    Result<Image> depth = Image::fromBytes(std::move(raw), static_cast<int>(w),
-                                           static_cast<int>(h), PixelFormat::kGray16);
+    Result<Image> depth = Image::fromBytes(std::move(raw), static_cast<int>(w), static_cast<int>(h),
+                                           PixelFormat::kGray16);
     if (!depth) return depth.status();
     f.depth.image = std::move(depth).value();
     f.depth.image.camera = camera();

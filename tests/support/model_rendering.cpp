@@ -35,7 +35,8 @@ Raster rasterise(const PolygonModel& model, const CameraModel& k, const Eigen::I
     }
     if (clipped.size() < 3) continue;
     Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-    for (std::size_t i = 0; i < poly.size(); ++i) normal += poly[i].cross(poly[(i + 1) % poly.size()]);
+    for (std::size_t i = 0; i < poly.size(); ++i)
+      normal += poly[i].cross(poly[(i + 1) % poly.size()]);
     normal.normalize();
     const double offset = normal.dot(poly[0]);
     std::vector<Eigen::Vector2d> px;
@@ -107,7 +108,8 @@ cv::Mat renderModel(const PolygonModel& model, const CameraModel& camera,
   for (int j = 0; j < fine.rows; ++j)
     for (int i = 0; i < fine.cols; ++i) {
       const int f = r.face.at<int>(j, i);
-      fine.at<float>(j, i) = static_cast<float>(f < 0 ? options.background * options.gain : shade[f]);
+      fine.at<float>(j, i) =
+          static_cast<float>(f < 0 ? options.background * options.gain : shade[f]);
     }
   cv::Mat coarse;
   cv::resize(fine, coarse, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
@@ -139,7 +141,8 @@ PolygonModel boxModel(const Eigen::Vector3d& size) {
   m.frame_id = "box";
   const Eigen::Vector3d h = size / 2;
   for (int i = 0; i < 8; ++i)
-    m.points.emplace_back((i & 1 ? 1 : -1) * h.x(), (i & 2 ? 1 : -1) * h.y(), (i & 4 ? 1 : -1) * h.z());
+    m.points.emplace_back((i & 1 ? 1 : -1) * h.x(), (i & 2 ? 1 : -1) * h.y(),
+                          (i & 4 ? 1 : -1) * h.z());
   // Counter-clockwise seen from outside.
   m.faces = {{{0, 2, 3, 1}, "bottom"}, {{4, 5, 7, 6}, "top"},  {{0, 1, 5, 4}, "front"},
              {{2, 6, 7, 3}, "back"},   {{0, 4, 6, 2}, "left"}, {{1, 3, 7, 5}, "right"}};
@@ -148,7 +151,8 @@ PolygonModel boxModel(const Eigen::Vector3d& size) {
 
 PolygonModel lShapeModel(double a) {
   // An L in the x-y plane extruded along z: outline counter-clockwise seen from +z.
-  const std::vector<Eigen::Vector2d> outline = {{0, 0}, {2 * a, 0}, {2 * a, a}, {a, a}, {a, 2 * a}, {0, 2 * a}};
+  const std::vector<Eigen::Vector2d> outline = {{0, 0}, {2 * a, 0}, {2 * a, a},
+                                                {a, a}, {a, 2 * a}, {0, 2 * a}};
   PolygonModel m;
   m.frame_id = "l_shape";
   const std::size_t n = outline.size();
@@ -166,8 +170,9 @@ PolygonModel lShapeModel(double a) {
   for (std::size_t i = 0; i < n; ++i) {
     const auto j = static_cast<std::uint32_t>((i + 1) % n);
     const auto ii = static_cast<std::uint32_t>(i);
-    m.faces.push_back({{ii, j, static_cast<std::uint32_t>(n + j), static_cast<std::uint32_t>(n + ii)},
-                       "side" + std::to_string(i)});
+    m.faces.push_back(
+        {{ii, j, static_cast<std::uint32_t>(n + j), static_cast<std::uint32_t>(n + ii)},
+         "side" + std::to_string(i)});
   }
   return m;
 }

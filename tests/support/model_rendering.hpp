@@ -14,11 +14,11 @@
 namespace cdff::testing {
 
 struct RenderOptions {
-  double background = 30;     // grey level behind the model
-  int supersample = 4;        // sub-pixels per pixel along each axis (anti-aliasing)
-  double noise_sigma = 0;     // grey levels of white Gaussian noise
+  double background = 30;  // grey level behind the model
+  int supersample = 4;     // sub-pixels per pixel along each axis (anti-aliasing)
+  double noise_sigma = 0;  // grey levels of white Gaussian noise
   std::uint32_t seed = 1;
-  double gain = 1.0;          // scales the shaded intensities (under- and over-exposure)
+  double gain = 1.0;  // scales the shaded intensities (under- and over-exposure)
 };
 
 /// 8UC1 image of `model` seen from camera_T_model: faces flat-shaded by their orientation to a

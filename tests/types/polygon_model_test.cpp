@@ -99,14 +99,17 @@ TEST(CaoParser, OlderFilesWithoutVersionOrTrailingSectionsAreRead) {
 }
 
 TEST(CaoParser, ErrorsNameTheFileTheLineAndWhatWasExpected) {
-  expectError("V1\n3\n0 0 0\n1 x 0\n0 1 0\n0\n0\n0\n", "model.cao:4: record 1 of 3 in the 3D points "
-                                                      "section: 'x' is not a number");
-  expectError("V1\n3\n0 0 0\n1 0\n0 1 0\n0\n0\n0\n", "model.cao:4: record 1 of 3 in the 3D points "
-                                                    "section has 2 numbers; expected 3");
+  expectError("V1\n3\n0 0 0\n1 x 0\n0 1 0\n0\n0\n0\n",
+              "model.cao:4: record 1 of 3 in the 3D points "
+              "section: 'x' is not a number");
+  expectError("V1\n3\n0 0 0\n1 0\n0 1 0\n0\n0\n0\n",
+              "model.cao:4: record 1 of 3 in the 3D points "
+              "section has 2 numbers; expected 3");
   expectError("V1\n3\n0 0 0\n1 0 0\n0 1 0\n0\n0\n1\n3 0 1 7\n",
               "model.cao:9: record 0 of 1 in the faces from 3D points section refers to point 7; "
               "expected an index in [0, 2]");
-  expectError("V1\n3\n0 0 0\n1 0 0\n0 1 0\n0\n0\n1\n4 0 1 2\n", "lists 3 point indices; expected 4");
+  expectError("V1\n3\n0 0 0\n1 0 0\n0 1 0\n0\n0\n1\n4 0 1 2\n",
+              "lists 3 point indices; expected 4");
   expectError("V1\n3\n0 0 0\n1 0 0\n", "the file ends at record 2 of 3 in the 3D points section");
   expectError("V1\n2\n0 0 0\n1 0 0\n", "the file ends before the 3D lines section");
   expectError("V1\nthree\n", "model.cao:2: expected the number of 3D points");

@@ -68,7 +68,9 @@ struct MbtTracker::Impl {
 MbtTracker::MbtTracker() : impl_(std::make_unique<Impl>()) {}
 MbtTracker::~MbtTracker() = default;
 
-bool MbtTracker::hasPose() const { return impl_->has_pose; }
+bool MbtTracker::hasPose() const {
+  return impl_->has_pose;
+}
 
 std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& cameras,
                                   const Camera* depth, const std::string& model_path) {

@@ -34,7 +34,7 @@ struct Settings {
   double klt_quality = 0.01, klt_min_distance = 5, klt_harris = 0.02;
   int depth_dense_step = 4;
   double angle_appear = 1.4835298641951802, angle_disappear = 1.5533430342749532;  // rad
-  double near_clipping = 0.01, far_clipping = 100;                               // m
+  double near_clipping = 0.01, far_clipping = 100;                                 // m
   bool fov_clipping = true, scanline_visibility = false;
   bool covariance = true;
 };

@@ -49,7 +49,9 @@ void clipNear(std::vector<Eigen::Vector3d>& polygon, std::vector<bool>& outline,
     const Eigen::Vector3d& a = polygon[i];
     const Eigen::Vector3d& b = polygon[(i + 1) % polygon.size()];
     const bool in_a = a.z() >= near, in_b = b.z() >= near;
-    const auto cut = [&] { return Eigen::Vector3d(a + (b - a) * ((near - a.z()) / (b.z() - a.z()))); };
+    const auto cut = [&] {
+      return Eigen::Vector3d(a + (b - a) * ((near - a.z()) / (b.z() - a.z())));
+    };
     if (in_a) {
       out.push_back(a);
       out_outline.push_back(outline[i]);
@@ -75,9 +77,10 @@ Eigen::Vector2d project(const CameraModel& c, const Eigen::Vector3d& p) {
 Status checkPinhole(const CameraModel& camera, const char* what) {
   CDFF_RETURN_IF_ERROR(camera.validate().withContext(what));
   if (camera.hasDistortion())
-    return invalidInput("{} has {} distortion; expected an undistorted image (run "
-                        "ImageUndistortion first)",
-                        what, toString(camera.distortion_model));
+    return invalidInput(
+        "{} has {} distortion; expected an undistorted image (run "
+        "ImageUndistortion first)",
+        what, toString(camera.distortion_model));
   return Status::ok();
 }
 
@@ -120,8 +123,10 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
       // The face must reach in front of the camera to be seen at all.
       bool in_front = false;
       for (std::uint32_t p : face.loop) in_front = in_front || pc[p].z() > options.near_clipping;
-      if (in_front) out.faces.push_back(std::move(v));
-      else seen[f] = false;
+      if (in_front)
+        out.faces.push_back(std::move(v));
+      else
+        seen[f] = false;
     }
   }
   if (!options.compute_segments) return out;
@@ -152,7 +157,8 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
       std::vector<bool> outline;
       for (std::size_t i = 0; i < piece.size(); ++i) {
         poly.push_back(pc[piece[i]]);
-        outline.push_back(piece.size() == n_loop || onOutline(piece[i], piece[(i + 1) % piece.size()]));
+        outline.push_back(piece.size() == n_loop ||
+                          onOutline(piece[i], piece[(i + 1) % piece.size()]));
       }
       clipNear(poly, outline, options.near_clipping * 0.5);
       if (poly.size() < 3) continue;
@@ -184,7 +190,8 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
   // Frustum: near, optional far, and the image borders shrunk by the margin.
   std::vector<Halfspace> frustum;
   frustum.push_back({Eigen::Vector3d(0, 0, 1), options.near_clipping});
-  if (options.far_clipping > 0) frustum.push_back({Eigen::Vector3d(0, 0, -1), -options.far_clipping});
+  if (options.far_clipping > 0)
+    frustum.push_back({Eigen::Vector3d(0, 0, -1), -options.far_clipping});
   const double m = options.image_margin;
   frustum.push_back({Eigen::Vector3d(camera.fx, 0, camera.cx - m), 0});
   frustum.push_back({Eigen::Vector3d(-camera.fx, 0, camera.width - 1 - m - camera.cx), 0});

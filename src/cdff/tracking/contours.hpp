@@ -30,8 +30,8 @@ struct VisibilityOptions {
   /// hidden-line removal then hides what a closed model's front faces cover. False: only faces
   /// seen from the front count, as in ViSP.
   bool two_sided_faces = true;
-  double min_segment_length = 3.0;  // px: shorter visible pieces are dropped
-  double image_margin = 2.0;        // px: contours are clipped to the image shrunk by this
+  double min_segment_length = 3.0;    // px: shorter visible pieces are dropped
+  double image_margin = 2.0;          // px: contours are clipped to the image shrunk by this
   double occlusion_tolerance = 1e-4;  // m: a point must be this far behind a face to be hidden
   bool compute_segments = true;       // false: only the visible faces (for depth association)
 };
@@ -45,9 +45,9 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
                                       const VisibilityOptions& options);
 
 struct SamplingOptions {
-  double step = 5.0;           // px between samples along a contour
-  int max_samples = 1000;      // the step grows when the contours are longer than this allows
-  double image_margin = 2.0;   // px: samples closer to the border are dropped
+  double step = 5.0;          // px between samples along a contour
+  int max_samples = 1000;     // the step grows when the contours are longer than this allows
+  double image_margin = 2.0;  // px: samples closer to the border are dropped
 };
 
 /// Samples along the segments of `contours` (projected with contours->camera_T_model).

@@ -41,13 +41,15 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
   CDFF_RETURN_IF_ERROR(samples.validate("samples"));
   const CameraModel& camera = samples.contours->camera;
   if (image.width != camera.width || image.height != camera.height)
-    return invalidInput("image is {}x{} but the contours were computed for a {}x{} camera; "
-                        "expected the image of that camera",
-                        image.width, image.height, camera.width, camera.height);
+    return invalidInput(
+        "image is {}x{} but the contours were computed for a {}x{} camera; "
+        "expected the image of that camera",
+        image.width, image.height, camera.width, camera.height);
   if (options.search_distance < 1 || options.half_width < 0 || options.max_candidates < 1)
-    return invalidParameter("edge search needs search_distance >= 1, half_width >= 0 and "
-                            "max_candidates >= 1; got {}, {} and {}",
-                            options.search_distance, options.half_width, options.max_candidates);
+    return invalidParameter(
+        "edge search needs search_distance >= 1, half_width >= 0 and "
+        "max_candidates >= 1; got {}, {} and {}",
+        options.search_distance, options.half_width, options.max_candidates);
 
   ContourSamples out;
   out.contours = samples.contours;
@@ -120,10 +122,9 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
     }
     if (found.empty()) continue;
     const std::size_t keep = std::min<std::size_t>(found.size(), options.max_candidates);
-    std::partial_sort(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep), found.end(),
-                      [](const EdgeCandidate& x, const EdgeCandidate& y) {
-                        return x.strength > y.strength;
-                      });
+    std::partial_sort(
+        found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep), found.end(),
+        [](const EdgeCandidate& x, const EdgeCandidate& y) { return x.strength > y.strength; });
     out.candidates.insert(out.candidates.end(), found.begin(),
                           found.begin() + static_cast<std::ptrdiff_t>(keep));
     s.candidate_count = static_cast<std::uint32_t>(keep);

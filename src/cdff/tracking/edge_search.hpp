@@ -16,9 +16,9 @@
 namespace cdff::tracking {
 
 struct EdgeSearchOptions {
-  int search_distance = 8;                           // px each side of the sample
-  double angular_threshold = 30.0 * M_PI / 180.0;    // rad between gradient and contour normal
-  double min_gradient = 8.0;                         // grey levels per pixel along the normal
+  int search_distance = 8;                         // px each side of the sample
+  double angular_threshold = 30.0 * M_PI / 180.0;  // rad between gradient and contour normal
+  double min_gradient = 8.0;                       // grey levels per pixel along the normal
   int max_candidates = 3;
   int half_width = 1;  // h: lines on each side of the sample's own line (mask 2 h + 1 wide)
 };

@@ -31,6 +31,12 @@ TrackingStatus assessTracking(const PoseSolution& solution, std::size_t cameras,
   return TrackingStatus::kTracking;
 }
 
+Matrix6d noInformationCovariance() {
+  Matrix6d c = Matrix6d::Zero();
+  c.diagonal() << 1e6, 1e6, 1e6, 1e2, 1e2, 1e2;
+  return c;
+}
+
 Result<Eigen::Isometry3d> isometryFromVector(const std::vector<double>& v, const char* what) {
   if (v.size() != 6)
     return invalidParameter("{} has {} values; expected 6 (tx ty tz in m, rx ry rz in rad)", what,
@@ -55,8 +61,8 @@ Result<Image> toGray8(const Image& image, const char* what) {
       out[x] = static_cast<std::uint8_t>((29 * b + 150 * g + 77 * r + 128) >> 8);
     }
   }
-  Result<Image> out = Image::fromBytes(std::move(grey), image.width, image.height,
-                                       PixelFormat::kGray8);
+  Result<Image> out =
+      Image::fromBytes(std::move(grey), image.width, image.height, PixelFormat::kGray8);
   if (!out) return out;
   out->stamp = image.stamp;
   out->frame_id = image.frame_id;
@@ -79,8 +85,7 @@ Result<std::shared_ptr<const ModelContours>> EdgeTracker::contoursFor(
   CachedContours& cached = cache_[camera];
   const bool reuse_allowed =
       options.visibility_update_translation > 0 || options.visibility_update_rotation > 0;
-  if (reuse_allowed && cached.contours &&
-      cached.contours->camera.width == frame.camera.width &&
+  if (reuse_allowed && cached.contours && cached.contours->camera.width == frame.camera.width &&
       cached.contours->camera.height == frame.camera.height &&
       (cached.pose.translation() - c_T_m.translation()).norm() <
           options.visibility_update_translation &&
@@ -124,6 +129,7 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
 
   TrackingResult result;
   result.reference_T_model = predicted;
+  result.covariance = noInformationCovariance();  // until an estimate replaces it
   result.camera_used.assign(cameras.size(), false);
   Eigen::Isometry3d pose = predicted.isometry();
 
@@ -141,9 +147,10 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
     in_front = in_front || z + model_->radius > options.visibility.near_clipping;
   }
   if (!in_front) {
-    result.reason = fmt::format("the predicted pose puts the model behind the camera (centre at "
-                                "z = {:.3f} m, radius {:.3f} m)",
-                                nearest, model_->radius);
+    result.reason = fmt::format(
+        "the predicted pose puts the model behind the camera (centre at "
+        "z = {:.3f} m, radius {:.3f} m)",
+        nearest, model_->radius);
     matches_.assign(cameras.size(), ContourSamples{});
     return result;
   }
@@ -171,8 +178,8 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
       if (samples.samples.empty()) continue;
       Result<ContourSamples> matched = searchEdges(*frame.image, samples, search);
       if (!matched) return matched.status();
-      const double ratio =
-          static_cast<double>(matched->matchedCount()) / static_cast<double>(matched->samples.size());
+      const double ratio = static_cast<double>(matched->matchedCount()) /
+                           static_cast<double>(matched->samples.size());
       matches_[c] = std::move(matched).value();
       if (ratio < options.min_camera_match_ratio) continue;
       used[c] = true;
@@ -183,18 +190,18 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
     DepthPoints depth_points;
     if (depth) {
       if (!depth->image.camera)
-        return invalidInput("depth map has no camera model; expected the depth camera's "
-                            "intrinsics with the image");
+        return invalidInput(
+            "depth map has no camera model; expected the depth camera's "
+            "intrinsics with the image");
       const Eigen::Isometry3d d_T_m = depth_T_reference * pose;
       Transform d_T_m_t = Transform::fromIsometry(d_T_m, depth->image.frame_id,
                                                   predicted.child_frame, predicted.stamp);
       VisibilityOptions faces_only = options.visibility;
       faces_only.compute_segments = false;
-      Result<ModelContours> seen =
-          computeContours(*model_, *depth->image.camera, d_T_m_t,
-                          Transform::fromIsometry(depth_T_reference, depth->image.frame_id,
-                                                  predicted.parent_frame),
-                          faces_only);
+      Result<ModelContours> seen = computeContours(
+          *model_, *depth->image.camera, d_T_m_t,
+          Transform::fromIsometry(depth_T_reference, depth->image.frame_id, predicted.parent_frame),
+          faces_only);
       if (!seen) return seen.status();
       Result<DepthPoints> associated =
           associateDepth(*depth, depth_T_reference, seen->faces, pose, options.depth);
@@ -218,10 +225,10 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
     result.iterations += solution.iterations;
     result.camera_used = used;
     if (solution.diverged) {
-      result.reason = fmt::format("the pose estimate diverged from the prediction (more than "
-                                  "{} m or {} rad)",
-                                  options.solver.divergence_translation,
-                                  options.solver.divergence_rotation);
+      result.reason = fmt::format(
+          "the pose estimate diverged from the prediction (more than "
+          "{} m or {} rad)",
+          options.solver.divergence_translation, options.solver.divergence_rotation);
       return result;
     }
     pose = solution.reference_T_model;
@@ -229,8 +236,8 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
   }
   if (!solved) return result;
 
-  result.reference_T_model = Transform::fromIsometry(pose, predicted.parent_frame,
-                                                     predicted.child_frame, predicted.stamp);
+  result.reference_T_model =
+      Transform::fromIsometry(pose, predicted.parent_frame, predicted.child_frame, predicted.stamp);
   for (const CameraFrame& frame : cameras)
     if (frame.image && frame.image->stamp != 0) {
       result.reference_T_model.stamp = frame.image->stamp;
@@ -250,7 +257,7 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
                                  options.degraded_inlier_ratio, result.reason);
   if (result.status == TrackingStatus::kLost) {
     result.reference_T_model = predicted;
-    result.covariance.setZero();
+    result.covariance = noInformationCovariance();
   }
   return result;
 }

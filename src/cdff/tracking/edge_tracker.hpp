@@ -29,10 +29,10 @@ struct EdgeTrackerOptions {
   EdgeSearchOptions search;
   PoseSolverOptions solver;
   DepthAssociationOptions depth;
-  int refinement_passes = 1;           // matching passes after the first
-  int refinement_search_distance = 3;  // px, their search distance
-  double min_inlier_ratio = 0.3;       // below: lost
-  double degraded_inlier_ratio = 0.5;  // below: degraded
+  int refinement_passes = 1;            // matching passes after the first
+  int refinement_search_distance = 3;   // px, their search distance
+  double min_inlier_ratio = 0.3;        // below: lost
+  double degraded_inlier_ratio = 0.5;   // below: degraded
   double min_camera_match_ratio = 0.1;  // a camera matching fewer of its samples has failed
   /// Visible contours are recomputed only after the pose moved this much since they were last
   /// computed (seed Table 7, "minimum parameters w.r.t. the last visibility determination");
@@ -49,8 +49,8 @@ struct CameraFrame {
 };
 
 struct TrackingResult {
-  Transform reference_T_model;  // the estimate (the prediction when lost)
-  Matrix6d covariance = Matrix6d::Zero();
+  Transform reference_T_model;             // the estimate (the prediction when lost)
+  Matrix6d covariance = Matrix6d::Zero();  // noInformationCovariance() when lost
   TrackingStatus status = TrackingStatus::kLost;
   std::string reason;  // why the status is not kTracking
   double inlier_ratio = 0;
@@ -66,6 +66,10 @@ struct TrackingResult {
 TrackingStatus assessTracking(const PoseSolution& solution, std::size_t cameras,
                               std::size_t failed_cameras, double min_inlier_ratio,
                               double degraded_inlier_ratio, std::string& reason);
+
+/// The covariance a lost track reports with its (predicted) pose: 1e6 m^2 and 1e2 rad^2 per axis,
+/// i.e. no information, so that a filter fed with it anyway barely moves.
+Matrix6d noInformationCovariance();
 
 /// A rigid transform from [tx, ty, tz, rx, ry, rz] (m, rotation vector in rad).
 Result<Eigen::Isometry3d> isometryFromVector(const std::vector<double>& values, const char* what);

@@ -116,8 +116,8 @@ class Problem {
         }
         const double s_val = line.l.dot(best_m);
         const Eigen::Vector3d dl =
-            best_m / line.r - (s_val / (line.r * line.r * line.r)) *
-                                  Eigen::Vector3d(line.l.x(), line.l.y(), 0.0);
+            best_m / line.r -
+            (s_val / (line.r * line.r * line.r)) * Eigen::Vector3d(line.l.x(), line.l.y(), 0.0);
         // l = K^-T N, so the gradient with respect to N is K^-1 times the one with respect to l.
         const Eigen::Vector3d dN((dl.x() - k.cx * dl.z()) / k.fx, (dl.y() - k.cy * dl.z()) / k.fy,
                                  dl.z());
@@ -161,8 +161,8 @@ class Problem {
       // shifts all of its points alike), so together they count as depth_weight times the
       // number of edge residuals rather than as thousands of independent measurements.
       const double share = edge_r_.empty() ? 1.0
-                                            : o_.depth_weight * static_cast<double>(edge_r_.size()) /
-                                                  static_cast<double>(n);
+                                           : o_.depth_weight * static_cast<double>(edge_r_.size()) /
+                                                 static_cast<double>(n);
       const double id = share / (e.sigma_depth * e.sigma_depth);
       e.depth_points = n;
       for (std::size_t i = 0; i < n; ++i) {
@@ -200,15 +200,17 @@ class Problem {
 
 }  // namespace
 
-Result<DepthPoints> associateDepth(const DepthMap& depth, const Eigen::Isometry3d& depth_T_reference,
+Result<DepthPoints> associateDepth(const DepthMap& depth,
+                                   const Eigen::Isometry3d& depth_T_reference,
                                    std::span<const VisibleFace> faces,
                                    const Eigen::Isometry3d& reference_T_model,
                                    const DepthAssociationOptions& options) {
   CDFF_RETURN_IF_ERROR(depth.validate());
   const Image& image = depth.image;
   if (!image.camera)
-    return invalidInput("depth map has no camera model; expected the intrinsics of the depth "
-                        "camera with the image");
+    return invalidInput(
+        "depth map has no camera model; expected the intrinsics of the depth "
+        "camera with the image");
   const CameraModel& k = *image.camera;
   CDFF_RETURN_IF_ERROR(checkPinhole(k, "depth camera"));
   if (options.step_x < 1 || options.step_y < 1)
@@ -252,10 +254,14 @@ Result<DepthPoints> associateDepth(const DepthMap& depth, const Eigen::Isometry3
   std::vector<std::int32_t> owner(zbuffer.size(), -1);
   for (std::size_t f = 0; f < projected.size(); ++f) {
     const ProjectedFace& pf = projected[f];
-    const int i0 = std::max(0, static_cast<int>(std::ceil((pf.box.min().x() - x0) / options.step_x)));
-    const int i1 = std::min(gw - 1, static_cast<int>(std::floor((pf.box.max().x() - x0) / options.step_x)));
-    const int j0 = std::max(0, static_cast<int>(std::ceil((pf.box.min().y() - y0) / options.step_y)));
-    const int j1 = std::min(gh - 1, static_cast<int>(std::floor((pf.box.max().y() - y0) / options.step_y)));
+    const int i0 =
+        std::max(0, static_cast<int>(std::ceil((pf.box.min().x() - x0) / options.step_x)));
+    const int i1 =
+        std::min(gw - 1, static_cast<int>(std::floor((pf.box.max().x() - x0) / options.step_x)));
+    const int j0 =
+        std::max(0, static_cast<int>(std::ceil((pf.box.min().y() - y0) / options.step_y)));
+    const int j1 =
+        std::min(gh - 1, static_cast<int>(std::floor((pf.box.max().y() - y0) / options.step_y)));
     for (int j = j0; j <= j1; ++j)
       for (int i = i0; i <= i1; ++i) {
         const Eigen::Vector2d p(x0 + i * options.step_x, y0 + j * options.step_y);
@@ -275,9 +281,12 @@ Result<DepthPoints> associateDepth(const DepthMap& depth, const Eigen::Isometry3
   DepthPoints out;
   const auto readDepth = [&](int u, int v) -> double {
     switch (image.format) {
-      case PixelFormat::kFloat32: return image.at<float>(u, v) * depth.meters_per_unit;
-      case PixelFormat::kGray16: return image.at<std::uint16_t>(u, v) * depth.meters_per_unit;
-      default: return std::numeric_limits<double>::quiet_NaN();
+      case PixelFormat::kFloat32:
+        return image.at<float>(u, v) * depth.meters_per_unit;
+      case PixelFormat::kGray16:
+        return image.at<std::uint16_t>(u, v) * depth.meters_per_unit;
+      default:
+        return std::numeric_limits<double>::quiet_NaN();
     }
   };
   for (int j = 0; j < gh; ++j)
@@ -315,9 +324,10 @@ Result<PoseSolution> solvePose(const Eigen::Isometry3d& initial, std::span<const
   for (int it = 0; it < options.max_iterations; ++it) {
     e = problem.evaluate(R, t);
     if (e.used < static_cast<std::size_t>(options.min_measurements))
-      return numericalFailure("{} usable measurements (edge samples and depth points) at "
-                              "iteration {}; expected at least {}",
-                              e.used, it, options.min_measurements);
+      return numericalFailure(
+          "{} usable measurements (edge samples and depth points) at "
+          "iteration {}; expected at least {}",
+          e.used, it, options.min_measurements);
     // A little Levenberg-Marquardt damping keeps weakly observed directions from jumping.
     Matrix6d A = e.H;
     A.diagonal() += 1e-9 * (e.H.diagonal().cwiseAbs() + Vector6::Ones());

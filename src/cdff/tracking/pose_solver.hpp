@@ -40,17 +40,18 @@ struct DepthPoints {
 };
 
 struct DepthAssociationOptions {
-  int step_x = 4, step_y = 4;   // px between the depth pixels used
-  double max_distance = 0.02;   // m: points farther from their face (at the prediction) are dropped
-  double min_depth = 0.0;       // m: depths outside (min, max] are no measurement
-  double max_depth = 1e9;       // m
+  int step_x = 4, step_y = 4;  // px between the depth pixels used
+  double max_distance = 0.02;  // m: points farther from their face (at the prediction) are dropped
+  double min_depth = 0.0;      // m: depths outside (min, max] are no measurement
+  double max_depth = 1e9;      // m
 };
 
 /// Associates depth pixels with the faces seen from the depth camera at reference_T_model: each
 /// used pixel is cast through the faces (nearest hit wins) and kept when its measured depth is
 /// within max_distance of the hit. `faces` are the visible faces (model frame) for this camera,
 /// `depth_T_reference` the depth camera in the rig; the depth image carries its intrinsics.
-Result<DepthPoints> associateDepth(const DepthMap& depth, const Eigen::Isometry3d& depth_T_reference,
+Result<DepthPoints> associateDepth(const DepthMap& depth,
+                                   const Eigen::Isometry3d& depth_T_reference,
                                    std::span<const VisibleFace> faces,
                                    const Eigen::Isometry3d& reference_T_model,
                                    const DepthAssociationOptions& options);
@@ -67,14 +68,14 @@ struct PoseSolverOptions {
   /// The depth points together weigh as much as depth_weight times the edge residuals (when
   /// there are edges): dense depth errors are correlated, their count says little.
   double depth_weight = 1.0;
-  double inlier_threshold = 2.0;          // px: a matched sample this close at the end is an inlier
-  int min_measurements = 12;              // fewer usable residuals: no estimate
+  double inlier_threshold = 2.0;  // px: a matched sample this close at the end is an inlier
+  int min_measurements = 12;      // fewer usable residuals: no estimate
 };
 
 struct ViewStatistics {
-  std::size_t samples = 0;   // contour samples
-  std::size_t matched = 0;   // samples with at least one candidate
-  std::size_t inliers = 0;   // matched samples within inlier_threshold at the end
+  std::size_t samples = 0;  // contour samples
+  std::size_t matched = 0;  // samples with at least one candidate
+  std::size_t inliers = 0;  // matched samples within inlier_threshold at the end
 };
 
 struct PoseSolution {

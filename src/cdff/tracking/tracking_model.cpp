@@ -38,7 +38,9 @@ class Welder {
     return (p / tolerance_).array().floor().cast<int>();
   }
   static std::uint64_t key(const Eigen::Vector3i& c) {
-    const auto u = [](int v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v)) & 0x1FFFFF; };
+    const auto u = [](int v) {
+      return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v)) & 0x1FFFFF;
+    };
     return u(c.x()) | (u(c.y()) << 21) | (u(c.z()) << 42);
   }
 
@@ -118,9 +120,10 @@ Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
                                            const TrackingModelOptions& options) {
   CDFF_RETURN_IF_ERROR(model.validate());
   if (options.cylinder_segments < 3 || options.circle_segments < 3)
-    return invalidParameter("tessellation needs at least 3 segments per cylinder and circle; got "
-                            "{} and {}",
-                            options.cylinder_segments, options.circle_segments);
+    return invalidParameter(
+        "tessellation needs at least 3 segments per cylinder and circle; got "
+        "{} and {}",
+        options.cylinder_segments, options.circle_segments);
   TrackingModel out;
   Welder welder(options.weld_tolerance > 0 ? options.weld_tolerance : 1e-9);
   std::vector<std::uint32_t> welded(model.points.size());
@@ -141,7 +144,8 @@ Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> explicit_lines;
   for (const PolygonModel::Line& line : model.lines)
-    if (welded[line.a] != welded[line.b]) explicit_lines.emplace_back(welded[line.a], welded[line.b]);
+    if (welded[line.a] != welded[line.b])
+      explicit_lines.emplace_back(welded[line.a], welded[line.b]);
 
   for (const PolygonModel::Cylinder& c : model.cylinders) {
     const Eigen::Vector3d a = model.points[c.a], b = model.points[c.b];
@@ -181,8 +185,8 @@ Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
   std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> edge_of;
   const auto edgeIndex = [&](std::uint32_t a, std::uint32_t b) {
     const auto key = std::minmax(a, b);
-    auto [it, inserted] = edge_of.try_emplace({key.first, key.second},
-                                              static_cast<std::uint32_t>(out.edges.size()));
+    auto [it, inserted] =
+        edge_of.try_emplace({key.first, key.second}, static_cast<std::uint32_t>(out.edges.size()));
     if (inserted) {
       Edge e;
       e.a = a;
@@ -224,7 +228,8 @@ Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
   Eigen::AlignedBox3d box;
   for (const Eigen::Vector3d& p : out.points) box.extend(p);
   out.centre = box.center();
-  for (const Eigen::Vector3d& p : out.points) out.radius = std::max(out.radius, (p - out.centre).norm());
+  for (const Eigen::Vector3d& p : out.points)
+    out.radius = std::max(out.radius, (p - out.centre).norm());
   return out;
 }
 

@@ -19,8 +19,8 @@
 namespace cdff::tracking {
 
 struct TrackingModelOptions {
-  int cylinder_segments = 36;   // facets around a cylinder
-  int circle_segments = 36;     // segments around a circle
+  int cylinder_segments = 36;    // facets around a cylinder
+  int circle_segments = 36;      // segments around a circle
   double weld_tolerance = 1e-6;  // m: points closer than this are one point
 };
 
@@ -35,8 +35,8 @@ struct TrackingModel {
   struct Edge {
     std::uint32_t a = 0, b = 0;  // welded point indices
     std::int32_t faces[2] = {-1, -1};
-    int face_count = 0;       // faces bounded by the edge (may exceed 2 on non-manifold models)
-    bool smooth = false;      // between facets of a curved surface: only a silhouette shows
+    int face_count = 0;          // faces bounded by the edge (may exceed 2 on non-manifold models)
+    bool smooth = false;         // between facets of a curved surface: only a silhouette shows
     bool explicit_line = false;  // listed as a 3D line (or circle segment) in the model
   };
 

@@ -4,19 +4,26 @@ namespace cdff {
 
 const char* toString(ContourKind kind) {
   switch (kind) {
-    case ContourKind::kCrease: return "crease";
-    case ContourKind::kSilhouette: return "silhouette";
-    case ContourKind::kBoundary: return "boundary";
-    case ContourKind::kLine: return "line";
+    case ContourKind::kCrease:
+      return "crease";
+    case ContourKind::kSilhouette:
+      return "silhouette";
+    case ContourKind::kBoundary:
+      return "boundary";
+    case ContourKind::kLine:
+      return "line";
   }
   return "unknown";
 }
 
 const char* toString(TrackingStatus status) {
   switch (status) {
-    case TrackingStatus::kTracking: return "tracking";
-    case TrackingStatus::kDegraded: return "degraded";
-    case TrackingStatus::kLost: return "lost";
+    case TrackingStatus::kTracking:
+      return "tracking";
+    case TrackingStatus::kDegraded:
+      return "degraded";
+    case TrackingStatus::kLost:
+      return "lost";
   }
   return "unknown";
 }
@@ -34,9 +41,10 @@ Status ModelContours::validate(const char* what) const {
   for (std::size_t i = 0; i < faces.size(); ++i)
     if (!faces[i].normal.allFinite() || !std::isfinite(faces[i].offset) ||
         faces[i].outline.size() < 3)
-      return invalidInput("{} face {} is malformed ({} outline points); expected a finite plane "
-                          "and at least 3 points",
-                          what, i, faces[i].outline.size());
+      return invalidInput(
+          "{} face {} is malformed ({} outline points); expected a finite plane "
+          "and at least 3 points",
+          what, i, faces[i].outline.size());
   return Status::ok();
 }
 
@@ -53,8 +61,8 @@ Status ContourSamples::validate(const char* what) const {
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const ContourSample& s = samples[i];
     if (s.segment >= contours->segments.size())
-      return invalidInput("{} sample {} refers to segment {}; expected an index below {}", what,
-                          i, s.segment, contours->segments.size());
+      return invalidInput("{} sample {} refers to segment {}; expected an index below {}", what, i,
+                          s.segment, contours->segments.size());
     if (static_cast<std::size_t>(s.first_candidate) + s.candidate_count > candidates.size())
       return invalidInput("{} sample {} refers to candidates [{}, {}); only {} exist", what, i,
                           s.first_candidate, s.first_candidate + s.candidate_count,

@@ -45,8 +45,8 @@ struct VisibleFace {
 /// The contours of a model seen by one camera from one pose.
 struct ModelContours {
   Timestamp stamp = 0;
-  CameraModel camera;          // pinhole intrinsics of the (undistorted) image
-  Transform camera_T_model;    // the pose the contours were computed for
+  CameraModel camera;            // pinhole intrinsics of the (undistorted) image
+  Transform camera_T_model;      // the pose the contours were computed for
   Transform camera_T_reference;  // this camera in the rig (identity for the reference camera)
   std::vector<ContourSegment> segments;
   std::vector<VisibleFace> faces;
@@ -63,8 +63,8 @@ struct EdgeCandidate {
 };
 
 struct ContourSample {
-  Eigen::Vector3d point = Eigen::Vector3d::Zero();   // on the contour, model frame, m
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();   // its projection at contours->camera_T_model
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();    // on the contour, model frame, m
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();    // its projection at contours->camera_T_model
   Eigen::Vector2d normal = Eigen::Vector2d::UnitX();  // unit normal of the projected contour
   std::uint32_t segment = 0;                          // index into contours->segments
   std::uint32_t first_candidate = 0;                  // into ContourSamples::candidates

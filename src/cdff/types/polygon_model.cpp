@@ -41,9 +41,10 @@ Status PolygonModel::validate(const char* what) const {
     const std::string name = describe("face", f, face.name);
     const std::set<std::uint32_t> distinct(face.points.begin(), face.points.end());
     if (distinct.size() < 3 || distinct.size() != face.points.size())
-      return invalidInput("{} {} has {} points of which {} distinct; expected at least 3 distinct "
-                          "points, none repeated",
-                          what, name, face.points.size(), distinct.size());
+      return invalidInput(
+          "{} {} has {} points of which {} distinct; expected at least 3 distinct "
+          "points, none repeated",
+          what, name, face.points.size(), distinct.size());
     for (std::uint32_t p : face.points) CDFF_RETURN_IF_ERROR(checkIndex(p, name));
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
     for (std::uint32_t p : face.points) centre += points[p];
@@ -63,9 +64,10 @@ Status PolygonModel::validate(const char* what) const {
     for (std::uint32_t p : face.points) {
       const double off = std::abs(normal.dot(points[p] - centre));
       if (off > tolerance)
-        return invalidInput("{} {} is not planar: point {} is {:.3g} m off the face's plane; "
-                            "expected at most {:.3g} m",
-                            what, name, p, off, tolerance);
+        return invalidInput(
+            "{} {} is not planar: point {} is {:.3g} m off the face's plane; "
+            "expected at most {:.3g} m",
+            what, name, p, off, tolerance);
     }
     if (eigen.eigenvalues()(1) <= 1e-18)
       return invalidInput("{} {} is degenerate (its points are collinear); expected a polygon",
@@ -76,8 +78,8 @@ Status PolygonModel::validate(const char* what) const {
     CDFF_RETURN_IF_ERROR(checkIndex(lines[l].a, name));
     CDFF_RETURN_IF_ERROR(checkIndex(lines[l].b, name));
     if ((points[lines[l].a] - points[lines[l].b]).norm() <= 0)
-      return invalidInput("{} {} joins point {} to itself; expected two distinct ends", what,
-                          name, lines[l].a);
+      return invalidInput("{} {} joins point {} to itself; expected two distinct ends", what, name,
+                          lines[l].a);
   }
   for (std::size_t c = 0; c < cylinders.size(); ++c) {
     const std::string name = describe("cylinder", c, cylinders[c].name);
@@ -101,9 +103,10 @@ Status PolygonModel::validate(const char* what) const {
     const Eigen::Vector3d n = (points[circle.first] - points[circle.centre])
                                   .cross(points[circle.second] - points[circle.centre]);
     if (n.norm() <= 1e-12)
-      return invalidInput("{} {}: its centre and plane points {} and {} are collinear; expected "
-                          "three points spanning the circle's plane",
-                          what, name, circle.first, circle.second);
+      return invalidInput(
+          "{} {}: its centre and plane points {} and {} are collinear; expected "
+          "three points spanning the circle's plane",
+          what, name, circle.first, circle.second);
   }
   return Status::ok();
 }
@@ -193,8 +196,8 @@ class CaoParser {
     for (std::size_t k = 0; k < count; ++k, ++i) {
       std::vector<std::uint32_t> ends;
       std::string name;
-      CDFF_RETURN_IF_ERROR(readIndices(i, "3D lines", k, count, 2, false, own.points.size(),
-                                       "point", ends, &name));
+      CDFF_RETURN_IF_ERROR(
+          readIndices(i, "3D lines", k, count, 2, false, own.points.size(), "point", ends, &name));
       lines.push_back({ends[0], ends[1], name});
     }
     std::vector<bool> line_in_face(lines.size(), false);
@@ -233,15 +236,15 @@ class CaoParser {
         std::string name;
         CDFF_RETURN_IF_ERROR(readNumbers(i, "3D cylinders", k, count, 3, values, &name));
         PolygonModel::Cylinder cylinder;
-        CDFF_RETURN_IF_ERROR(toIndex(values[0], i, "cylinder axis point", own.points.size(),
-                                     cylinder.a));
-        CDFF_RETURN_IF_ERROR(toIndex(values[1], i, "cylinder axis point", own.points.size(),
-                                     cylinder.b));
+        CDFF_RETURN_IF_ERROR(
+            toIndex(values[0], i, "cylinder axis point", own.points.size(), cylinder.a));
+        CDFF_RETURN_IF_ERROR(
+            toIndex(values[1], i, "cylinder axis point", own.points.size(), cylinder.b));
         cylinder.radius = values[2];
         cylinder.name = name;
         if (!(cylinder.radius > 0))
-          return error(lineOf(i), "cylinder {} of {} has radius {}; expected a positive radius",
-                       k, count, cylinder.radius);
+          return error(lineOf(i), "cylinder {} of {} has radius {}; expected a positive radius", k,
+                       count, cylinder.radius);
         own.cylinders.push_back(cylinder);
       }
     }
@@ -278,14 +281,12 @@ class CaoParser {
  private:
   template <typename... Args>
   Status error(int line, fmt::format_string<Args...> format, Args&&... args) const {
-    return {StatusCode::kCorruptData,
-            fmt::format("{}:{}: {}", source_, line,
-                        fmt::format(format, std::forward<Args>(args)...))};
+    return {
+        StatusCode::kCorruptData,
+        fmt::format("{}:{}: {}", source_, line, fmt::format(format, std::forward<Args>(args)...))};
   }
 
-  int lineOf(std::size_t i) const {
-    return i < lines_.size() ? lines_[i][0].line : last_line_;
-  }
+  int lineOf(std::size_t i) const { return i < lines_.size() ? lines_[i][0].line : last_line_; }
 
   void splitLines(std::string_view text) {
     int number = 0;
@@ -323,8 +324,7 @@ class CaoParser {
   Result<PolygonModel> include(const std::vector<Token>& tokens) {
     const Token& t = tokens[0];
     if (tokens.size() > 1)
-      return error(t.line, "unexpected '{}' after {}; expected a new line", tokens[1].text,
-                   t.text);
+      return error(t.line, "unexpected '{}' after {}; expected a new line", tokens[1].text, t.text);
     std::string path = t.text.substr(5);
     if (path.empty() || path.back() != ')')
       return error(t.line, "malformed include '{}'; expected load(\"file.cao\")", t.text);
@@ -333,8 +333,9 @@ class CaoParser {
       path = path.substr(1, path.size() - 2);
     if (path.empty()) return error(t.line, "load() names no file; expected load(\"file.cao\")");
     if (depth_ >= 16)
-      return error(t.line, "load(\"{}\") nests more than 16 includes deep; expected no include "
-                           "cycle",
+      return error(t.line,
+                   "load(\"{}\") nests more than 16 includes deep; expected no include "
+                   "cycle",
                    path);
     std::filesystem::path resolved(path);
     if (resolved.is_relative()) resolved = std::filesystem::path(directory_) / resolved;
@@ -351,8 +352,7 @@ class CaoParser {
 
   Status readCount(std::size_t& i, const char* section, std::size_t& count) const {
     if (i >= lines_.size())
-      return error(last_line_, "the file ends before the {} section; expected its count",
-                   section);
+      return error(last_line_, "the file ends before the {} section; expected its count", section);
     const std::vector<Token>& tokens = lines_[i];
     char* end = nullptr;
     errno = 0;
@@ -408,16 +408,18 @@ class CaoParser {
   Status readNumbers(std::size_t i, const char* section, std::size_t k, std::size_t count,
                      std::size_t n, std::vector<double>& out, std::string* name) const {
     if (i >= lines_.size())
-      return error(last_line_, "the file ends at record {} of {} in the {} section; expected {} "
-                               "more",
+      return error(last_line_,
+                   "the file ends at record {} of {} in the {} section; expected {} "
+                   "more",
                    k, count, section, count - k);
     const std::vector<Token>& tokens = lines_[i];
     out.clear();
     for (std::size_t t = 0; t < n; ++t) {
       double value = 0;
       if (t >= tokens.size() || tokens[t].text.find('=') != std::string::npos)
-        return error(tokens[0].line, "record {} of {} in the {} section has {} numbers; expected {}",
-                     k, count, section, t, n);
+        return error(tokens[0].line,
+                     "record {} of {} in the {} section has {} numbers; expected {}", k, count,
+                     section, t, n);
       if (!parseNumber(tokens[t].text, value))
         return error(tokens[t].line,
                      "record {} of {} in the {} section: '{}' is not a number; expected {} numbers",
@@ -447,8 +449,9 @@ class CaoParser {
                      std::size_t fixed, bool counted, std::size_t limit, const char* kind,
                      std::vector<std::uint32_t>& out, std::string* name) const {
     if (i >= lines_.size())
-      return error(last_line_, "the file ends at record {} of {} in the {} section; expected {} "
-                               "more",
+      return error(last_line_,
+                   "the file ends at record {} of {} in the {} section; expected {} "
+                   "more",
                    k, count, section, count - k);
     const std::vector<Token>& tokens = lines_[i];
     std::size_t n = fixed;
@@ -468,12 +471,11 @@ class CaoParser {
       double value = 0;
       if (t >= tokens.size() || tokens[t].text.find('=') != std::string::npos)
         return error(tokens[0].line,
-                     "record {} of {} in the {} section lists {} {} indices; expected {}", k,
-                     count, section, t - first, kind, n);
+                     "record {} of {} in the {} section lists {} {} indices; expected {}", k, count,
+                     section, t - first, kind, n);
       if (!parseNumber(tokens[t].text, value))
-        return error(tokens[t].line,
-                     "record {} of {} in the {} section: '{}' is not a {} index", k, count,
-                     section, tokens[t].text, kind);
+        return error(tokens[t].line, "record {} of {} in the {} section: '{}' is not a {} index", k,
+                     count, section, tokens[t].text, kind);
       std::uint32_t index = 0;
       if (value != std::floor(value) || value < 0 || value >= static_cast<double>(limit))
         return error(tokens[t].line,
@@ -580,8 +582,7 @@ std::string toCao(const PolygonModel& model) {
     out += fmt::format("{} {} {:.9g}{}\n", c.a, c.b, c.radius, named(c.name));
   out += fmt::format("# 3D circles\n{}\n", model.circles.size());
   for (const PolygonModel::Circle& c : model.circles)
-    out += fmt::format("{:.9g} {} {} {}{}\n", c.radius, c.centre, c.first, c.second,
-                       named(c.name));
+    out += fmt::format("{:.9g} {} {} {}{}\n", c.radius, c.centre, c.first, c.second, named(c.name));
   return out;
 }
 

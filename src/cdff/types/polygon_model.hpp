@@ -47,11 +47,13 @@ struct PolygonModel {
   std::vector<Cylinder> cylinders;
   std::vector<Circle> circles;
 
-  bool empty() const { return faces.empty() && lines.empty() && cylinders.empty() && circles.empty(); }
+  bool empty() const {
+    return faces.empty() && lines.empty() && cylinders.empty() && circles.empty();
+  }
   /// Ok when there is at least one primitive, points are finite, indices in range, faces have at
   /// least 3 distinct points and are planar (every point within 2 % of the face's diameter, at
-  /// least 1e-6 m, of its best plane), lines and axes have distinct ends and radii are positive. The
-  /// message names `what`, the primitive (index and name) and the offending value.
+  /// least 1e-6 m, of its best plane), lines and axes have distinct ends and radii are positive.
+  /// The message names `what`, the primitive (index and name) and the offending value.
   Status validate(const char* what = "model") const;
   /// Adds every primitive of `other` with its points mapped by `transform` (this_T_other).
   void append(const PolygonModel& other,
