@@ -24,7 +24,7 @@ namespace cdff::egse {
 struct CameraSpec {
   CameraModel model;                        // the real camera: intrinsics and distortion
   PixelFormat format = PixelFormat::kGray8;  // kGray8 or kBgr8
-  double exposure_time = 0.002;   // s
+  double exposure_time = 0.004;   // s
   double gain_db = 0.0;
   double full_well = 20000.0;     // e-
   double read_noise = 12.0;       // e- rms
