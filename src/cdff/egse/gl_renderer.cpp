@@ -58,7 +58,8 @@ uniform int pattern[32];
 uniform float pattern_strength[32];
 uniform float pattern_scale[32];
 uniform float specular_cutoff[32];
-uniform sampler2D crinkle;
+uniform usampler2D crinkle;
+uniform vec2 crinkle_tilts[64];
 uniform int crinkle_size;
 uniform float crinkle_tile_facets;
 uniform float solar_cell_gap;
@@ -104,7 +105,7 @@ void main() {
       float tile = crinkle_tile_facets * pattern_scale[m];
       int tx = int(floor(p_object[a1] / tile * float(crinkle_size))) & (crinkle_size - 1);
       int ty = int(floor(p_object[a2] / tile * float(crinkle_size))) & (crinkle_size - 1);
-      vec2 tilt = texelFetch(crinkle, ivec2(tx, ty), 0).rg;
+      vec2 tilt = crinkle_tilts[texelFetch(crinkle, ivec2(tx, ty), 0).r];
       vec3 perturbed = n_o;
       perturbed[a1] += pattern_strength[m] * tilt.x;
       perturbed[a2] += pattern_strength[m] * tilt.y;
@@ -245,7 +246,9 @@ class GlRenderer final : public Renderer {
     // The crinkle texture, fetched texel by texel.
     glGenTextures(1, &crinkle_texture_);
     glBindTexture(GL_TEXTURE_2D, crinkle_texture_);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_RG32F, kCrinkleSize, kCrinkleSize, 0, GL_RG, GL_FLOAT, crinkleTexture().data());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8UI, kCrinkleSize, kCrinkleSize, 0, GL_RED_INTEGER, GL_UNSIGNED_BYTE,
+                 crinkleCells().data());
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glGenFramebuffers(1, &shadow_fbo_);
@@ -367,6 +370,7 @@ class GlRenderer final : public Renderer {
     glUniform3f(location(scene_program_, "sun_direction"), L.x(), L.y(), L.z());
     glUniform1f(location(scene_program_, "irradiance"), static_cast<float>(scene.sun_irradiance));
     glUniform1i(location(scene_program_, "crinkle_size"), kCrinkleSize);
+    glUniform2fv(location(scene_program_, "crinkle_tilts"), kCrinkleCells, crinkleTilts().data());
     glUniform1f(location(scene_program_, "crinkle_tile_facets"), kCrinkleTileFacets);
     glUniform1f(location(scene_program_, "solar_cell_gap"), kSolarCellGap);
     glUniform1i(location(scene_program_, "shadows"), shadow.valid ? 1 : 0);

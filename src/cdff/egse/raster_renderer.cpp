@@ -32,6 +32,7 @@ struct ModelData {
 struct FrameTriangle {
   Eigen::Vector3f a, e1, e2;
   float d00, d01, d11, inv_denom;
+  Eigen::Vector3f normal;  // the face normal in camera coordinates
 };
 
 // Calls fragment(x, y) for every pixel centre inside the triangle (sx, sy) (pixel units, y
@@ -180,6 +181,7 @@ class CpuRenderer final : public Renderer {
         f.d11 = f.e2.dot(f.e2);
         const float denom = f.d00 * f.d11 - f.d01 * f.d01;
         f.inv_denom = denom != 0 ? 1.0f / denom : 0.0f;
+        f.normal = R * m.face_normal[k];
       }
     }
 
@@ -271,8 +273,22 @@ class CpuRenderer final : public Renderer {
     }
     shadow_frame_ = fitShadowFrame(scene.sun_direction, casters, scene.shadow_map_size);
     if (!shadow_frame_.valid) return;
+    sun_R_camera_ = shadow_frame_.sun_T_camera.linear().cast<float>();
+    sun_t_camera_ = shadow_frame_.sun_T_camera.translation().cast<float>();
+    shadow_scale_ = static_cast<float>(shadow_frame_.scale);
+    shadow_offset_ = static_cast<float>(shadow_frame_.offset);
+    shadow_bias_ = static_cast<float>(kShadowBiasTexels * shadow_frame_.texel);
     const int S = shadow_frame_.size;
-    shadow_.assign(static_cast<std::size_t>(S) * S, std::numeric_limits<float>::infinity());
+    const float inf = std::numeric_limits<float>::infinity();
+    if (shadow_.size() != static_cast<std::size_t>(S) * S) {
+      shadow_.assign(static_cast<std::size_t>(S) * S, inf);
+    } else if (shadow_dirty_.x0 <= shadow_dirty_.x1) {
+      for (int y = shadow_dirty_.y0; y <= shadow_dirty_.y1; ++y)
+        std::fill(shadow_.begin() + static_cast<std::ptrdiff_t>(y) * S + shadow_dirty_.x0,
+                  shadow_.begin() + static_cast<std::ptrdiff_t>(y) * S + shadow_dirty_.x1 + 1, inf);
+    }
+    shadow_dirty_ = {S, S, -1, -1};
+    Dirty& sd = shadow_dirty_;
     const Eigen::Matrix3d R = shadow_frame_.sun_T_camera.linear();
     const Eigen::Vector3d t = shadow_frame_.sun_T_camera.translation();
     float* map = shadow_.data();
@@ -299,7 +315,13 @@ class CpuRenderer final : public Renderer {
         rasterise(sx, sy, S, S, [&](int x, int y) {
           const float depth = static_cast<float>(A * x + B * y + C);
           float& cell = map[static_cast<std::size_t>(y) * S + x];
-          if (depth < cell) cell = depth;
+          if (depth < cell) {
+            cell = depth;
+            sd.x0 = std::min(sd.x0, x);
+            sd.x1 = std::max(sd.x1, x);
+            sd.y0 = std::min(sd.y0, y);
+            sd.y1 = std::max(sd.y1, y);
+          }
         });
       }
     }
@@ -309,12 +331,12 @@ class CpuRenderer final : public Renderer {
   // (camera frame).
   float shadowFactor(const Eigen::Vector3f& p) const {
     const ShadowFrame& f = shadow_frame_;
-    const Eigen::Vector3d s = f.sun_T_camera * p.cast<double>();
-    const double tx = s.x() * f.scale + f.offset, ty = s.y() * f.scale + f.offset;
-    const double fx = std::floor(tx), fy = std::floor(ty);
+    const Eigen::Vector3f s = sun_R_camera_ * p + sun_t_camera_;
+    const float tx = s.x() * shadow_scale_ + shadow_offset_, ty = s.y() * shadow_scale_ + shadow_offset_;
+    const float fx = std::floor(tx), fy = std::floor(ty);
     const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-    const float wx = static_cast<float>(tx - fx), wy = static_cast<float>(ty - fy);
-    const float depth = static_cast<float>(s.z() - kShadowBiasTexels * f.texel);
+    const float wx = tx - fx, wy = ty - fy;
+    const float depth = s.z() - shadow_bias_;
     auto lit = [&](int x, int y) -> float {
       if (x < 0 || y < 0 || x >= f.size || y >= f.size) return 1.0f;
       return depth <= shadow_[static_cast<std::size_t>(y) * f.size + x] ? 1.0f : 0.0f;
@@ -330,7 +352,8 @@ class CpuRenderer final : public Renderer {
     const float E = static_cast<float>(scene.sun_irradiance);
     const bool shadows = shadow_frame_.valid;
     const float offset = shadows ? static_cast<float>(kShadowNormalOffsetTexels * shadow_frame_.texel) : 0.0f;
-    const float* crinkle = crinkleTexture().data();
+    const std::uint8_t* crinkle_cells = crinkleCells().data();
+    const float* crinkle_tilts = crinkleTilts().data();
     const float ifx = static_cast<float>(1.0 / cam.fx), ify = static_cast<float>(1.0 / cam.fy);
     const float cx = static_cast<float>(cam.cx), cy = static_cast<float>(cam.cy);
     std::vector<Eigen::Matrix3f> rotations;
@@ -340,16 +363,23 @@ class CpuRenderer final : public Renderer {
     std::uint8_t* ids = out.id.data();
     // Outside the dirty box nothing was drawn: clear the outputs there in one go.
     const bool any = dirty_.x0 <= dirty_.x1;
+    auto clear = [&](std::size_t from, std::size_t to) {
+      if (from >= to) return;
+      std::fill(rad + 3 * from, rad + 3 * to, 0.0f);
+      std::fill(depth + from, depth + to, inf);
+      std::memset(ids + from, 0, to - from);
+    };
     for (int y = 0; y < H; ++y) {
+      const std::size_t row = static_cast<std::size_t>(y) * W;
       const bool row_dirty = any && y >= dirty_.y0 && y <= dirty_.y1;
       if (!row_dirty) {
-        std::fill(rad + 3 * static_cast<std::size_t>(y) * W, rad + 3 * static_cast<std::size_t>(y + 1) * W, 0.0f);
-        std::fill(depth + static_cast<std::size_t>(y) * W, depth + static_cast<std::size_t>(y + 1) * W, inf);
-        std::memset(ids + static_cast<std::size_t>(y) * W, 0, W);
+        clear(row, row + W);
         continue;
       }
-      for (int x = 0; x < W; ++x) {
-        const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      clear(row, row + dirty_.x0);
+      clear(row + dirty_.x1 + 1, row + W);
+      for (int x = dirty_.x0; x <= dirty_.x1; ++x) {
+        const std::size_t i = row + x;
         const std::uint32_t code = vis_[i];
         if (code == kNoSurface) {
           rad[3 * i] = rad[3 * i + 1] = rad[3 * i + 2] = 0.0f;
@@ -384,7 +414,7 @@ class CpuRenderer final : public Renderer {
             const float tile = kCrinkleTileFacets * mat.pattern_scale;
             const int tx = static_cast<int>(std::floor(p_o[a1] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
             const int ty = static_cast<int>(std::floor(p_o[a2] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
-            const float* tilt = crinkle + 2 * (ty * kCrinkleSize + tx);
+            const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
             Eigen::Vector3f perturbed = n_o;
             perturbed[a1] += mat.pattern_strength * tilt[0];
             perturbed[a2] += mat.pattern_strength * tilt[1];
@@ -396,7 +426,8 @@ class CpuRenderer final : public Renderer {
           }
         }
         const Eigen::Matrix3f& R = rotations[o];
-        Eigen::Vector3f Ng = R * n_o, N = R * shading_n_o;
+        Eigen::Vector3f Ng = m.flat[k] ? ft.normal : Eigen::Vector3f(R * n_o);
+        Eigen::Vector3f N = mat.pattern == SurfacePattern::kCrinkle ? Eigen::Vector3f(R * shading_n_o) : Ng;
         const Eigen::Vector3f V = -P.normalized();
         if (Ng.dot(V) < 0) {  // two-sided surfaces
           Ng = -Ng;
@@ -447,7 +478,11 @@ class CpuRenderer final : public Renderer {
   std::vector<std::vector<FrameTriangle>> frame_triangles_;
   std::vector<Eigen::Vector3d> sun_vertices_;
   std::vector<float> shadow_;
+  Dirty shadow_dirty_{0, 0, -1, -1};
   ShadowFrame shadow_frame_;
+  Eigen::Matrix3f sun_R_camera_ = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f sun_t_camera_ = Eigen::Vector3f::Zero();
+  float shadow_scale_ = 1, shadow_offset_ = 0, shadow_bias_ = 0;
 };
 
 }  // namespace

@@ -88,11 +88,13 @@ Result<std::unique_ptr<Renderer>> createRenderer(RendererBackend backend);
 
 // --- Shading model shared by both backends (render_shading.cpp) ---------------------------
 
-/// The MLI crinkle texture: kCrinkleSize^2 texels of facet tilts (2 floats each, unit variance),
-/// a Voronoi pattern of kCrinkleCells cells on a tileable square (fixed seed).
+/// The MLI crinkle texture: a Voronoi pattern of kCrinkleCells cells on a tileable square of
+/// kCrinkleSize^2 texels (fixed seed). Each texel holds its cell's index (one byte, so that the
+/// texture stays in cache); each cell has a facet tilt (2 floats, unit variance).
 constexpr int kCrinkleSize = 256;
 constexpr int kCrinkleCells = 64;
-const std::vector<float>& crinkleTexture();
+const std::vector<std::uint8_t>& crinkleCells();
+const std::vector<float>& crinkleTilts();
 /// One crinkle tile spans this many facet sizes (Material::pattern_scale).
 constexpr float kCrinkleTileFacets = 8.0f;
 /// Interconnect width of a solar cell grid, as a fraction of the cell pitch.

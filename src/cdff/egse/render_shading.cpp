@@ -27,17 +27,22 @@ const char* toString(RendererBackend backend) {
   return "?";
 }
 
-const std::vector<float>& crinkleTexture() {
-  static const std::vector<float> texture = [] {
+namespace {
+
+struct Crinkle {
+  std::vector<std::uint8_t> cells;
+  std::vector<float> tilts;
+  Crinkle() {
     // Voronoi cells on a torus: each cell is a flat facet of the wrinkled foil with its own tilt.
     Rng rng(0x4d4c49ULL);  // fixed: the pattern is part of the model, not of a run
     std::vector<Eigen::Vector2d> seeds(kCrinkleCells);
-    std::vector<Eigen::Vector2f> tilts(kCrinkleCells);
+    tilts.resize(2 * kCrinkleCells);
     for (int i = 0; i < kCrinkleCells; ++i) {
       seeds[i] = {rng.uniform(), rng.uniform()};
-      tilts[i] = {static_cast<float>(rng.normal()), static_cast<float>(rng.normal())};
+      tilts[2 * i] = static_cast<float>(rng.normal());
+      tilts[2 * i + 1] = static_cast<float>(rng.normal());
     }
-    std::vector<float> t(2 * kCrinkleSize * kCrinkleSize);
+    cells.resize(kCrinkleSize * kCrinkleSize);
     for (int y = 0; y < kCrinkleSize; ++y)
       for (int x = 0; x < kCrinkleSize; ++x) {
         const Eigen::Vector2d p((x + 0.5) / kCrinkleSize, (y + 0.5) / kCrinkleSize);
@@ -52,13 +57,20 @@ const std::vector<float>& crinkleTexture() {
             best = i;
           }
         }
-        t[2 * (y * kCrinkleSize + x)] = tilts[best].x();
-        t[2 * (y * kCrinkleSize + x) + 1] = tilts[best].y();
+        cells[y * kCrinkleSize + x] = static_cast<std::uint8_t>(best);
       }
-    return t;
-  }();
-  return texture;
+  }
+};
+
+const Crinkle& crinkle() {
+  static const Crinkle c;
+  return c;
 }
+
+}  // namespace
+
+const std::vector<std::uint8_t>& crinkleCells() { return crinkle().cells; }
+const std::vector<float>& crinkleTilts() { return crinkle().tilts; }
 
 ShadowFrame fitShadowFrame(const Eigen::Vector3d& sun_direction,
                            const std::vector<std::pair<Eigen::Vector3d, double>>& casters, int size,
