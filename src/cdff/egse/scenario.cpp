@@ -232,7 +232,7 @@ class Field {
 Status optNumber(const Field& f, const std::string& key, double& out, double low, double high,
                  const std::string& unit = "", bool low_open = false, double scale = 1.0) {
   if (!f.has(key)) return Status::ok();
-  double v;
+  double v = 0;
   CDFF_RETURN_IF_ERROR(f[key].number(v, low, high, unit, low_open));
   out = v * scale;
   return Status::ok();

@@ -211,9 +211,16 @@ class Tumbling final : public Attitude {
     }
   }
   AttitudeState at(double t) const override {
-    const double tc = std::clamp(t, 0.0, kStep * static_cast<double>(grid_.size() - 1));
-    const std::size_t i = std::min(static_cast<std::size_t>(tc / kStep), grid_.size() - 1);
-    const State s = step(grid_[i], tc - kStep * static_cast<double>(i));
+    // From the nearest grid state at or before t (the first one for t < 0, integrating
+    // backwards), in RK4 steps of at most kStep.
+    const std::size_t i = t <= 0 ? 0 : std::min(static_cast<std::size_t>(t / kStep), grid_.size() - 1);
+    State s = grid_[i];
+    double remaining = t - kStep * static_cast<double>(i);
+    while (std::abs(remaining) > 0) {
+      const double h = std::clamp(remaining, -kStep, kStep);
+      s = step(s, h);
+      remaining -= h;
+    }
     AttitudeState st;
     st.lvlh_R_body = (Eigen::Quaterniond(orbit_.eciRotationLvlh(t)).conjugate() * s.q).normalized();
     st.angular_velocity = s.w;
@@ -240,7 +247,7 @@ class Tumbling final : public Attitude {
     return 0.5 * d.coeffs();
   }
   State step(const State& s, double h) const {
-    if (h <= 0) return s;
+    if (h == 0) return s;
     const Eigen::Vector4d q0 = s.q.coeffs();
     const Eigen::Vector3d w0 = s.w;
     const Eigen::Vector4d k1q = qdot(q0, w0);
