@@ -9,5 +9,6 @@ namespace cdff::app {
 void addDfnCommands(CLI::App& root, int& exit_code);
 void addDemoCommand(CLI::App& root, int& exit_code);
 void addLogCommands(CLI::App& root, int& exit_code);
+void addSimCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

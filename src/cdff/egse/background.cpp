@@ -47,8 +47,19 @@ double fbm(const Eigen::Vector3d& p, std::uint64_t seed) {
 // is not modelled): oceans, land, clouds.
 struct EarthTexture {
   static constexpr int kWidth = 1024, kHeight = 512;
+  // Ground detail below the 40 km texels: a tileable noise repeated every 1/64 of the globe's
+  // circumference (~600 m per detail texel) that modulates the albedo.
+  static constexpr int kDetail = 256, kDetailRepeat = 64;
   std::vector<Eigen::Vector3f> albedo;
-  EarthTexture() : albedo(static_cast<std::size_t>(kWidth) * kHeight) {
+  std::vector<float> detail;
+  EarthTexture() : albedo(static_cast<std::size_t>(kWidth) * kHeight), detail(kDetail * kDetail) {
+    for (int j = 0; j < kDetail; ++j)
+      for (int i = 0; i < kDetail; ++i) {
+        // Periodic: sample the noise on a torus embedded in 4-D, folded into 3-D by two circles.
+        const double a = 2 * M_PI * i / kDetail, b = 2 * M_PI * j / kDetail;
+        const Eigen::Vector3d p(3.0 * std::cos(a), 3.0 * std::sin(a) + 2.0 * std::cos(b), 2.0 * std::sin(b));
+        detail[static_cast<std::size_t>(j) * kDetail + i] = static_cast<float>(0.55 + 0.9 * (fbm(p * 2.0, 31) - 0.5) * 2.0);
+      }
     const Eigen::Vector3f ocean(0.02f, 0.05f, 0.12f), land(0.14f, 0.12f, 0.07f), ice(0.7f, 0.72f, 0.75f),
         cloud(0.78f, 0.78f, 0.80f);
     for (int j = 0; j < kHeight; ++j) {
@@ -58,18 +69,28 @@ struct EarthTexture {
         const Eigen::Vector3d n(std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon), std::sin(lat));
         const double continents = fbm(n * 2.2, 11);
         const double clouds = fbm(n * 5.0 + Eigen::Vector3d(7.1, 3.3, 1.7), 23);
-        Eigen::Vector3f a = continents > 0.53 ? land : ocean;
+        Eigen::Vector3f a = continents > 0.52 ? land : ocean;
         if (std::abs(lat) > 1.2) a = ice;
-        const float cover = static_cast<float>(std::clamp((clouds - 0.5) * 4.0, 0.0, 1.0));
+        // About half the Earth is under cloud: its mean albedo is then near the real 0.3.
+        const float cover = static_cast<float>(std::clamp((clouds - 0.47) * 5.0, 0.0, 1.0));
         albedo[static_cast<std::size_t>(j) * kWidth + i] = a * (1 - cover) + cloud * cover;
       }
     }
   }
-  const Eigen::Vector3f& at(const Eigen::Vector3d& n) const {
+  // Bilinear between texel centres (wrapping in longitude).
+  Eigen::Vector3f at(const Eigen::Vector3d& n) const {
     const double lat = std::asin(std::clamp(n.z(), -1.0, 1.0)), lon = std::atan2(n.y(), n.x());
-    const int i = std::clamp(static_cast<int>((lon + M_PI) / (2 * M_PI) * kWidth), 0, kWidth - 1);
-    const int j = std::clamp(static_cast<int>((0.5 - lat / M_PI) * kHeight), 0, kHeight - 1);
-    return albedo[static_cast<std::size_t>(j) * kWidth + i];
+    const double u = (lon + M_PI) / (2 * M_PI) * kWidth - 0.5, v = std::clamp((0.5 - lat / M_PI) * kHeight - 0.5, 0.0, kHeight - 1.0);
+    const int i0 = static_cast<int>(std::floor(u)), j0 = std::min(static_cast<int>(v), kHeight - 2);
+    const float fu = static_cast<float>(u - i0), fv = static_cast<float>(v - j0);
+    auto texel = [&](int i, int j) -> const Eigen::Vector3f& {
+      return albedo[static_cast<std::size_t>(j) * kWidth + ((i % kWidth) + kWidth) % kWidth];
+    };
+    const Eigen::Vector3f coarse = (1 - fv) * ((1 - fu) * texel(i0, j0) + fu * texel(i0 + 1, j0)) +
+                                   fv * ((1 - fu) * texel(i0, j0 + 1) + fu * texel(i0 + 1, j0 + 1));
+    const int di = static_cast<int>(std::floor(u / kWidth * kDetail * kDetailRepeat)) & (kDetail - 1);
+    const int dj = static_cast<int>(std::floor(v / kHeight * kDetail * kDetailRepeat / 2)) & (kDetail - 1);
+    return coarse * std::max(0.2f, 0.4f + detail[static_cast<std::size_t>(dj) * kDetail + di]);
   }
 };
 
@@ -133,10 +154,20 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
       const Eigen::Vector3d sun = view.sun_direction;
       const Eigen::Vector3f limb_colour(0.10f, 0.18f, 0.38f);
       const double scale_height = 8000.0;
+      // A cheap cone test first: only rays within the Earth's angular radius (plus the limb) of
+      // its centre can see it.
+      const double cone = std::cos(std::min(M_PI, std::asin(std::min(1.0, (view.earth_radius + 10 * scale_height) / std::sqrt(oc2))) + 0.01));
+      const Eigen::Matrix3f Rf = R.cast<float>();
+      const Eigen::Vector3f ef = to_earth.cast<float>();
+      const float cone2 = static_cast<float>(cone * cone);
+      const bool wide = cone <= 0;
       for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x) {
           const std::size_t i = static_cast<std::size_t>(y) * W + x;
           if (frame.id[i] != 0) continue;
+          const Eigen::Vector3f df = Rf * Eigen::Vector3f(static_cast<float>((x - cam.cx) / cam.fx), static_cast<float>((y - cam.cy) / cam.fy), 1.0f);
+          const float de = df.dot(ef);
+          if (!wide && (de <= 0 || de * de < cone2 * df.squaredNorm())) continue;
           const Eigen::Vector3d d = R * ray(x, y);
           double t;
           Eigen::Vector3f colour = Eigen::Vector3f::Zero();

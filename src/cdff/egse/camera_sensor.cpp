@@ -12,38 +12,51 @@ namespace cdff::egse {
 namespace {
 
 // Separable Gaussian blur of a C-channel float image, clamped at the borders.
-void gaussianBlur(std::vector<float>& image, int width, int height, int channels, double sigma) {
+void gaussianBlur(std::vector<float>& image, std::vector<float>& tmp, int width, int height, int channels, double sigma) {
   if (sigma < 0.05) return;
   const int radius = std::max(1, static_cast<int>(std::ceil(3 * sigma)));
   std::vector<float> kernel(2 * radius + 1);
   double total = 0;
   for (int i = -radius; i <= radius; ++i) total += kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
   for (float& k : kernel) k = static_cast<float>(k / total);
-  std::vector<float> tmp(image.size());
+  tmp.resize(image.size());
   const int C = channels;
+  const float* K = kernel.data() + radius;
   for (int y = 0; y < height; ++y) {
     const float* row = image.data() + static_cast<std::size_t>(y) * width * C;
     float* out = tmp.data() + static_cast<std::size_t>(y) * width * C;
-    for (int x = 0; x < width; ++x)
+    for (int x = 0; x < width; ++x) {
+      const bool interior = x >= radius && x + radius < width;
       for (int c = 0; c < C; ++c) {
         float sum = 0;
-        for (int k = -radius; k <= radius; ++k) {
-          const int xx = std::clamp(x + k, 0, width - 1);
-          sum += kernel[k + radius] * row[xx * C + c];
+        if (interior) {
+          const float* p = row + x * C + c;
+          for (int k = -radius; k <= radius; ++k) sum += K[k] * p[k * C];
+        } else {
+          for (int k = -radius; k <= radius; ++k) sum += K[k] * row[std::clamp(x + k, 0, width - 1) * C + c];
         }
         out[x * C + c] = sum;
       }
+    }
   }
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x)
-      for (int c = 0; c < C; ++c) {
+  const std::size_t stride = static_cast<std::size_t>(width) * C;
+  for (int y = 0; y < height; ++y) {
+    float* out = image.data() + y * stride;
+    if (y >= radius && y + radius < height) {
+      const float* centre = tmp.data() + y * stride;
+      for (std::size_t i = 0; i < stride; ++i) {
         float sum = 0;
-        for (int k = -radius; k <= radius; ++k) {
-          const int yy = std::clamp(y + k, 0, height - 1);
-          sum += kernel[k + radius] * tmp[(static_cast<std::size_t>(yy) * width + x) * C + c];
-        }
-        image[(static_cast<std::size_t>(y) * width + x) * C + c] = sum;
+        for (int k = -radius; k <= radius; ++k) sum += K[k] * centre[static_cast<std::ptrdiff_t>(k) * static_cast<std::ptrdiff_t>(stride) + static_cast<std::ptrdiff_t>(i)];
+        out[i] = sum;
       }
+    } else {
+      for (std::size_t i = 0; i < stride; ++i) {
+        float sum = 0;
+        for (int k = -radius; k <= radius; ++k) sum += K[k] * tmp[std::clamp(y + k, 0, height - 1) * stride + i];
+        out[i] = sum;
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -160,10 +173,15 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   const int CW = canvas_.width, CH = canvas_.height;
   const std::size_t canvas_pixels = static_cast<std::size_t>(CW) * CH;
   // 1. Average the motion-blur samples and the supersamples onto the canvas.
-  RenderOutput canvas;
-  canvas.resize(CW, CH);
+  RenderOutput& canvas = canvas_scratch_;
+  if (canvas.width != CW || canvas.height != CH) canvas.resize(CW, CH);
   const RenderOutput& middle = renders[renders.size() / 2];
   const float weight = 1.0f / static_cast<float>(renders.size() * k * k);
+  if (k == 1 && renders.size() == 1) {
+    canvas.radiance = middle.radiance;
+    canvas.depth = middle.depth;
+    canvas.id = middle.id;
+  } else
   for (int y = 0; y < CH; ++y)
     for (int x = 0; x < CW; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * CW + x;
@@ -227,7 +245,13 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   double glare = 0;
   if (view.sun_irradiance > 0 && !sun_blocked) {
     glare = spec_.glare_strength * faults.glare_gain * view.sun_irradiance;
-    if (off_axis > half_diagonal) glare *= std::exp(-(off_axis - half_diagonal) / spec_.glare_decay);
+    if (off_axis > half_diagonal) {
+      glare *= std::exp(-(off_axis - half_diagonal) / spec_.glare_decay);
+      // Where the halo reaches the image at all; below 1e-4 (a fiftieth of a grey level at the
+      // default exposure) it is left out.
+      const double nearest = off_axis - half_diagonal, w2 = spec_.glare_width * spec_.glare_width;
+      if (glare * w2 / (nearest * nearest + w2) < 1e-4) glare = 0;
+    }
   }
   if (glare > 1e-6 || faults.extra_glare > 0) {
     const double w2 = spec_.glare_width * spec_.glare_width;
@@ -257,7 +281,8 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   // 5. Spectral response: one channel for a monochrome sensor.
   const bool colour = spec_.format == PixelFormat::kBgr8;
   const int C = colour ? 3 : 1;
-  std::vector<float> canvas_signal(canvas_pixels * C);
+  std::vector<float>& canvas_signal = canvas_signal_;
+  canvas_signal.resize(canvas_pixels * C);
   for (std::size_t i = 0; i < canvas_pixels; ++i) {
     if (colour) {
       canvas_signal[3 * i] = canvas.radiance[3 * i + 2];  // B
@@ -272,8 +297,10 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   // 6. Lens distortion: sample the canvas where each distorted pixel's ray lands.
   const int W = spec_.model.width, H = spec_.model.height;
   const std::size_t pixels = static_cast<std::size_t>(W) * H;
-  std::vector<float> signal(pixels * C);
-  std::vector<float> depth(pixels);
+  std::vector<float>& signal = signal_;
+  signal.resize(pixels * C);
+  std::vector<float>& depth = depth_;
+  depth.resize(pixels);
   frame.labels.resize(pixels);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
@@ -326,7 +353,7 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       sigma2 += sigma_defocus * sigma_defocus;
     }
   }
-  gaussianBlur(signal, W, H, C, std::sqrt(sigma2));
+  gaussianBlur(signal, blur_scratch_, W, H, C, std::sqrt(sigma2));
 
   // 8-10. Exposure, noise, full well, gain, quantisation.
   const double to_electrons = spec_.sensitivity * spec_.exposure_time;

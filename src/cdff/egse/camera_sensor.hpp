@@ -78,7 +78,7 @@ class CameraSensor {
 
   /// Turns `renders` (motion-blur samples of renderCamera(), at least one; the middle one gives
   /// depth and labels) into a frame. `view` places the camera for the background; `rng` is
-  /// this frame's noise stream.
+  /// this frame's noise stream. Not thread-safe (the sensor keeps its scratch buffers).
   Result<CameraFrame> expose(const std::vector<RenderOutput>& renders, const BackgroundView& view,
                              const CameraFaults& faults, Rng& rng) const;
 
@@ -88,6 +88,8 @@ class CameraSensor {
   PinholeCamera canvas_, render_camera_;
   bool identity_remap_ = true;
   std::vector<float> remap_;  // per output pixel: canvas (u, v)
+  mutable RenderOutput canvas_scratch_;
+  mutable std::vector<float> canvas_signal_, signal_, depth_, blur_scratch_;
 };
 
 }  // namespace cdff::egse

@@ -59,7 +59,7 @@ uniform float pattern_strength[32];
 uniform float pattern_scale[32];
 uniform float specular_cutoff[32];
 uniform usampler2D crinkle;
-uniform vec2 crinkle_tilts[64];
+uniform vec2 crinkle_tilts[256];
 uniform int crinkle_size;
 uniform float crinkle_tile_facets;
 uniform float solar_cell_gap;

@@ -24,10 +24,10 @@ std::vector<Material> makeTable() {
   std::vector<Material> t(static_cast<std::size_t>(MaterialId::kCount));
   auto set = [&](MaterialId id, Material m) { t[static_cast<std::size_t>(id)] = std::move(m); };
   // Gold (aluminised Kapton) MLI: a warm, wrinkled, strongly specular foil.
-  set(MaterialId::kMliGold, make("mli_gold", V(0.42f, 0.30f, 0.10f), V(0.75f, 0.58f, 0.28f), 90.0f,
-                                 SurfacePattern::kCrinkle, 0.22f, 0.035f, 0.55f));
-  set(MaterialId::kMliSilver, make("mli_silver", V(0.45f, 0.45f, 0.47f), V(0.70f, 0.70f, 0.72f),
-                                   110.0f, SurfacePattern::kCrinkle, 0.20f, 0.035f, 0.6f));
+  set(MaterialId::kMliGold, make("mli_gold", V(0.30f, 0.20f, 0.06f), V(0.75f, 0.56f, 0.26f), 60.0f,
+                                 SurfacePattern::kCrinkle, 0.12f, 0.02f, 0.55f));
+  set(MaterialId::kMliSilver, make("mli_silver", V(0.22f, 0.22f, 0.23f), V(0.75f, 0.75f, 0.77f),
+                                   60.0f, SurfacePattern::kCrinkle, 0.12f, 0.02f, 0.6f));
   // Solar cells: dark blue under cover glass, a sharp glass highlight, silver interconnects.
   set(MaterialId::kSolarCell, make("solar_cell", V(0.025f, 0.035f, 0.09f), V(0.30f, 0.30f, 0.32f),
                                    600.0f, SurfacePattern::kSolarCell, 0.35f, 0.04f, 0.12f));

@@ -202,8 +202,8 @@ Result<TargetModel> makeServicerMockup(const ServicerSpec& spec) {
   b.addBox(Eigen::Isometry3d::Identity(), h, body);
   if (spec.probe_length > 0) {
     const Eigen::Matrix3d R = zTo(Eigen::Vector3d::UnitX());
-    // The probe starts below the sensor head so that the cameras look past it.
-    const Eigen::Isometry3d base = at({h.x(), 0, -0.25 * h.z()}, R);
+    // On the front face's centre line, below the cameras, so that they see its tip.
+    const Eigen::Isometry3d base = at({h.x(), 0, 0}, R);
     const double r = spec.probe_diameter / 2, L = spec.probe_length;
     b.addRevolution(base, {{r, 0.0}, {r, L - r}, {0.0, L}}, spec.segments, structure, true);
   }

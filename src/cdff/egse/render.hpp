@@ -92,11 +92,11 @@ Result<std::unique_ptr<Renderer>> createRenderer(RendererBackend backend);
 /// kCrinkleSize^2 texels (fixed seed). Each texel holds its cell's index (one byte, so that the
 /// texture stays in cache); each cell has a facet tilt (2 floats, unit variance).
 constexpr int kCrinkleSize = 256;
-constexpr int kCrinkleCells = 64;
+constexpr int kCrinkleCells = 256;
 const std::vector<std::uint8_t>& crinkleCells();
 const std::vector<float>& crinkleTilts();
 /// One crinkle tile spans this many facet sizes (Material::pattern_scale).
-constexpr float kCrinkleTileFacets = 8.0f;
+constexpr float kCrinkleTileFacets = 16.0f;
 /// Interconnect width of a solar cell grid, as a fraction of the cell pitch.
 constexpr float kSolarCellGap = 0.06f;
 /// Shadow-map bias in texels (constant) and along the normal (normal offset).
