@@ -365,7 +365,7 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
     double e = faults.dark ? 0.0 : std::max(0.0, static_cast<double>(signal[i]) * to_electrons);
     if (spec_.noise) e += std::sqrt(e + read2) * rng.normal();
     e = std::clamp(e, 0.0, spec_.full_well);
-    bytes[i] = static_cast<std::uint8_t>(std::clamp(std::lround(e * to_dn), 0L, 255L));
+    bytes[i] = static_cast<std::uint8_t>(std::min(255.0, e * to_dn + 0.5));  // e >= 0: rounds to nearest
   }
   auto image = Image::fromBytes(std::move(bytes), W, H, colour ? PixelFormat::kBgr8 : PixelFormat::kGray8);
   if (!image) return image.status();

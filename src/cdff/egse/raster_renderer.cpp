@@ -90,6 +90,15 @@ inline void rasterise(const double sx[3], const double sy[3], int width, int hei
   }
 }
 
+// One division per vector instead of three (Eigen's normalized() divides each coefficient).
+inline Eigen::Vector3f unit(const Eigen::Vector3f& v) { return v * (1.0f / std::sqrt(v.squaredNorm())); }
+
+// A 3x3 product written out, so that it inlines in the shading loop.
+inline Eigen::Vector3f rotate(const Eigen::Matrix3f& R, const Eigen::Vector3f& v) {
+  return {R(0, 0) * v.x() + R(0, 1) * v.y() + R(0, 2) * v.z(), R(1, 0) * v.x() + R(1, 1) * v.y() + R(1, 2) * v.z(),
+          R(2, 0) * v.x() + R(2, 1) * v.y() + R(2, 2) * v.z()};
+}
+
 // Clips a camera-space polygon against planes n.p + d >= 0 (Sutherland-Hodgman).
 struct ClipPlane {
   Eigen::Vector3d n;
@@ -247,16 +256,17 @@ class CpuRenderer final : public Renderer {
           const double A = ((sz[1] - sz[0]) * (sy[2] - sy[0]) - (sz[2] - sz[0]) * (sy[1] - sy[0])) / det;
           const double B = ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
           const double C = sz[0] - A * sx[0] - B * sy[0];
+          // The dirty box grows by the triangle's box (clamped to the image).
+          d.x0 = std::min(d.x0, std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]})))));
+          d.x1 = std::max(d.x1, std::min(W - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]})))));
+          d.y0 = std::min(d.y0, std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]})))));
+          d.y1 = std::max(d.y1, std::min(H - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]})))));
           rasterise(sx, sy, W, H, [&](int x, int y) {
             const float value = static_cast<float>(A * x + B * y + C);
             const std::size_t i = static_cast<std::size_t>(y) * W + x;
             if (value > ibuf[i]) {
               ibuf[i] = value;
               vis[i] = code;
-              d.x0 = std::min(d.x0, x);
-              d.x1 = std::max(d.x1, x);
-              d.y0 = std::min(d.y0, y);
-              d.y1 = std::max(d.y1, y);
             }
           });
         }
@@ -331,7 +341,7 @@ class CpuRenderer final : public Renderer {
   // (camera frame).
   float shadowFactor(const Eigen::Vector3f& p) const {
     const ShadowFrame& f = shadow_frame_;
-    const Eigen::Vector3f s = sun_R_camera_ * p + sun_t_camera_;
+    const Eigen::Vector3f s = rotate(sun_R_camera_, p) + sun_t_camera_;
     const float tx = s.x() * shadow_scale_ + shadow_offset_, ty = s.y() * shadow_scale_ + shadow_offset_;
     const float fx = std::floor(tx), fy = std::floor(ty);
     const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
@@ -362,7 +372,7 @@ class CpuRenderer final : public Renderer {
     float* depth = out.depth.data();
     std::uint8_t* ids = out.id.data();
     // Outside the dirty box nothing was drawn: clear the outputs there in one go.
-    const bool any = dirty_.x0 <= dirty_.x1;
+    const bool any = dirty_.x0 <= dirty_.x1 && dirty_.y0 <= dirty_.y1;
     auto clear = [&](std::size_t from, std::size_t to) {
       if (from >= to) return;
       std::fill(rad + 3 * from, rad + 3 * to, 0.0f);
@@ -400,8 +410,7 @@ class CpuRenderer final : public Renderer {
         const auto& tri = m.triangles[k];
         const Material& mat = m.materials[m.material[k]];
         Eigen::Vector3f n_o = m.flat[k] ? m.face_normal[k]
-                                        : (alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] +
-                                           gamma * m.normals[tri[2]]).normalized();
+                                        : unit(alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] + gamma * m.normals[tri[2]]);
         Eigen::Vector3f albedo = mat.diffuse;
         Eigen::Vector3f shading_n_o = n_o;
         if (mat.pattern != SurfacePattern::kNone) {
@@ -418,7 +427,7 @@ class CpuRenderer final : public Renderer {
             Eigen::Vector3f perturbed = n_o;
             perturbed[a1] += mat.pattern_strength * tilt[0];
             perturbed[a2] += mat.pattern_strength * tilt[1];
-            shading_n_o = perturbed.normalized();
+            shading_n_o = unit(perturbed);
           } else {
             const float cu = p_o[a1] / mat.pattern_scale, cv = p_o[a2] / mat.pattern_scale;
             if (cu - std::floor(cu) < kSolarCellGap || cv - std::floor(cv) < kSolarCellGap)
@@ -426,9 +435,9 @@ class CpuRenderer final : public Renderer {
           }
         }
         const Eigen::Matrix3f& R = rotations[o];
-        Eigen::Vector3f Ng = m.flat[k] ? ft.normal : Eigen::Vector3f(R * n_o);
-        Eigen::Vector3f N = mat.pattern == SurfacePattern::kCrinkle ? Eigen::Vector3f(R * shading_n_o) : Ng;
-        const Eigen::Vector3f V = -P.normalized();
+        Eigen::Vector3f Ng = m.flat[k] ? ft.normal : rotate(R, n_o);
+        Eigen::Vector3f N = mat.pattern == SurfacePattern::kCrinkle ? rotate(R, shading_n_o) : Ng;
+        const Eigen::Vector3f V = -unit(P);
         if (Ng.dot(V) < 0) {  // two-sided surfaces
           Ng = -Ng;
           N = -N;
@@ -440,7 +449,7 @@ class CpuRenderer final : public Renderer {
           const float ndl = std::max(0.0f, N.dot(L));
           if (s > 0 && ndl > 0) {
             colour = albedo * ndl;
-            const float ndh = std::max(0.0f, N.dot((L + V).normalized()));
+            const float ndh = std::max(0.0f, N.dot(unit(L + V)));
             if (ndh > m.specular_cutoff[m.material[k]]) {
               const float lobe = (mat.shininess + 8.0f) / 8.0f * std::pow(ndh, mat.shininess);
               colour += mat.specular * (lobe * ndl);
@@ -456,7 +465,7 @@ class CpuRenderer final : public Renderer {
       }
     }
     // Reset the visibility buffer where it was written.
-    if (any)
+    if (any && dirty_.x0 <= dirty_.x1)
       for (int y = dirty_.y0; y <= dirty_.y1; ++y) {
         std::fill(inv_depth_.begin() + static_cast<std::ptrdiff_t>(y) * W + dirty_.x0,
                   inv_depth_.begin() + static_cast<std::ptrdiff_t>(y) * W + dirty_.x1 + 1, 0.0f);
