@@ -43,7 +43,10 @@ struct SimOptions {
 class SnapshotSink final : public egse::SimulationSink {
  public:
   SnapshotSink(std::string directory, std::string scenario, std::vector<double> times, double scale)
-      : directory_(std::move(directory)), scenario_(std::move(scenario)), times_(std::move(times)), scale_(scale) {}
+      : directory_(std::move(directory)),
+        scenario_(std::move(scenario)),
+        times_(std::move(times)),
+        scale_(scale) {}
   Status begin(const egse::SimulationMetadata&) override {
     std::error_code ec;
     std::filesystem::create_directories(directory_, ec);
@@ -58,7 +61,8 @@ class SnapshotSink final : public egse::SimulationSink {
     for (double t : times_) {
       const Timestamp wanted = fromSeconds(t);
       auto& best = best_[{m.channel, wanted}];
-      if (best.has_value() && std::llabs(best->stamp - wanted) <= std::llabs(image->stamp - wanted)) continue;
+      if (best.has_value() && std::llabs(best->stamp - wanted) <= std::llabs(image->stamp - wanted))
+        continue;
       best = *image;
     }
     return Status::ok();
@@ -68,21 +72,27 @@ class SnapshotSink final : public egse::SimulationSink {
       if (!image) continue;
       cv::Mat mat;
       if (image->format == PixelFormat::kFloat32) {
-        cv::Mat z(image->height, image->width, CV_32FC1, const_cast<std::uint8_t*>(image->pixels.data()), image->stride_bytes);
+        cv::Mat z(image->height, image->width, CV_32FC1,
+                  const_cast<std::uint8_t*>(image->pixels.data()), image->stride_bytes);
         double lo = 0, hi = 0;
         cv::minMaxLoc(z, &lo, &hi, nullptr, nullptr, z > 0);
-        z.convertTo(mat, CV_8UC1, hi > lo ? -200.0 / (hi - lo) : 0, hi > lo ? 230.0 + 200.0 * lo / (hi - lo) : 0);
+        z.convertTo(mat, CV_8UC1, hi > lo ? -200.0 / (hi - lo) : 0,
+                    hi > lo ? 230.0 + 200.0 * lo / (hi - lo) : 0);
         mat.setTo(0, z <= 0);
       } else {
-        mat = cv::Mat(image->height, image->width, image->format == PixelFormat::kBgr8 ? CV_8UC3 : CV_8UC1,
-                      const_cast<std::uint8_t*>(image->pixels.data()), image->stride_bytes).clone();
+        mat = cv::Mat(image->height, image->width,
+                      image->format == PixelFormat::kBgr8 ? CV_8UC3 : CV_8UC1,
+                      const_cast<std::uint8_t*>(image->pixels.data()), image->stride_bytes)
+                  .clone();
       }
       if (scale_ != 1.0) cv::resize(mat, mat, cv::Size(), scale_, scale_, cv::INTER_AREA);
       std::string stream = key.first.substr(8);  // without "/chaser/"
       for (char& c : stream)
         if (c == '/') c = '_';
-      const std::string path = fmt::format("{}/{}_{}_{:.1f}s.png", directory_, scenario_, stream, toSeconds(image->stamp));
-      if (!cv::imwrite(path, mat, {cv::IMWRITE_PNG_COMPRESSION, 9})) return ioError("cannot write '{}'", path);
+      const std::string path = fmt::format("{}/{}_{}_{:.1f}s.png", directory_, scenario_, stream,
+                                           toSeconds(image->stamp));
+      if (!cv::imwrite(path, mat, {cv::IMWRITE_PNG_COMPRESSION, 9}))
+        return ioError("cannot write '{}'", path);
       fmt::print("wrote {}\n", path);
     }
     return Status::ok();
@@ -98,31 +108,39 @@ class SnapshotSink final : public egse::SimulationSink {
 int listLibrary() {
   const auto library = egse::listScenarios();
   if (library.empty()) {
-    fmt::print(stderr, "error: no scenarios in {} (set CDFF_SCENARIO_DIR)\n", egse::scenarioDirectory().string());
+    fmt::print(stderr, "error: no scenarios in {} (set CDFF_SCENARIO_DIR)\n",
+               egse::scenarioDirectory().string());
     return 1;
   }
-  for (const auto& s : library) fmt::print("{:<24} {:>7.0f} s  {}\n", s.name, s.duration, s.description);
+  for (const auto& s : library)
+    fmt::print("{:<24} {:>7.0f} s  {}\n", s.name, s.duration, s.description);
   return 0;
 }
 
 // A progress bar on stderr: redrawn in place on a terminal, a line per 10 % otherwise.
 class Progress {
  public:
-  explicit Progress(bool quiet) : quiet_(quiet), tty_(isatty(fileno(stderr)) != 0), start_(std::chrono::steady_clock::now()) {}
+  explicit Progress(bool quiet)
+      : quiet_(quiet),
+        tty_(isatty(fileno(stderr)) != 0),
+        start_(std::chrono::steady_clock::now()) {}
   void operator()(double t, double duration) {
     if (quiet_) return;
     const double fraction = duration > 0 ? t / duration : 1.0;
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     if (tty_) {
       const int width = 40, filled = static_cast<int>(fraction * width + 0.5);
-      fmt::print(stderr, "\r[{}{}] {:5.1f}%  sim {:.1f}/{:.1f} s  wall {:.0f} s", std::string(filled, '#'),
-                 std::string(width - filled, ' '), 100 * fraction, t, duration, wall);
+      fmt::print(stderr, "\r[{}{}] {:5.1f}%  sim {:.1f}/{:.1f} s  wall {:.0f} s",
+                 std::string(filled, '#'), std::string(width - filled, ' '), 100 * fraction, t,
+                 duration, wall);
       if (fraction >= 1.0) fmt::print(stderr, "\n");
     } else {
       const int decile = static_cast<int>(fraction * 10 + 1e-9);
       if (decile > last_decile_) {
         last_decile_ = decile;
-        fmt::print(stderr, "cdff sim: {:3d}%  sim {:.1f}/{:.1f} s  wall {:.0f} s\n", decile * 10, t, duration, wall);
+        fmt::print(stderr, "cdff sim: {:3d}%  sim {:.1f}/{:.1f} s  wall {:.0f} s\n", decile * 10, t,
+                   duration, wall);
       }
     }
   }
@@ -136,12 +154,15 @@ class Progress {
 int runSim(const SimOptions& options) {
   if (options.list) return listLibrary();
   if (options.scenario.empty()) {
-    fmt::print(stderr, "error: cdff sim needs a SCENARIO (a name from `cdff sim --list` or a YAML file)\n");
+    fmt::print(stderr,
+               "error: cdff sim needs a SCENARIO (a name from `cdff sim --list` or a YAML file)\n");
     return 2;
   }
   if (options.output.empty() && !options.check && options.export_dir.empty() && !options.digest &&
       options.snapshot_dir.empty()) {
-    fmt::print(stderr, "error: cdff sim {}: nothing to do; expected -o OUT.mcap, --check, --digest or --export-model DIR\n",
+    fmt::print(stderr,
+               "error: cdff sim {}: nothing to do; expected -o OUT.mcap, --check, --digest or "
+               "--export-model DIR\n",
                options.scenario);
     return 2;
   }
@@ -158,8 +179,10 @@ int runSim(const SimOptions& options) {
     return 1;
   }
   if (!options.export_dir.empty()) {
-    Result<egse::TargetModel> model = scenario->procedural_target ? egse::makeTargetSatellite(scenario->target_spec)
-                                                                  : egse::loadModel(scenario->target_mesh, scenario->mesh_options);
+    Result<egse::TargetModel> model =
+        scenario->procedural_target
+            ? egse::makeTargetSatellite(scenario->target_spec)
+            : egse::loadModel(scenario->target_mesh, scenario->mesh_options);
     if (!model) {
       fmt::print(stderr, "error: {}\n", model.status().message());
       return 1;
@@ -169,10 +192,12 @@ int runSim(const SimOptions& options) {
       fmt::print(stderr, "error: {}\n", files.status().message());
       return 1;
     }
-    for (const auto& f : {files->obj, files->mtl, files->ply, files->points_ply, files->cao, files->edges})
+    for (const auto& f :
+         {files->obj, files->mtl, files->ply, files->points_ply, files->cao, files->edges})
       fmt::print("wrote {}\n", f.string());
   }
-  if (!options.check && options.output.empty() && !options.digest && options.snapshot_dir.empty()) return 0;
+  if (!options.check && options.output.empty() && !options.digest && options.snapshot_dir.empty())
+    return 0;
   std::optional<std::uint64_t> seed;
   if (options.seed_given) seed = options.seed;
   std::optional<double> duration;
@@ -183,10 +208,13 @@ int runSim(const SimOptions& options) {
     return 1;
   }
   if (options.check) {
-    fmt::print("{}: ok\n  {}\n  duration {} s, seed {}, renderer {}\n", path->string(), scenario->description,
-               (*sim)->duration(), (*sim)->seed(), (*sim)->rendererDescription());
+    fmt::print("{}: ok\n  {}\n  duration {} s, seed {}, renderer {}\n", path->string(),
+               scenario->description, (*sim)->duration(), (*sim)->seed(),
+               (*sim)->rendererDescription());
     for (const auto& s : scenario->sensors)
-      if (s.enabled) fmt::print("  {:<14} {:<7} {:>6.1f} Hz  frame {:<22} {}\n", s.name, egse::toString(s.type), s.rate, s.frame(), s.channelPrefix());
+      if (s.enabled)
+        fmt::print("  {:<14} {:<7} {:>6.1f} Hz  frame {:<22} {}\n", s.name, egse::toString(s.type),
+                   s.rate, s.frame(), s.channelPrefix());
     for (const auto& f : scenario->faults)
       fmt::print("  fault {:<16} on {:<14} from {} s\n", egse::toString(f.type), f.sensor, f.start);
     if (options.output.empty() && !options.digest && options.snapshot_dir.empty()) return 0;
@@ -201,10 +229,13 @@ int runSim(const SimOptions& options) {
     const double last = *std::max_element(times.begin(), times.end());
     egse::Scenario snapshot_scenario = *scenario;
     for (auto& s : snapshot_scenario.sensors) {
-      if (s.type == egse::SensorType::kCamera || s.type == egse::SensorType::kTof) s.phase = std::max(s.phase, first);
-      else s.enabled = false;
+      if (s.type == egse::SensorType::kCamera || s.type == egse::SensorType::kTof)
+        s.phase = std::max(s.phase, first);
+      else
+        s.enabled = false;
     }
-    auto short_sim = egse::Simulator::create(snapshot_scenario, seed, std::min((*sim)->duration(), last + 0.05));
+    auto short_sim =
+        egse::Simulator::create(snapshot_scenario, seed, std::min((*sim)->duration(), last + 0.05));
     if (!short_sim) {
       fmt::print(stderr, "error: {}\n", short_sim.status().message());
       return 1;
@@ -226,9 +257,11 @@ int runSim(const SimOptions& options) {
       fmt::print(stderr, "\nerror: {}\n", status.message());
       return 1;
     }
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    fmt::print("{} seed {} duration {} s: {} messages, digest {:016x} ({:.1f} s wall)\n", scenario->name, (*sim)->seed(),
-               (*sim)->duration(), digest.messages(), digest.digest(), wall);
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    fmt::print("{} seed {} duration {} s: {} messages, digest {:016x} ({:.1f} s wall)\n",
+               scenario->name, (*sim)->seed(), (*sim)->duration(), digest.messages(),
+               digest.digest(), wall);
     return 0;
   }
   auto sink = openMcapSink(options.output);
@@ -236,8 +269,9 @@ int runSim(const SimOptions& options) {
     fmt::print(stderr, "error: {}\n", sink.status().message());
     return 1;
   }
-  if (!options.quiet) fmt::print(stderr, "cdff sim: {} -> {} (seed {}, renderer {})\n", scenario->name, options.output,
-                                 (*sim)->seed(), (*sim)->rendererDescription());
+  if (!options.quiet)
+    fmt::print(stderr, "cdff sim: {} -> {} (seed {}, renderer {})\n", scenario->name,
+               options.output, (*sim)->seed(), (*sim)->rendererDescription());
   Progress progress(options.quiet);
   const Status status = (*sim)->run(**sink, [&](double t, double d) { progress(t, d); });
   if (!status) {
@@ -250,24 +284,33 @@ int runSim(const SimOptions& options) {
 }  // namespace
 
 void addSimCommand(CLI::App& root, int& exit_code) {
-  CLI::App* sim = root.add_subcommand("sim", "Simulate a scenario of the trajectory library (EGSE) into an MCAP recording");
+  CLI::App* sim = root.add_subcommand(
+      "sim", "Simulate a scenario of the trajectory library (EGSE) into an MCAP recording");
   auto options = std::make_shared<SimOptions>();
-  sim->add_option("SCENARIO", options->scenario, "A library scenario name (cdff sim --list) or a YAML file");
+  sim->add_option("SCENARIO", options->scenario,
+                  "A library scenario name (cdff sim --list) or a YAML file");
   sim->add_option("-o,--output", options->output, "The MCAP file to write");
-  sim->add_option("--seed", options->seed, "Random seed (default: the scenario's); the same seed gives the same file")
+  sim->add_option("--seed", options->seed,
+                  "Random seed (default: the scenario's); the same seed gives the same file")
       ->each([options](const std::string&) { options->seed_given = true; });
-  sim->add_option("--duration", options->duration, "Simulated seconds (default: the scenario's)")->check(CLI::PositiveNumber);
-  sim->add_option("--set", options->overrides, "Override a scenario key: dotted.key=value (repeatable)");
+  sim->add_option("--duration", options->duration, "Simulated seconds (default: the scenario's)")
+      ->check(CLI::PositiveNumber);
+  sim->add_option("--set", options->overrides,
+                  "Override a scenario key: dotted.key=value (repeatable)");
   sim->add_option("--renderer", options->renderer, "Camera renderer (default: the scenario's, cpu)")
       ->check(CLI::IsMember({"cpu", "opengl", "auto"}));
   sim->add_flag("--list", options->list, "List the scenario library");
-  sim->add_flag("--check", options->check, "Validate the scenario and build the simulator, print a summary");
+  sim->add_flag("--check", options->check,
+                "Validate the scenario and build the simulator, print a summary");
   sim->add_option("--export-model", options->export_dir,
                   "Write the target model (OBJ, PLY, dense point cloud, ViSP .cao, edges) to DIR");
-  sim->add_flag("--digest", options->digest, "Run without writing and print a digest of all messages (determinism checks)");
-  sim->add_option("--snapshot", options->snapshot_dir, "Write the camera and ToF images at --at times as PNG to DIR");
+  sim->add_flag("--digest", options->digest,
+                "Run without writing and print a digest of all messages (determinism checks)");
+  sim->add_option("--snapshot", options->snapshot_dir,
+                  "Write the camera and ToF images at --at times as PNG to DIR");
   sim->add_option("--at", options->snapshot_times, "Snapshot times (s), default 0");
-  sim->add_option("--snapshot-scale", options->snapshot_scale, "Scale of the snapshot PNGs")->check(CLI::Range(0.05, 1.0));
+  sim->add_option("--snapshot-scale", options->snapshot_scale, "Scale of the snapshot PNGs")
+      ->check(CLI::Range(0.05, 1.0));
   sim->add_flag("-q,--quiet", options->quiet, "No progress bar");
   sim->callback([options, &exit_code] { exit_code = runSim(*options); });
 }

@@ -34,8 +34,10 @@ struct Scene {
     camera.width = camera.height = 1024;
     camera.fx = camera.fy = 1100;
     camera.cx = camera.cy = 511.5;
-    scene.objects.push_back({0, lookAt(Eigen::Vector3d(-0.8, 0.35, 0.45).normalized() * distance, {0, 0, 0}), 1, true});
-    scene.sun_direction = scene.objects[0].camera_T_object.linear() * Eigen::Vector3d(-0.5, -0.6, 0.6).normalized();
+    scene.objects.push_back(
+        {0, lookAt(Eigen::Vector3d(-0.8, 0.35, 0.45).normalized() * distance, {0, 0, 0}), 1, true});
+    scene.sun_direction =
+        scene.objects[0].camera_T_object.linear() * Eigen::Vector3d(-0.5, -0.6, 0.6).normalized();
   }
 };
 
@@ -64,14 +66,22 @@ void renderFrame(benchmark::State& state, RendererBackend backend) {
   state.SetLabel(renderer->description());
 }
 
-void BM_RenderCpu(benchmark::State& state) { renderFrame(state, RendererBackend::kCpu); }
-void BM_RenderOpenGl(benchmark::State& state) { renderFrame(state, RendererBackend::kOpenGl); }
+void BM_RenderCpu(benchmark::State& state) {
+  renderFrame(state, RendererBackend::kCpu);
+}
+void BM_RenderOpenGl(benchmark::State& state) {
+  renderFrame(state, RendererBackend::kOpenGl);
+}
 BENCHMARK(BM_RenderCpu)->Arg(9)->Arg(5)->Arg(3)->Unit(benchmark::kMillisecond);
 // llvmpipe rasterises in its own thread (LP_NUM_THREADS=1): the process CPU time is the cost.
-BENCHMARK(BM_RenderOpenGl)->Arg(9)->Arg(5)->Arg(3)->MeasureProcessCPUTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RenderOpenGl)
+    ->Arg(9)
+    ->Arg(5)
+    ->Arg(3)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
-
 
 namespace {
 void BM_RenderCpuEmpty(benchmark::State& state) {
@@ -96,7 +106,8 @@ void BM_LidarScanVlp16(benchmark::State& state) {
   auto lidar = LidarSensor::create(LidarSpec::vlp16(), "lidar");
   const RelativePose pose = [](double t) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = Eigen::AngleAxisd(0.1 * t + 2.4, Eigen::Vector3d(0.3, 0.5, 1).normalized()).toRotationMatrix();
+    T.linear() = Eigen::AngleAxisd(0.1 * t + 2.4, Eigen::Vector3d(0.3, 0.5, 1).normalized())
+                     .toRotationMatrix();
     T.translation() = Eigen::Vector3d(6.0, -0.2, 0.3);
     return T;
   };
@@ -120,7 +131,8 @@ void BM_LidarScanVlp16AllRays(benchmark::State& state) {
   auto lidar = LidarSensor::create(LidarSpec::vlp16(), "lidar");
   for (auto _ : state) {
     Rng rng(1);
-    auto cloud = lidar->scan(**caster, room, [](double) { return Eigen::Isometry3d::Identity(); }, 0.0, {}, rng);
+    auto cloud = lidar->scan(
+        **caster, room, [](double) { return Eigen::Isometry3d::Identity(); }, 0.0, {}, rng);
     benchmark::DoNotOptimize(cloud->points.data());
   }
 }
@@ -130,7 +142,8 @@ void BM_TofFrame(benchmark::State& state) {
   const TargetModel model = *makeTargetSatellite();
   auto caster = RayCaster::create(model);
   auto tof = TofSensor::create(TofSpec::defaults(), "tof");
-  const Eigen::Isometry3d pose = lookAt(Eigen::Vector3d(-0.8, 0.35, 0.45).normalized() * 4.0, {0, 0, 0});
+  const Eigen::Isometry3d pose =
+      lookAt(Eigen::Vector3d(-0.8, 0.35, 0.45).normalized() * 4.0, {0, 0, 0});
   for (auto _ : state) {
     Rng rng(1);
     auto depth = tof->capture(**caster, model, pose, 0.0, rng);
@@ -154,7 +167,8 @@ void BM_CameraExposeProsilica(benchmark::State& state) {
   auto renderer = createCpuRenderer();
   s.scene.objects[0].model = *renderer->addModel(s.model);
   std::vector<RenderOutput> renders(1);
-  if (!renderer->render(s.scene, sensor->renderCamera(), renders[0])) state.SkipWithError("render failed");
+  if (!renderer->render(s.scene, sensor->renderCamera(), renders[0]))
+    state.SkipWithError("render failed");
   BackgroundView view;
   view.lvlh_R_camera = s.scene.objects[0].camera_T_object.linear().transpose();
   view.sun_direction = view.lvlh_R_camera * s.scene.sun_direction;
@@ -170,7 +184,8 @@ void BM_ImuSample(benchmark::State& state) {
   Orbit orbit;
   auto fly = flyAroundTranslation({0, 0, 0}, {0, 0, 1}, {0, -1, 0}, 12.0, 0.0, 0.02, 0.0);
   const Translation* self = fly.get();
-  World world(orbit, std::move(fly), pointingAttitude(orbit, self, nullptr, Eigen::Vector3d::UnitZ(), 0, 0),
+  World world(orbit, std::move(fly),
+              pointingAttitude(orbit, self, nullptr, Eigen::Vector3d::UnitZ(), 0, 0),
               lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()), Sun{});
   auto imu = ImuSensor::create(ImuSpec{}, "imu", Eigen::Isometry3d::Identity(), 1);
   double t = 0;

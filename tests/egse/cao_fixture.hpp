@@ -9,9 +9,9 @@
 namespace cdff::egse::testing {
 
 struct CaoFixture {
-  std::string error;          // empty on success
+  std::string error;  // empty on success
   std::size_t polygon_count = 0;
-  double aft_face_x = 0;      // x of the bus's -x face (the first polygon)
+  double aft_face_x = 0;  // x of the bus's -x face (the first polygon)
 };
 
 CaoFixture writeTargetCao(const std::string& path);

@@ -15,7 +15,8 @@ namespace {
 // against the CW dynamics.
 std::unique_ptr<World> flyAroundWorld() {
   Orbit orbit;
-  auto fly = flyAroundTranslation({0, 0, 0}, {0.2, 0.1, 1.0}, {0, -1, 0}, 12.0, -0.02, 1.5 * M_PI / 180, 0.0);
+  auto fly = flyAroundTranslation({0, 0, 0}, {0.2, 0.1, 1.0}, {0, -1, 0}, 12.0, -0.02,
+                                  1.5 * M_PI / 180, 0.0);
   const Translation* self = fly.get();
   auto pointing = pointingAttitude(orbit, self, nullptr, Eigen::Vector3d::UnitZ(), 0.05, -0.03);
   return std::make_unique<World>(orbit, std::move(fly), std::move(pointing),
@@ -24,7 +25,9 @@ std::unique_ptr<World> flyAroundWorld() {
 
 Eigen::Isometry3d mounting() {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  T.linear() = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
   return T;  // at the servicer's centre of mass, rotated
 }
 
@@ -40,7 +43,8 @@ Errors integrate(const World& world, ImuSensor& imu, double duration) {
   const Orbit& orbit = world.orbit();
   const double dt = 1.0 / imu.spec().rate;
   BodyState s0 = world.servicer(0);
-  Eigen::Quaterniond eci_R_imu(orbit.eciRotationLvlh(0) * s0.lvlh_T_body.linear() * servicer_T_imu.linear());
+  Eigen::Quaterniond eci_R_imu(orbit.eciRotationLvlh(0) * s0.lvlh_T_body.linear() *
+                               servicer_T_imu.linear());
   Eigen::Vector3d r = s0.lvlh_T_body.translation(), v = s0.velocity;
   ImuSample previous = *imu.sample(world, 0.0, {});
   const int steps = static_cast<int>(std::lround(duration / dt));
@@ -48,7 +52,8 @@ Errors integrate(const World& world, ImuSensor& imu, double duration) {
     const double t0 = (k - 1) * dt, t1 = k * dt;
     const ImuSample next = *imu.sample(world, t1, {});
     const Eigen::Quaterniond q0 = eci_R_imu;
-    eci_R_imu = (eci_R_imu * expSO3(0.5 * (previous.angular_velocity + next.angular_velocity) * dt)).normalized();
+    eci_R_imu = (eci_R_imu * expSO3(0.5 * (previous.angular_velocity + next.angular_velocity) * dt))
+                    .normalized();
     auto force_lvlh = [&](const Eigen::Quaterniond& q, const ImuSample& s, double t) {
       return Eigen::Vector3d(orbit.eciRotationLvlh(t).transpose() * (q * s.linear_acceleration));
     };
@@ -62,9 +67,11 @@ Errors integrate(const World& world, ImuSensor& imu, double duration) {
     previous = next;
   }
   const BodyState s1 = world.servicer(steps * dt);
-  const Eigen::Quaterniond truth(orbit.eciRotationLvlh(steps * dt) * s1.lvlh_T_body.linear() * servicer_T_imu.linear());
+  const Eigen::Quaterniond truth(orbit.eciRotationLvlh(steps * dt) * s1.lvlh_T_body.linear() *
+                                 servicer_T_imu.linear());
   Errors e;
-  e.attitude = orbit.eciRotationLvlh(steps * dt).transpose() * logSO3(eci_R_imu * truth.conjugate());
+  e.attitude =
+      orbit.eciRotationLvlh(steps * dt).transpose() * logSO3(eci_R_imu * truth.conjugate());
   e.position = r - s1.lvlh_T_body.translation();
   return e;
 }
@@ -94,7 +101,8 @@ TEST(Imu, ErrorsGrowAsTheNoiseModelPredicts) {
     ImuSpec spec;  // Xsens MTi defaults
     if (!turn_on_bias) spec.gyro_bias_sigma = spec.accel_bias_sigma = 0;
     const double T = 20.0;
-    const double var_attitude = std::pow(spec.gyro_bias_sigma * T, 2) + std::pow(spec.gyro_noise_density, 2) * T +
+    const double var_attitude = std::pow(spec.gyro_bias_sigma * T, 2) +
+                                std::pow(spec.gyro_noise_density, 2) * T +
                                 std::pow(spec.gyro_bias_random_walk, 2) * std::pow(T, 3) / 3;
     const double var_position = std::pow(spec.accel_bias_sigma, 2) * std::pow(T, 4) / 4 +
                                 std::pow(spec.accel_noise_density, 2) * std::pow(T, 3) / 3 +
@@ -136,7 +144,9 @@ TEST(Imu, LeverArmBiasJumpsAndBadSpecifications) {
   const Orbit& orbit = world->orbit();
   auto inertial_position = [&](double t) {
     const BodyState s = world->servicer(t);
-    return Eigen::Vector3d(orbit.eciRotationLvlh(t) * (s.lvlh_T_body * servicer_T_imu.translation()) + orbit.targetPositionEci(t));
+    return Eigen::Vector3d(orbit.eciRotationLvlh(t) *
+                               (s.lvlh_T_body * servicer_T_imu.translation()) +
+                           orbit.targetPositionEci(t));
   };
   // Gravity at the mounting point, linearised around the target (consistent with CW).
   auto gravity = [&](double t) {
@@ -148,7 +158,8 @@ TEST(Imu, LeverArmBiasJumpsAndBadSpecifications) {
       (inertial_position(t + h) - 2 * inertial_position(t) + inertial_position(t - h)) / (h * h);
   const Eigen::Vector3d specific_force_eci = acceleration - gravity(t);
   const ImuTruth truth = imuTruth(*world, servicer_T_imu, t);
-  const Eigen::Matrix3d eci_R_imu = orbit.eciRotationLvlh(t) * world->servicer(t).lvlh_T_body.linear() * servicer_T_imu.linear();
+  const Eigen::Matrix3d eci_R_imu =
+      orbit.eciRotationLvlh(t) * world->servicer(t).lvlh_T_body.linear() * servicer_T_imu.linear();
   // The finite difference of positions 6.9e6 m from the Earth's centre limits this to ~1e-4.
   EXPECT_LT((eci_R_imu * truth.specific_force - specific_force_eci).norm(), 5e-4);
 

@@ -90,8 +90,10 @@ TEST_F(Loaders, ObjWithQuadsNegativeIndicesAndMaterials) {
 
 TEST_F(Loaders, ScaleAndRecentre) {
   std::string obj;
-  for (const auto& c : kCorners) obj += fmt::format("v {} {} {}\n", 1000 * c[0], 1000 * c[1], 1000 * c[2]);
-  for (const auto& q : kQuads) obj += fmt::format("f {} {} {} {}\n", q[0] + 1, q[1] + 1, q[2] + 1, q[3] + 1);
+  for (const auto& c : kCorners)
+    obj += fmt::format("v {} {} {}\n", 1000 * c[0], 1000 * c[1], 1000 * c[2]);
+  for (const auto& q : kQuads)
+    obj += fmt::format("f {} {} {} {}\n", q[0] + 1, q[1] + 1, q[2] + 1, q[3] + 1);
   MeshLoadOptions options;
   options.scale = 0.001;
   expectUnitCube(loadObj(write("mm.obj", obj), options));
@@ -149,7 +151,9 @@ TEST_F(Loaders, StlAsciiAndBinary) {
   std::string ascii = "solid cube\n";
   for (const auto& t : cubeTriangles()) {
     ascii += "  facet normal 0 0 0\n    outer loop\n";
-    for (int i : t) ascii += fmt::format("      vertex {} {} {}\n", kCorners[i][0], kCorners[i][1], kCorners[i][2]);
+    for (int i : t)
+      ascii +=
+          fmt::format("      vertex {} {} {}\n", kCorners[i][0], kCorners[i][1], kCorners[i][2]);
     ascii += "    endloop\n  endfacet\n";
   }
   ascii += "endsolid cube\n";
@@ -232,12 +236,14 @@ void expectPlacedCube(const Result<TargetModel>& model) {
 
 TEST_F(Loaders, GltfEmbeddedExternalAndGlb) {
   GltfCube cube;
-  const std::string embedded = fmt::format(R"({{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}})",
-                                           cube.bin.size(), base64(cube.bin));
+  const std::string embedded =
+      fmt::format(R"({{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}})",
+                  cube.bin.size(), base64(cube.bin));
   expectPlacedCube(loadGltf(write("embedded.gltf", cube.json(embedded))));
 
   write("cube.bin", cube.bin);
-  const std::string external = fmt::format(R"({{"byteLength": {}, "uri": "cube.bin"}})", cube.bin.size());
+  const std::string external =
+      fmt::format(R"({{"byteLength": {}, "uri": "cube.bin"}})", cube.bin.size());
   expectPlacedCube(loadModel(write("external.gltf", cube.json(external))));
 
   std::string json = cube.json(fmt::format(R"({{"byteLength": {}}})", cube.bin.size()));
@@ -268,12 +274,13 @@ TEST_F(Loaders, BadObjFilesNameTheLine) {
   expectError(loadObj(write("a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n")),
               StatusCode::kCorruptData, "a.obj:3: vertex coordinate 'zero' is not a finite number");
   expectError(loadObj(write("b.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n")),
-              StatusCode::kCorruptData, "b.obj:4: face vertex 4 refers to a vertex not defined yet (3 so far)");
+              StatusCode::kCorruptData,
+              "b.obj:4: face vertex 4 refers to a vertex not defined yet (3 so far)");
   expectError(loadObj(write("c.obj", "v 0 0 0\nf 1 1\n")), StatusCode::kCorruptData,
               "c.obj:2: face has 2 vertices; expected at least 3");
-  expectError(loadObj(write("d.obj", "v 0 0 0\n")), StatusCode::kCorruptData,
-              "holds no triangles");
-  expectError(loadModel(dir_ / "missing.obj"), StatusCode::kNotFound, "missing.obj' does not exist");
+  expectError(loadObj(write("d.obj", "v 0 0 0\n")), StatusCode::kCorruptData, "holds no triangles");
+  expectError(loadModel(dir_ / "missing.obj"), StatusCode::kNotFound,
+              "missing.obj' does not exist");
   expectError(loadModel(write("e.xyz", "1 2 3\n")), StatusCode::kInvalidInput,
               "expected .obj, .ply, .stl, .gltf or .glb");
 }
@@ -286,9 +293,12 @@ TEST_F(Loaders, BadPlyFilesNameTheLineOrByte) {
               StatusCode::kCorruptData, "a.ply:12: 'one' in vertex 2 is not a number");
   expectError(loadPly(write("b.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n")),
               StatusCode::kCorruptData, "face 0 uses vertex 7; expected an index < 3");
-  expectError(loadPly(write("c.ply", "plx\n")), StatusCode::kCorruptData, "c.ply:1: not a PLY file");
-  expectError(loadPly(write("d.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty flaot x\nend_header\n")),
-              StatusCode::kCorruptData, "d.ply:4: unknown property type 'flaot'");
+  expectError(loadPly(write("c.ply", "plx\n")), StatusCode::kCorruptData,
+              "c.ply:1: not a PLY file");
+  expectError(
+      loadPly(write("d.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 1\nproperty flaot x\nend_header\n")),
+      StatusCode::kCorruptData, "d.ply:4: unknown property type 'flaot'");
   // Binary, truncated in the third vertex: 3 x 12 bytes expected, 30 present.
   const std::string bin_header =
       "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float "
@@ -300,22 +310,26 @@ TEST_F(Loaders, BadPlyFilesNameTheLineOrByte) {
 TEST_F(Loaders, BadStlAndGltfFiles) {
   expectError(loadStl(write("a.stl", "solid x\n vertex 0 0 0\n")), StatusCode::kCorruptData,
               "a.stl:2: 'vertex' outside 'outer loop'");
-  expectError(loadStl(write("b.stl", "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n")),
-              StatusCode::kCorruptData, "b.stl:6: a facet has 2 vertices; expected 3");
+  expectError(
+      loadStl(
+          write("b.stl",
+                "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\n")),
+      StatusCode::kCorruptData, "b.stl:6: a facet has 2 vertices; expected 3");
   expectError(loadStl(write("c.stl", std::string(100, 'x'))), StatusCode::kCorruptData,
               "not an STL file: 100 bytes");
   expectError(loadGltf(write("a.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [")),
               StatusCode::kCorruptData, "a.gltf: byte 41: invalid JSON");
-  expectError(loadGltf(write("b.gltf", R"({"asset": {"version": "1.0"}})")), StatusCode::kCorruptData,
-              "asset.version is '1.0'; expected glTF 2.x");
+  expectError(loadGltf(write("b.gltf", R"({"asset": {"version": "1.0"}})")),
+              StatusCode::kCorruptData, "asset.version is '1.0'; expected glTF 2.x");
   GltfCube cube;
   std::string short_buffer = cube.json(
       fmt::format(R"({{"byteLength": 96, "uri": "data:application/octet-stream;base64,{}"}})",
                   base64(cube.bin.substr(0, 96))));
   expectError(loadGltf(write("c.gltf", short_buffer)), StatusCode::kCorruptData,
               "bufferViews[1] spans bytes 96..168 of buffer 0, which has 96 bytes");
-  expectError(loadGltf(write("d.glb", std::string("glTF\x01\0\0\0\x20\0\0\0", 12) + std::string(8, '\0'))),
-              StatusCode::kCorruptData, "d.glb: byte 4: GLB version 1; expected 2");
+  expectError(
+      loadGltf(write("d.glb", std::string("glTF\x01\0\0\0\x20\0\0\0", 12) + std::string(8, '\0'))),
+      StatusCode::kCorruptData, "d.glb: byte 4: GLB version 1; expected 2");
 }
 
 }  // namespace

@@ -15,7 +15,8 @@ namespace cdff::egse {
 namespace {
 
 std::filesystem::path tempDir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() / ("cdff_egse_" + name + "_" + std::to_string(::getpid()));
+  auto dir = std::filesystem::temp_directory_path() /
+             ("cdff_egse_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
@@ -124,7 +125,8 @@ TEST(ProceduralTarget, PolygonsArePlanarAndCounterClockwiseSeenFromOutside) {
     n.normalize();
     const Eigen::Vector3d o = V[poly.vertices[0]].cast<double>();
     for (std::uint32_t v : poly.vertices) {
-      EXPECT_LT(std::abs((V[v].cast<double>() - o).dot(n)), 1e-5) << "polygon " << p << " is not planar";
+      EXPECT_LT(std::abs((V[v].cast<double>() - o).dot(n)), 1e-5)
+          << "polygon " << p << " is not planar";
       // The shading normal is on the same side as the polygon's right-hand normal.
       EXPECT_GT(model->mesh.vertex_normals[v].cast<double>().dot(n), 0.0) << "polygon " << p;
     }
@@ -144,7 +146,8 @@ TEST(ProceduralTarget, RejectsBadSpecificationsNamingTheKey) {
   spec.bus_size.y() = -1;
   auto model = makeTargetSatellite(spec);
   ASSERT_FALSE(model.isOk());
-  EXPECT_NE(model.status().message().find("bus_size[1]"), std::string::npos) << model.status().message();
+  EXPECT_NE(model.status().message().find("bus_size[1]"), std::string::npos)
+      << model.status().message();
   spec = TargetSpec{};
   spec.ring_diameter = 3.0;
   model = makeTargetSatellite(spec);
@@ -211,7 +214,8 @@ TEST(ModelSampling, PointsLieOnTheSurfaceUniformlyByArea) {
   for (std::size_t i = 0; i < n; ++i) {
     // Cell points are on the panels' +z faces (cells face +z with wing_angle 0) at |y| > 0.88 m.
     const Eigen::Vector3f p = cloud.points[i].vec();
-    if (std::abs(p.y()) > 0.88f && cloud.normals[i].z > 0.99f && cloud.intensity[i] == cell_reflectivity)
+    if (std::abs(p.y()) > 0.88f && cloud.normals[i].z > 0.99f &&
+        cloud.intensity[i] == cell_reflectivity)
       ++on_cells;
   }
   EXPECT_NEAR(static_cast<double>(on_cells) / n, share, 5 * std::sqrt(share * (1 - share) / n));
@@ -242,7 +246,8 @@ TEST(ModelExport, WritesEveryFormatAndReadsItBack) {
   const auto dir = tempDir("export");
   auto files = exportModel(*model, dir, "target", 5000, 3);
   ASSERT_OK(files.status());
-  for (const auto& path : {files->obj, files->mtl, files->ply, files->points_ply, files->cao, files->edges})
+  for (const auto& path :
+       {files->obj, files->mtl, files->ply, files->points_ply, files->cao, files->edges})
     EXPECT_GT(std::filesystem::file_size(path), 100u) << path;
 
   auto ply = loadPly(files->ply);

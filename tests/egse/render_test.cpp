@@ -34,10 +34,11 @@ CameraModel prosilica(bool distorted) {
 }
 
 // camera_T_target for a camera at `eye` (target frame) looking at `at`, image up ~ `up`.
-Eigen::Isometry3d lookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& at, const Eigen::Vector3d& up) {
+Eigen::Isometry3d lookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& at,
+                         const Eigen::Vector3d& up) {
   const Eigen::Vector3d z = (at - eye).normalized();
   const Eigen::Vector3d x = z.cross(up).normalized();  // right
-  const Eigen::Vector3d y = z.cross(x);                 // down
+  const Eigen::Vector3d y = z.cross(x);                // down
   Eigen::Matrix3d target_R_camera;
   target_R_camera << x, y, z;
   Eigen::Isometry3d target_T_camera = Eigen::Isometry3d::Identity();
@@ -66,8 +67,9 @@ struct Shot {
   PinholeCamera canvas;
 };
 
-Shot shoot(Renderer& renderer, int model, const CameraSpec& spec, const Eigen::Isometry3d& camera_T_target,
-           const Eigen::Vector3d& sun_in_target, CameraFaults faults = {}) {
+Shot shoot(Renderer& renderer, int model, const CameraSpec& spec,
+           const Eigen::Isometry3d& camera_T_target, const Eigen::Vector3d& sun_in_target,
+           CameraFaults faults = {}) {
   auto sensor = CameraSensor::create(spec, "camera");
   EXPECT_TRUE(sensor.isOk()) << sensor.status().toString();
   RenderScene scene;
@@ -91,16 +93,20 @@ Shot shoot(Renderer& renderer, int model, const CameraSpec& spec, const Eigen::I
 // The analytic silhouette: every triangle projected by cv::projectPoints (edges subdivided so
 // that distortion bends them); a pixel is in when its centre is inside one of the projected
 // triangles (cv::pointPolygonTest), the sampling rule of a pinhole camera model.
-cv::Mat analyticMask(const TargetModel& model, const CameraModel& camera, const Eigen::Isometry3d& camera_T_target) {
+cv::Mat analyticMask(const TargetModel& model, const CameraModel& camera,
+                     const Eigen::Isometry3d& camera_T_target) {
   cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  cv::Mat D = camera.distortion.empty() ? cv::Mat::zeros(1, 5, CV_64F) : cv::Mat(camera.distortion).clone().reshape(1, 1);
+  const cv::Mat K =
+      (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  cv::Mat D = camera.distortion.empty() ? cv::Mat::zeros(1, 5, CV_64F)
+                                        : cv::Mat(camera.distortion).clone().reshape(1, 1);
   constexpr int kSplit = 6;
   std::vector<cv::Point3d> points;
   for (const auto& t : model.mesh.triangles)
     for (int e = 0; e < 3; ++e) {
       const Eigen::Vector3d a = camera_T_target * model.mesh.vertices[t[e]].cast<double>();
-      const Eigen::Vector3d b = camera_T_target * model.mesh.vertices[t[(e + 1) % 3]].cast<double>();
+      const Eigen::Vector3d b =
+          camera_T_target * model.mesh.vertices[t[(e + 1) % 3]].cast<double>();
       for (int s = 0; s < kSplit; ++s) {
         const Eigen::Vector3d p = a + (b - a) * (static_cast<double>(s) / kSplit);
         points.emplace_back(p.x(), p.y(), p.z());
@@ -114,13 +120,15 @@ cv::Mat analyticMask(const TargetModel& model, const CameraModel& camera, const 
     const cv::Rect box = cv::boundingRect(polygon) & cv::Rect(0, 0, camera.width, camera.height);
     for (int y = box.y; y < box.y + box.height; ++y)
       for (int x = box.x; x < box.x + box.width; ++x)
-        if (!mask.at<std::uint8_t>(y, x) && cv::pointPolygonTest(polygon, cv::Point2f(x, y), false) >= 0)
+        if (!mask.at<std::uint8_t>(y, x) &&
+            cv::pointPolygonTest(polygon, cv::Point2f(x, y), false) >= 0)
           mask.at<std::uint8_t>(y, x) = 1;
   }
   return mask;
 }
 
-double iou(const std::vector<std::uint8_t>& labels, const cv::Mat& analytic, std::uint8_t label = 1) {
+double iou(const std::vector<std::uint8_t>& labels, const cv::Mat& analytic,
+           std::uint8_t label = 1) {
   std::size_t both = 0, either = 0;
   for (int y = 0; y < analytic.rows; ++y)
     for (int x = 0; x < analytic.cols; ++x) {
@@ -142,15 +150,20 @@ TEST_P(Backends, SilhouetteMatchesTheAnalyticProjection) {
   ASSERT_OK(handle.status());
   // Mid range (10 m, the whole target in view) and close range (3 m, the bus fills the image).
   const std::vector<std::pair<Eigen::Vector3d, bool>> views = {
-      {Eigen::Vector3d(-8.0, 3.0, 4.0), false}, {Eigen::Vector3d(-8.0, 3.0, 4.0), true},
+      {Eigen::Vector3d(-8.0, 3.0, 4.0), false},
+      {Eigen::Vector3d(-8.0, 3.0, 4.0), true},
       {Eigen::Vector3d(-2.6, -0.8, 1.1), true}};
   for (const auto& [eye, distorted] : views) {
     CameraSpec spec;
     spec.model = prosilica(distorted);
-    const Eigen::Isometry3d camera_T_target = lookAt(eye, Eigen::Vector3d(-0.2, 0, 0.1), Eigen::Vector3d::UnitZ());
-    const Shot shot = shoot(*renderer, *handle, spec, camera_T_target, Eigen::Vector3d(-1, 0.5, 0.8));
+    const Eigen::Isometry3d camera_T_target =
+        lookAt(eye, Eigen::Vector3d(-0.2, 0, 0.1), Eigen::Vector3d::UnitZ());
+    const Shot shot =
+        shoot(*renderer, *handle, spec, camera_T_target, Eigen::Vector3d(-1, 0.5, 0.8));
     const double value = iou(shot.frame.labels, analyticMask(model, spec.model, camera_T_target));
-    RecordProperty(fmt::format("iou_{}_{}", eye.norm() > 5 ? "10m" : "3m", distorted ? "distorted" : "pinhole"), std::to_string(value));
+    RecordProperty(fmt::format("iou_{}_{}", eye.norm() > 5 ? "10m" : "3m",
+                               distorted ? "distorted" : "pinhole"),
+                   std::to_string(value));
     EXPECT_GE(value, 0.98) << "view from " << eye.transpose() << (distorted ? " (distorted)" : "");
     // Beyond the requirement: only edge pixels may differ (the distortion remap picks the nearest
     // canvas pixel, so a silhouette may move by half a pixel).
@@ -172,11 +185,14 @@ TEST_P(Backends, DepthIsTheDistanceAlongTheOpticalAxis) {
   CameraSpec spec;
   spec.model = prosilica(true);
   Eigen::Isometry3d camera_T_plate = Eigen::Isometry3d::Identity();
-  camera_T_plate.linear() = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  camera_T_plate.linear() = (Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
   camera_T_plate.translation() = Eigen::Vector3d(0.2, -0.1, 5.0);
   const Shot shot = shoot(*renderer, *handle, spec, camera_T_plate, Eigen::Vector3d(0, 0, 1));
   const Eigen::Vector3d n = camera_T_plate.linear().col(2), p0 = camera_T_plate.translation();
-  const cv::Mat K = (cv::Mat_<double>(3, 3) << spec.model.fx, 0, spec.model.cx, 0, spec.model.fy, spec.model.cy, 0, 0, 1);
+  const cv::Mat K = (cv::Mat_<double>(3, 3) << spec.model.fx, 0, spec.model.cx, 0, spec.model.fy,
+                     spec.model.cy, 0, 0, 1);
   std::vector<cv::Point2d> pixels, rays;
   std::vector<std::size_t> index;
   const int W = spec.model.width, H = spec.model.height;
@@ -185,44 +201,52 @@ TEST_P(Backends, DepthIsTheDistanceAlongTheOpticalAxis) {
       bool interior = true;  // away from the plate's edges
       for (int dy = -2; dy <= 2; ++dy)
         for (int dx = -2; dx <= 2; ++dx)
-          interior = interior && shot.frame.labels[static_cast<std::size_t>(y + dy) * W + x + dx] == 1;
+          interior =
+              interior && shot.frame.labels[static_cast<std::size_t>(y + dy) * W + x + dx] == 1;
       if (!interior) continue;
       pixels.emplace_back(x, y);
       index.push_back(static_cast<std::size_t>(y) * W + x);
     }
   ASSERT_GT(pixels.size(), 10000u);
-  cv::undistortPoints(pixels, rays, K, cv::Mat(spec.model.distortion), cv::noArray(), cv::noArray(),
-                          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-14));
+  cv::undistortPoints(
+      pixels, rays, K, cv::Mat(spec.model.distortion), cv::noArray(), cv::noArray(),
+      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-14));
   double worst = 0;
   for (std::size_t i = 0; i < rays.size(); ++i) {
     const Eigen::Vector3d ray(rays[i].x, rays[i].y, 1.0);
     const double z = n.dot(p0) / n.dot(ray);  // the intersection's z (ray has z = 1)
-    const float rendered = reinterpret_cast<const float*>(shot.frame.depth.image.pixels.data())[index[i]];
+    const float rendered =
+        reinterpret_cast<const float*>(shot.frame.depth.image.pixels.data())[index[i]];
     worst = std::max(worst, std::abs(rendered - z));
   }
   RecordProperty("depth_max_error_m", std::to_string(worst));
   EXPECT_LT(worst, 1e-3) << "depth off by up to " << worst << " m on a plate 5 m away";
 }
 
-INSTANTIATE_TEST_SUITE_P(Renderers, Backends, ::testing::Values(RendererBackend::kCpu, RendererBackend::kOpenGl),
+INSTANTIATE_TEST_SUITE_P(Renderers, Backends,
+                         ::testing::Values(RendererBackend::kCpu, RendererBackend::kOpenGl),
                          [](const auto& info) { return std::string(toString(info.param)); });
 
 TEST(Lens, MatchesOpenCvProjectionAndUndistortion) {
   for (const auto& [model, coefficients] :
        std::vector<std::pair<DistortionModel, std::vector<double>>>{
            {DistortionModel::kRadialTangential, {-0.12, 0.05, 0.0005, -0.0003, 0.01}},
-           {DistortionModel::kRadialTangential, {-0.2, 0.1, 0.001, 0.002, 0.0, 0.01, 0.002, 0.001}}}) {
+           {DistortionModel::kRadialTangential,
+            {-0.2, 0.1, 0.001, 0.002, 0.0, 0.01, 0.002, 0.001}}}) {
     CameraModel c = prosilica(false);
     c.distortion_model = model;
     c.distortion = coefficients;
     const cv::Mat K = (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
     std::vector<cv::Point3d> points;
     Rng rng(4);
-    for (int i = 0; i < 500; ++i) points.emplace_back(rng.uniform(-0.6, 0.6), rng.uniform(-0.45, 0.45), 1.0);
+    for (int i = 0; i < 500; ++i)
+      points.emplace_back(rng.uniform(-0.6, 0.6), rng.uniform(-0.45, 0.45), 1.0);
     std::vector<cv::Point2d> expected;
-    cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, cv::Mat(coefficients), expected);
+    cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, cv::Mat(coefficients),
+                      expected);
     for (std::size_t i = 0; i < points.size(); ++i) {
-      const Eigen::Vector2d p = projectWithDistortion(c, Eigen::Vector3d(points[i].x, points[i].y, points[i].z));
+      const Eigen::Vector2d p =
+          projectWithDistortion(c, Eigen::Vector3d(points[i].x, points[i].y, points[i].z));
       EXPECT_NEAR(p.x(), expected[i].x, 1e-8);
       EXPECT_NEAR(p.y(), expected[i].y, 1e-8);
       // And back: the pixel's ray goes through the point.
@@ -246,7 +270,8 @@ TEST(Renderers, BackendsAgree) {
   cam.cy = 299.5;
   RenderScene scene;
   scene.objects.push_back({a, lookAt({-6, 2.5, 3}, {0, 0, 0}, Eigen::Vector3d::UnitZ()), 1, true});
-  scene.sun_direction = scene.objects[0].camera_T_object.linear() * Eigen::Vector3d(-0.6, -0.3, 0.75).normalized();
+  scene.sun_direction =
+      scene.objects[0].camera_T_object.linear() * Eigen::Vector3d(-0.6, -0.3, 0.75).normalized();
   RenderOutput x, y;
   ASSERT_OK(cpu->render(scene, cam, x));
   scene.objects[0].model = b;
@@ -258,13 +283,17 @@ TEST(Renderers, BackendsAgree) {
     both += hx && hy;
     either += hx || hy;
     if (!(hx && hy)) continue;
-    depth_error = std::max(depth_error, static_cast<double>(std::abs(x.depth[i] - y.depth[i]) / x.depth[i]));
+    depth_error =
+        std::max(depth_error, static_cast<double>(std::abs(x.depth[i] - y.depth[i]) / x.depth[i]));
     ++shaded;
     bool near = true;
-    for (int c = 0; c < 3; ++c) near = near && std::abs(x.radiance[3 * i + c] - y.radiance[3 * i + c]) < 0.01 + 0.02 * x.radiance[3 * i + c];
+    for (int c = 0; c < 3; ++c)
+      near = near && std::abs(x.radiance[3 * i + c] - y.radiance[3 * i + c]) <
+                         0.01 + 0.02 * x.radiance[3 * i + c];
     close += near;
   }
-  const double overlap = static_cast<double>(both) / either, agree = static_cast<double>(close) / shaded;
+  const double overlap = static_cast<double>(both) / either,
+               agree = static_cast<double>(close) / shaded;
   RecordProperty("silhouette_iou", std::to_string(overlap));
   RecordProperty("shading_agreement", std::to_string(agree));
   EXPECT_GE(overlap, 0.998);
@@ -283,7 +312,8 @@ TEST(Renderers, SpaceImageryHasNoAmbientLightHardShadowsAndSaturatedHighlights) 
   CameraSpec spec;
   spec.model = prosilica(false);
   spec.noise = false;
-  const Eigen::Isometry3d camera_T_target = lookAt({-6, 3, 3.5}, {0, 0, 0.1}, Eigen::Vector3d::UnitZ());
+  const Eigen::Isometry3d camera_T_target =
+      lookAt({-6, 3, 3.5}, {0, 0, 0.1}, Eigen::Vector3d::UnitZ());
   const Eigen::Vector3d sun = Eigen::Vector3d(-0.3, -0.9, 0.5).normalized();  // side-lit
   const Shot shot = shoot(*renderer, handle, spec, camera_T_target, sun);
   const PinholeCamera& cam = shot.canvas;
@@ -294,11 +324,15 @@ TEST(Renderers, SpaceImageryHasNoAmbientLightHardShadowsAndSaturatedHighlights) 
       const std::size_t i = static_cast<std::size_t>(y) * cam.width + x;
       if (shot.render.id[i] != 1) continue;
       ++target_pixels;
-      const float r = shot.render.radiance[3 * i] + shot.render.radiance[3 * i + 1] + shot.render.radiance[3 * i + 2];
+      const float r = shot.render.radiance[3 * i] + shot.render.radiance[3 * i + 1] +
+                      shot.render.radiance[3 * i + 2];
       black += r == 0.0f;
       // Ground truth by ray casting: the surface point, its normal and a shadow ray to the sun.
-      const Eigen::Vector3d dir = target_T_camera.linear() * Eigen::Vector3d((x - cam.cx) / cam.fx, (y - cam.cy) / cam.fy, 1).normalized();
-      const RayHit hit = (*caster)->intersect({target_T_camera.translation().cast<float>(), dir.cast<float>(), 0.0f, 1e4f});
+      const Eigen::Vector3d dir =
+          target_T_camera.linear() *
+          Eigen::Vector3d((x - cam.cx) / cam.fx, (y - cam.cy) / cam.fy, 1).normalized();
+      const RayHit hit = (*caster)->intersect(
+          {target_T_camera.translation().cast<float>(), dir.cast<float>(), 0.0f, 1e4f});
       if (!hit.hit) continue;
       // (Curved parts are shaded with smooth normals, up to 6 degrees off their facets.)
       if (hit.normal.cast<double>().dot(sun) < -0.15) {
@@ -307,8 +341,10 @@ TEST(Renderers, SpaceImageryHasNoAmbientLightHardShadowsAndSaturatedHighlights) 
       }
       if (hit.normal.cast<double>().dot(sun) < 0.1) continue;  // grazing: shadow acne territory
       ++facing_sun;
-      const Eigen::Vector3f p = target_T_camera.translation().cast<float>() + hit.distance * dir.cast<float>();
-      const bool in_shadow = (*caster)->occluded({p + 0.01f * hit.normal, sun.cast<float>(), 0.0f, 1e4f});
+      const Eigen::Vector3f p =
+          target_T_camera.translation().cast<float>() + hit.distance * dir.cast<float>();
+      const bool in_shadow =
+          (*caster)->occluded({p + 0.01f * hit.normal, sun.cast<float>(), 0.0f, 1e4f});
       shadow_agrees += in_shadow == (r == 0.0f);
       lit_but_dark += !in_shadow && r == 0.0f;
     }
@@ -316,18 +352,22 @@ TEST(Renderers, SpaceImageryHasNoAmbientLightHardShadowsAndSaturatedHighlights) 
   const double agreement = static_cast<double>(shadow_agrees) / facing_sun;
   RecordProperty("shadow_agreement", std::to_string(agreement));
   EXPECT_GE(agreement, 0.97) << "shadows against ray-cast truth";
-  EXPECT_GT(static_cast<double>(black) / target_pixels, 0.15) << "no ambient light: unlit parts are black";
+  EXPECT_GT(static_cast<double>(black) / target_pixels, 0.15)
+      << "no ambient light: unlit parts are black";
   EXPECT_LT(static_cast<double>(lit_but_dark) / facing_sun, 0.02);
 
   // A solar wing mirroring the sun into the camera saturates; a short exposure underexposes.
-  const Eigen::Vector3d to_camera = (target_T_camera.translation() - Eigen::Vector3d(0, 2, 0)).normalized();
-  const Eigen::Vector3d mirrored = (2 * to_camera.z() * Eigen::Vector3d::UnitZ() - to_camera).normalized();
+  const Eigen::Vector3d to_camera =
+      (target_T_camera.translation() - Eigen::Vector3d(0, 2, 0)).normalized();
+  const Eigen::Vector3d mirrored =
+      (2 * to_camera.z() * Eigen::Vector3d::UnitZ() - to_camera).normalized();
   const Shot glint = shoot(*renderer, handle, spec, camera_T_target, mirrored);
   float peak = 0;
   for (float v : glint.render.radiance) peak = std::max(peak, v);
   EXPECT_GT(peak, 10.0f) << "specular highlight on the cover glass";
   const auto& bytes = glint.frame.image.pixels;
-  EXPECT_GT(std::count(bytes.begin(), bytes.end(), 255), 100) << "the highlight saturates the sensor";
+  EXPECT_GT(std::count(bytes.begin(), bytes.end(), 255), 100)
+      << "the highlight saturates the sensor";
 
   auto target_mean = [](const Shot& s) {
     double sum = 0;
@@ -354,7 +394,8 @@ TEST(Renderers, SpaceImageryHasNoAmbientLightHardShadowsAndSaturatedHighlights) 
     }
   EXPECT_GT(normal_mean, 15.0);
   EXPECT_LT(dim_mean, 0.1 * normal_mean + 1.0);
-  EXPECT_GT(static_cast<double>(saturated) / lit, 0.9) << "20x the exposure burns out the lit parts";
+  EXPECT_GT(static_cast<double>(saturated) / lit, 0.9)
+      << "20x the exposure burns out the lit parts";
 }
 
 TEST(Renderers, AreDeterministic) {
@@ -369,7 +410,8 @@ TEST(Renderers, AreDeterministic) {
     const Shot b = shoot(*second, *second->addModel(model), spec, pose, {-1, -1, 1});
     EXPECT_EQ(a.render.radiance, b.render.radiance) << toString(backend);
     EXPECT_EQ(a.render.depth, b.render.depth) << toString(backend);
-    EXPECT_TRUE(std::equal(a.frame.image.pixels.begin(), a.frame.image.pixels.end(), b.frame.image.pixels.begin()));
+    EXPECT_TRUE(std::equal(a.frame.image.pixels.begin(), a.frame.image.pixels.end(),
+                           b.frame.image.pixels.begin()));
   }
 }
 

@@ -12,7 +12,8 @@ namespace cdff::egse {
 namespace {
 
 // Nearest intersection by testing every triangle (Moller-Trumbore): independent of Embree.
-std::optional<double> bruteForceRay(const TargetModel& model, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+std::optional<double> bruteForceRay(const TargetModel& model, const Eigen::Vector3d& o,
+                                    const Eigen::Vector3d& d) {
   std::optional<double> best;
   for (const auto& t : model.mesh.triangles) {
     const Eigen::Vector3d a = model.mesh.vertices[t[0]].cast<double>();
@@ -33,7 +34,9 @@ std::optional<double> bruteForceRay(const TargetModel& model, const Eigen::Vecto
   return best;
 }
 
-TargetModel target() { return std::move(makeTargetSatellite()).value(); }
+TargetModel target() {
+  return std::move(makeTargetSatellite()).value();
+}
 
 // A target 6 m ahead of the LIDAR, tilted; optionally tumbling at `rate` rad/s about an oblique
 // axis and drifting at `speed` m/s sideways.
@@ -60,7 +63,8 @@ TEST(Lidar, Vlp16PatternTimingAndRings) {
   auto lidar = LidarSensor::create(spec, "lidar");
   ASSERT_OK(lidar.status());
   Rng rng(1);
-  auto cloud = lidar->scan(**caster, room, [](double) { return Eigen::Isometry3d::Identity(); }, 0.0, {}, rng);
+  auto cloud = lidar->scan(
+      **caster, room, [](double) { return Eigen::Isometry3d::Identity(); }, 0.0, {}, rng);
   ASSERT_OK(cloud.status());
   // 100 ms / 55.296 us = 1808 firing sequences of 16 lasers: ~28.9k points per revolution.
   EXPECT_EQ(cloud->size(), 1808u * 16u);
@@ -82,7 +86,8 @@ TEST(Lidar, Vlp16PatternTimingAndRings) {
   EXPECT_LT(cloud->time_offset_us[cloud->size() - 1], 100000);
   // Azimuth step between two sequences of one laser: 0.2 degrees at 10 Hz.
   const Eigen::Vector3f a = cloud->points[0].vec(), c = cloud->points[16].vec();
-  const double step = std::acos(a.head<2>().normalized().dot(c.head<2>().normalized())) * 180 / M_PI;
+  const double step =
+      std::acos(a.head<2>().normalized().dot(c.head<2>().normalized())) * 180 / M_PI;
   EXPECT_NEAR(step, 0.199, 0.001);
   // Azimuth turns clockwise seen from above: from +x towards -y.
   EXPECT_LT(c.y(), 0.0f);
@@ -148,8 +153,10 @@ TEST(Lidar, PointsFollowTheTargetDuringTheScan) {
       const Eigen::Vector3d d = (target_T_sensor.linear() * p).normalized();
       const auto truth = bruteForceRay(model, target_T_sensor.translation(), d);
       const double error = truth ? std::abs(p.norm() - *truth) : 1e9;
-      if (which == 0) on_surface += error < 2e-4;  // the keyframe interpolation: ~1e-5 m
-      else off_at_start_pose += error > 0.01;
+      if (which == 0)
+        on_surface += error < 2e-4;  // the keyframe interpolation: ~1e-5 m
+      else
+        off_at_start_pose += error > 0.01;
     }
   }
   EXPECT_EQ(on_surface, n) << "every point is on the target at its own time";
@@ -166,7 +173,8 @@ TEST(Lidar, DropoutsAndSpuriousReturns) {
   Rng rng2(3);
   LidarFaults faults;
   faults.extra_dropout = 0.4;
-  const std::size_t kept = lidar->scan(**caster, model, movingTarget(0, 0), 0.0, faults, rng2)->size();
+  const std::size_t kept =
+      lidar->scan(**caster, model, movingTarget(0, 0), 0.0, faults, rng2)->size();
   EXPECT_NEAR(static_cast<double>(kept) / full, 0.6, 4 * std::sqrt(0.24 / full));
   // Spurious returns anywhere in the pattern, at ranges up to 100 m.
   Rng rng3(4);
@@ -189,7 +197,8 @@ TEST(Tof, DepthIsThePlaneDistanceWithTheConfiguredNoise) {
   const TargetModel plate = b.build();
   auto caster = RayCaster::create(plate);
   Eigen::Isometry3d camera_T_plate = Eigen::Isometry3d::Identity();
-  camera_T_plate.linear() = Eigen::AngleAxisd(M_PI + 0.3, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  camera_T_plate.linear() =
+      Eigen::AngleAxisd(M_PI + 0.3, Eigen::Vector3d::UnitX()).toRotationMatrix();
   camera_T_plate.translation() = Eigen::Vector3d(0, 0, 2.5);
   for (double constant : {0.0, 0.004}) {
     TofSpec spec = TofSpec::defaults();
@@ -209,7 +218,8 @@ TEST(Tof, DepthIsThePlaneDistanceWithTheConfiguredNoise) {
       for (int x = 0; x < spec.model.width; ++x) {
         const float measured = z[y * spec.model.width + x];
         if (measured == 0) continue;
-        const Eigen::Vector3d ray((x - spec.model.cx) / spec.model.fx, (y - spec.model.cy) / spec.model.fy, 1.0);
+        const Eigen::Vector3d ray((x - spec.model.cx) / spec.model.fx,
+                                  (y - spec.model.cy) / spec.model.fy, 1.0);
         const double truth_z = n.dot(p0) / n.dot(ray);
         const double range_error = (measured - truth_z) * ray.norm();
         sum2 += range_error * range_error;
@@ -217,8 +227,10 @@ TEST(Tof, DepthIsThePlaneDistanceWithTheConfiguredNoise) {
       }
     ASSERT_GT(valid, 40000u);
     const double rms = std::sqrt(sum2 / valid);
-    if (constant == 0) EXPECT_LT(rms, 1e-5);
-    else EXPECT_NEAR(rms, constant, 0.05 * constant);
+    if (constant == 0)
+      EXPECT_LT(rms, 1e-5);
+    else
+      EXPECT_NEAR(rms, constant, 0.05 * constant);
   }
 }
 
@@ -229,7 +241,8 @@ TEST(Radar, RangeAndRangeRateToTheTarget) {
   spec.range_noise = spec.range_rate_noise = spec.angle_noise = 0;
   // Approaching along the target's -x axis (facing the adapter ring) at 0.5 m/s from 200 m.
   const RelativePose pose = [](double t) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();  // the target's -x (aft) face looks at the radar
+    Eigen::Isometry3d T =
+        Eigen::Isometry3d::Identity();  // the target's -x (aft) face looks at the radar
     T.translation() = Eigen::Vector3d(200.0 - 0.5 * t, 0, 0);
     return T;
   };

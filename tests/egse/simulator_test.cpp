@@ -43,7 +43,8 @@ int maxPixel(const Image& image) {
 }
 
 TEST(Simulator, ShortRunHasEveryStreamInLogTimeOrder) {
-  const Scenario scenario = library("mid_range_approach", smallCameras({"sensors.radar.enabled=true"}));
+  const Scenario scenario =
+      library("mid_range_approach", smallCameras({"sensors.radar.enabled=true"}));
   auto sim = Simulator::create(scenario, 3, 1.0);
   ASSERT_OK(sim.status());
   MemorySink sink;
@@ -80,7 +81,8 @@ TEST(Simulator, ShortRunHasEveryStreamInLogTimeOrder) {
   EXPECT_EQ(images[3].camera->fx, 300.0);
   EXPECT_GT(maxPixel(images[3]), 60) << "the target is in view and lit";
   const auto clouds = sink.on<PointCloud>("/chaser/lidar/points");
-  EXPECT_GT(clouds[0].size(), 20u) << "a VLP-16's beams are 2 degrees apart: at 17 m a few dozen hit";
+  EXPECT_GT(clouds[0].size(), 20u)
+      << "a VLP-16's beams are 2 degrees apart: at 17 m a few dozen hit";
   EXPECT_EQ(clouds[0].frame_id, "lidar");
   ASSERT_OK(clouds[0].validate());
   const auto ranges = sink.on<RangeMeasurement>("/chaser/radar/range");
@@ -95,7 +97,8 @@ TEST(Simulator, TruthTransformsAreConsistent) {
   MemorySink sink;
   ASSERT_OK((*sim)->run(sink));
   std::map<Timestamp, RigidBodyState> servicer_truth;
-  for (const auto& s : sink.on<RigidBodyState>("/truth/target_pose")) servicer_truth[s.pose.stamp] = s;
+  for (const auto& s : sink.on<RigidBodyState>("/truth/target_pose"))
+    servicer_truth[s.pose.stamp] = s;
   std::map<std::string, Transform> mounts;
   for (const auto& t : sink.on<Transform>("/tf_static")) mounts[t.child_frame] = t;
   ASSERT_TRUE(mounts.count("camera_left_optical"));
@@ -104,20 +107,26 @@ TEST(Simulator, TruthTransformsAreConsistent) {
     auto it = servicer_truth.find(s.pose.stamp);
     if (it == servicer_truth.end()) continue;
     // camera_T_target = (servicer_T_camera)^-1 servicer_T_target.
-    const Eigen::Isometry3d expected = mounts["camera_left_optical"].isometry().inverse() * it->second.pose.isometry();
+    const Eigen::Isometry3d expected =
+        mounts["camera_left_optical"].isometry().inverse() * it->second.pose.isometry();
     EXPECT_LT((s.pose.isometry().matrix() - expected.matrix()).norm(), 1e-9);
     EXPECT_EQ(s.pose.parent_frame, "camera_left_optical");
     EXPECT_EQ(s.pose.child_frame, "target");
     // The twist rotates with the mounting.
-    EXPECT_LT((s.twist.angular - mounts["camera_left_optical"].rotation.conjugate() * it->second.twist.angular).norm(), 1e-9);
+    EXPECT_LT((s.twist.angular -
+               mounts["camera_left_optical"].rotation.conjugate() * it->second.twist.angular)
+                  .norm(),
+              1e-9);
     ++checked;
   }
   EXPECT_GE(checked, 5u);
-  // /tf: lvlh_T_servicer^-1 lvlh_T_target = servicer_T_target; the tumbling target turns at 5 deg/s.
+  // /tf: lvlh_T_servicer^-1 lvlh_T_target = servicer_T_target; the tumbling target turns at 5
+  // deg/s.
   std::map<Timestamp, std::map<std::string, Transform>> tf;
   for (const auto& t : sink.on<Transform>("/tf")) tf[t.stamp][t.child_frame] = t;
   for (const auto& [stamp, frames] : tf) {
-    const Eigen::Isometry3d s_T_t = frames.at("servicer").isometry().inverse() * frames.at("target").isometry();
+    const Eigen::Isometry3d s_T_t =
+        frames.at("servicer").isometry().inverse() * frames.at("target").isometry();
     EXPECT_LT((s_T_t.matrix() - servicer_truth.at(stamp).pose.isometry().matrix()).norm(), 1e-9);
     EXPECT_TRUE(frames.count("lvlh")) << "eci_T_lvlh with an orbit";
   }
@@ -144,30 +153,38 @@ TEST(Simulator, SameSeedGivesIdenticalOutputAndAnotherSeedDoesNot) {
 
 TEST(Simulator, FaultsShowInTheData) {
   // The fault scenario, with its windows moved close together to keep the run short.
-  const Scenario scenario = library("sensor_faults", smallCameras({
-      "sensors.tof.enabled=false",
-      "faults.0.start=0.5", "faults.0.end=1.5",      // camera_right dark
-      "faults.1.start=1.5", "faults.1.end=2.0",      // camera_left glare
-      "faults.2.start=2.0", "faults.2.end=2.5",      // occlusion 25 %
-      "faults.3.start=2.5", "faults.3.end=3.0",      // 50 %
-      "faults.4.start=3.0", "faults.4.end=3.5",      // 75 % (shadow)
-      "faults.5.start=3.5", "faults.5.end=6.5",      // dropped frames, 30 %
-      "faults.6.start=6.5", "faults.6.end=9.5",      // late frames, 50 %, 0.25 s
-      "faults.7.start=0.0", "faults.7.end=1.0",      // LIDAR dropouts, 50 %
-      "faults.8.start=1.0", "faults.8.end=2.0",      // LIDAR spurious returns, 300 per scan
-      "faults.9.time=5.0",                           // IMU bias jump
-      "sensors.imu.noise=false"}));                  // (seen exactly without the noise)
+  const Scenario scenario = library(
+      "sensor_faults",
+      smallCameras(
+          {"sensors.tof.enabled=false", "faults.0.start=0.5",
+           "faults.0.end=1.5",                               // camera_right dark
+           "faults.1.start=1.5",        "faults.1.end=2.0",  // camera_left glare
+           "faults.2.start=2.0",        "faults.2.end=2.5",  // occlusion 25 %
+           "faults.3.start=2.5",        "faults.3.end=3.0",  // 50 %
+           "faults.4.start=3.0",        "faults.4.end=3.5",  // 75 % (shadow)
+           "faults.5.start=3.5",        "faults.5.end=6.5",  // dropped frames, 30 %
+           "faults.6.start=6.5",        "faults.6.end=9.5",  // late frames, 50 %, 0.25 s
+           "faults.7.start=0.0",        "faults.7.end=1.0",  // LIDAR dropouts, 50 %
+           "faults.8.start=1.0",        "faults.8.end=2.0",  // LIDAR spurious returns, 300 per scan
+           "faults.9.time=5.0",                              // IMU bias jump
+           "sensors.imu.noise=false"}));                     // (seen exactly without the noise)
   auto sim = Simulator::create(scenario, 5, 10.0);
   ASSERT_OK(sim.status());
   MemorySink sink;
   ASSERT_OK((*sim)->run(sink));
-  auto in = [](Timestamp stamp, double a, double b) { return stamp >= fromSeconds(a) && stamp < fromSeconds(b); };
+  auto in = [](Timestamp stamp, double a, double b) {
+    return stamp >= fromSeconds(a) && stamp < fromSeconds(b);
+  };
 
   // Camera failure: the right camera is dark (read noise only) while the left one is not.
   const auto right = sink.on<Image>("/chaser/camera/right/image");
-  for (const Image& image : right)
-    if (in(image.stamp, 0.5, 1.5)) EXPECT_LE(maxPixel(image), 2);
-    else if (image.stamp < fromSeconds(2.0)) EXPECT_GT(maxPixel(image), 20);
+  for (const Image& image : right) {
+    if (in(image.stamp, 0.5, 1.5)) {
+      EXPECT_LE(maxPixel(image), 2);
+    } else if (image.stamp < fromSeconds(2.0)) {
+      EXPECT_GT(maxPixel(image), 20);
+    }
+  }
   // Glare brightens the left image.
   const auto left = sink.on<Image>("/chaser/camera/left/image");
   double glare = 0, clear = 0;
@@ -179,9 +196,11 @@ TEST(Simulator, FaultsShowInTheData) {
   // Occlusion: the recorded fractions are the seed's 25 / 50 / 75 %.
   std::vector<double> fractions;
   for (const FaultEvent& e : sink.on<FaultEvent>("/truth/faults"))
-    if (e.fault == "occlusion" && e.sensor == "camera_left") fractions.push_back(std::stod(e.detail));
+    if (e.fault == "occlusion" && e.sensor == "camera_left")
+      fractions.push_back(std::stod(e.detail));
   ASSERT_EQ(fractions.size(), 15u);
-  for (std::size_t i = 0; i < fractions.size(); ++i) EXPECT_NEAR(fractions[i], 0.25 * (1 + i / 5), 0.01);
+  for (std::size_t i = 0; i < fractions.size(); ++i)
+    EXPECT_NEAR(fractions[i], 0.25 * (1 + i / 5), 0.01);
   // Dropped frames: about 30 % of the 30 frames in the window are missing.
   std::size_t kept = 0;
   for (const Image& image : left) kept += in(image.stamp, 3.5, 6.5);
@@ -192,8 +211,10 @@ TEST(Simulator, FaultsShowInTheData) {
   for (const SimMessage& m : sink.messages())
     if (m.channel == "/chaser/camera/left/image") {
       const Timestamp stamp = std::get<Image>(m.payload).stamp;
-      if (m.log_time - stamp == 250000) ++late;
-      else EXPECT_EQ(m.log_time, stamp);
+      if (m.log_time - stamp == 250000)
+        ++late;
+      else
+        EXPECT_EQ(m.log_time, stamp);
     }
   EXPECT_GE(late, 7u);
   EXPECT_LE(late, 23u);
@@ -202,9 +223,12 @@ TEST(Simulator, FaultsShowInTheData) {
   double dropout = 0, normal = 0, spurious = 0;
   int nd = 0, nn = 0, ns = 0;
   for (const PointCloud& c : clouds) {
-    if (in(c.stamp, 0.0, 1.0)) dropout += c.size(), ++nd;
-    else if (in(c.stamp, 1.0, 2.0)) spurious += c.size(), ++ns;
-    else if (in(c.stamp, 2.0, 3.0)) normal += c.size(), ++nn;
+    if (in(c.stamp, 0.0, 1.0))
+      dropout += c.size(), ++nd;
+    else if (in(c.stamp, 1.0, 2.0))
+      spurious += c.size(), ++ns;
+    else if (in(c.stamp, 2.0, 3.0))
+      normal += c.size(), ++nn;
   }
   EXPECT_NEAR(dropout / nd / (normal / nn), 0.5, 0.1);
   EXPECT_NEAR(spurious / ns - normal / nn, 300.0, 60.0);
@@ -225,8 +249,10 @@ TEST(Simulator, FaultsShowInTheData) {
 }
 
 TEST(Simulator, TheTargetLeavesTheFieldOfView) {
-  const Scenario scenario = library("leaving_field_of_view", smallCameras({"truth.camera_depth=true", "sensors.lidar.enabled=false",
-                                                                           "sensors.tof.enabled=false", "sensors.camera_right.enabled=false"}));
+  const Scenario scenario =
+      library("leaving_field_of_view",
+              smallCameras({"truth.camera_depth=true", "sensors.lidar.enabled=false",
+                            "sensors.tof.enabled=false", "sensors.camera_right.enabled=false"}));
   auto sim = Simulator::create(scenario, 1);
   ASSERT_OK(sim.status());
   MemorySink sink;
@@ -239,9 +265,9 @@ TEST(Simulator, TheTargetLeavesTheFieldOfView) {
   };
   const auto depth = sink.on<DepthMap>("/truth/camera_left/depth");
   ASSERT_EQ(depth.size(), 451u);
-  EXPECT_GT(coverage(depth[0]), 0.01);      // in view at the start
-  EXPECT_GT(coverage(depth[200]), 0.01);    // crossing
-  EXPECT_EQ(coverage(depth.back()), 0.0);   // gone at the end
+  EXPECT_GT(coverage(depth[0]), 0.01);     // in view at the start
+  EXPECT_GT(coverage(depth[200]), 0.01);   // crossing
+  EXPECT_EQ(coverage(depth.back()), 0.0);  // gone at the end
 }
 
 }  // namespace

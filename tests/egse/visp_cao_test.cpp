@@ -3,9 +3,9 @@
 // (C++17: see cao_fixture.hpp.)
 #include <filesystem>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <visp3/mbt/vpMbGenericTracker.h>
+#include <Eigen/Geometry>
 
 #include "cao_fixture.hpp"
 
@@ -13,8 +13,8 @@ namespace cdff::egse {
 namespace {
 
 TEST(VispCao, LoadsInVpMbGenericTrackerWithOutwardFaces) {
-  const auto path = std::filesystem::temp_directory_path() /
-                    ("cdff_visp_" + std::to_string(::getpid()) + ".cao");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("cdff_visp_" + std::to_string(::getpid()) + ".cao");
   const testing::CaoFixture fixture = testing::writeTargetCao(path.string());
   ASSERT_TRUE(fixture.error.empty()) << fixture.error;
 
@@ -53,7 +53,8 @@ TEST(VispCao, LoadsInVpMbGenericTrackerWithOutwardFaces) {
   ASSERT_NO_THROW(tracker.initFromPose(image, cMo));
   auto& faces = tracker.getFaces();
   const bool expected[6] = {true, false, false, true, false, true};
-  for (unsigned int f = 0; f < 6; ++f) EXPECT_EQ(faces.isVisible(f), expected[f]) << "bus face " << f;
+  for (unsigned int f = 0; f < 6; ++f)
+    EXPECT_EQ(faces.isVisible(f), expected[f]) << "bus face " << f;
 }
 
 }  // namespace

@@ -10,8 +10,11 @@ namespace cdff::egse {
 namespace {
 
 // RK4 on the CW equations with zero control, as an independent check of the closed form.
-void integrateCw(const Orbit& orbit, Eigen::Vector3d& r, Eigen::Vector3d& v, double duration, double h) {
-  auto f = [&](const Eigen::Vector3d& rr, const Eigen::Vector3d& vv) { return orbit.naturalAcceleration(rr, vv); };
+void integrateCw(const Orbit& orbit, Eigen::Vector3d& r, Eigen::Vector3d& v, double duration,
+                 double h) {
+  auto f = [&](const Eigen::Vector3d& rr, const Eigen::Vector3d& vv) {
+    return orbit.naturalAcceleration(rr, vv);
+  };
   for (double t = 0; t < duration - 1e-12; t += h) {
     const Eigen::Vector3d k1r = v, k1v = f(r, v);
     const Eigen::Vector3d k2r = v + 0.5 * h * k1v, k2v = f(r + 0.5 * h * k1r, v + 0.5 * h * k1v);
@@ -42,18 +45,22 @@ TEST(Orbit, NaturalFlyAroundEllipseClosesAfterOneOrbit) {
   const TranslationState end = translation->at(2 * M_PI / n);
   EXPECT_LT((end.position - Eigen::Vector3d(x0, 0, 0)).norm(), 1e-6);
   double max_y = 0;
-  for (double t = 0; t < 2 * M_PI / n; t += 10) max_y = std::max(max_y, std::abs(translation->at(t).position.y()));
+  for (double t = 0; t < 2 * M_PI / n; t += 10)
+    max_y = std::max(max_y, std::abs(translation->at(t).position.y()));
   EXPECT_NEAR(max_y, 2 * x0, 0.01);
   // Free drift needs no thrust.
-  World world(orbit, cwTranslation(orbit, {x0, 0, 0}, {0, -2 * n * x0, 0}), lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()),
+  World world(orbit, cwTranslation(orbit, {x0, 0, 0}, {0, -2 * n * x0, 0}),
+              lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()),
               lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()), Sun{});
-  for (double t : {0.0, 100.0, 2000.0}) EXPECT_LT(world.servicer(t).control_acceleration.norm(), 1e-12);
+  for (double t : {0.0, 100.0, 2000.0})
+    EXPECT_LT(world.servicer(t).control_acceleration.norm(), 1e-12);
 }
 
 TEST(Trajectories, DerivativesAreConsistentAndSplinesAreC2) {
   auto line = lineTranslation({0, -17, 0}, {0, -2, 0.5}, 5.0, 65.0, true);
   std::vector<double> times = {0, 10, 25, 40, 60};
-  std::vector<Eigen::Vector3d> points = {{0, -17, 0}, {1, -12, 0.3}, {0, -8, 0}, {-0.5, -4, 0.2}, {0, -2, 0}};
+  std::vector<Eigen::Vector3d> points = {
+      {0, -17, 0}, {1, -12, 0.3}, {0, -8, 0}, {-0.5, -4, 0.2}, {0, -2, 0}};
   auto spline = splineTranslation(times, points);
   ASSERT_OK(spline.status());
   auto fly = flyAroundTranslation({0, 0, 0}, {0, 0, 1}, {0, -1, 0}, 10.0, -0.05, 0.02, 0.3);
@@ -69,9 +76,13 @@ TEST(Trajectories, DerivativesAreConsistentAndSplinesAreC2) {
   EXPECT_LT((line->at(0).position - Eigen::Vector3d(0, -17, 0)).norm(), 1e-12);
   EXPECT_LT(line->at(5.0).velocity.norm() + line->at(65.0).velocity.norm(), 1e-12);
   EXPECT_LT((line->at(70).position - Eigen::Vector3d(0, -2, 0.5)).norm(), 1e-12);
-  for (std::size_t i = 0; i < times.size(); ++i) EXPECT_LT(((*spline)->at(times[i]).position - points[i]).norm(), 1e-9);
+  for (std::size_t i = 0; i < times.size(); ++i)
+    EXPECT_LT(((*spline)->at(times[i]).position - points[i]).norm(), 1e-9);
   for (std::size_t i = 1; i + 1 < times.size(); ++i)
-    EXPECT_LT(((*spline)->at(times[i] - 1e-9).acceleration - (*spline)->at(times[i] + 1e-9).acceleration).norm(), 1e-6);
+    EXPECT_LT(
+        ((*spline)->at(times[i] - 1e-9).acceleration - (*spline)->at(times[i] + 1e-9).acceleration)
+            .norm(),
+        1e-6);
   EXPECT_FALSE(splineTranslation({0, 5, 5}, {points[0], points[1], points[2]}).isOk());
 }
 
@@ -90,11 +101,14 @@ TEST(Attitude, TorqueFreeTumblingConservesMomentumAndEnergy) {
     const AttitudeState s = tumbling->at(t);
     const Eigen::Vector3d L = s.lvlh_R_body * inertia.cwiseProduct(s.angular_velocity);
     max_momentum = std::max(max_momentum, (L - L0).norm() / L0.norm());
-    max_energy = std::max(max_energy, std::abs(s.angular_velocity.dot(inertia.cwiseProduct(s.angular_velocity)) - E0) / E0);
+    max_energy = std::max(
+        max_energy,
+        std::abs(s.angular_velocity.dot(inertia.cwiseProduct(s.angular_velocity)) - E0) / E0);
     nutates = nutates || (s.angular_velocity - w0).norm() > 0.01;
     // Euler's equations hold for the reported angular acceleration.
-    const Eigen::Vector3d torque = inertia.cwiseProduct(s.angular_acceleration) +
-                                   s.angular_velocity.cross(inertia.cwiseProduct(s.angular_velocity));
+    const Eigen::Vector3d torque =
+        inertia.cwiseProduct(s.angular_acceleration) +
+        s.angular_velocity.cross(inertia.cwiseProduct(s.angular_velocity));
     EXPECT_LT(torque.norm(), 1e-9);
   }
   EXPECT_LT(max_momentum, 1e-9);
@@ -102,7 +116,8 @@ TEST(Attitude, TorqueFreeTumblingConservesMomentumAndEnergy) {
   EXPECT_TRUE(nutates) << "an asymmetric body's rate changes in its own axes";
   // The reported rate matches the orientation's derivative.
   const double h = 1e-4;
-  const Eigen::Quaterniond a = tumbling->at(50 - h).lvlh_R_body, b = tumbling->at(50 + h).lvlh_R_body;
+  const Eigen::Quaterniond a = tumbling->at(50 - h).lvlh_R_body,
+                           b = tumbling->at(50 + h).lvlh_R_body;
   EXPECT_LT((logSO3(a.conjugate() * b) / (2 * h) - tumbling->at(50).angular_velocity).norm(), 1e-7);
 }
 
@@ -112,11 +127,13 @@ TEST(World, RelativeTwistAndFrames) {
   Orbit orbit;
   const double n = orbit.meanMotion();
   auto hold = holdTranslation({0, -10, 0});
-  const Eigen::Quaterniond facing(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));  // body x along +y
+  const Eigen::Quaterniond facing(
+      Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));  // body x along +y
   Sun sun;
   sun.direction = Eigen::Vector3d(1, 0, 0);
   sun.inertial = true;
-  World world(orbit, std::move(hold), lvlhFixedAttitude(orbit, facing), inertialAttitude(orbit, Eigen::Quaterniond::Identity()), sun);
+  World world(orbit, std::move(hold), lvlhFixedAttitude(orbit, facing),
+              inertialAttitude(orbit, Eigen::Quaterniond::Identity()), sun);
   const Twist twist = world.targetTwistInServicer(100.0);
   // The target turns at -n about z relative to lvlh (and so relative to the servicer).
   EXPECT_LT((twist.angular - Eigen::Vector3d(0, 0, -n)).norm(), 1e-9);
@@ -139,7 +156,8 @@ TEST(World, PointingAttitudeKeepsTheTargetOnTheBoresight) {
   auto fly = flyAroundTranslation({0, 0, 0}, {0, 0, 1}, {0, -1, 0}, 12.0, 0.0, 0.03, 0.0);
   const Translation* self = fly.get();
   auto pointing = pointingAttitude(orbit, self, nullptr, Eigen::Vector3d::UnitZ(), 0.0, 0.0);
-  World world(orbit, std::move(fly), std::move(pointing), lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()), Sun{});
+  World world(orbit, std::move(fly), std::move(pointing),
+              lvlhFixedAttitude(orbit, Eigen::Quaterniond::Identity()), Sun{});
   for (double t : {0.0, 10.0, 33.0}) {
     const Eigen::Isometry3d s_T_t = world.servicerTtarget(t);
     EXPECT_LT(s_T_t.translation().normalized().dot(Eigen::Vector3d::UnitX()), 1.0 + 1e-12);

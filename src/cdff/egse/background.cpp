@@ -11,9 +11,10 @@ namespace {
 
 // Value noise on a hashed integer lattice, smoothly interpolated: the procedural Earth.
 double latticeValue(int x, int y, int z, std::uint64_t seed) {
-  const std::uint64_t h = mix64(seed ^ mix64(static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ULL ^
-                                             static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4FULL ^
-                                             static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ULL));
+  const std::uint64_t h =
+      mix64(seed ^ mix64(static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ULL ^
+                         static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4FULL ^
+                         static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ULL));
   return static_cast<double>(h >> 11) * 0x1.0p-53;
 }
 
@@ -28,7 +29,8 @@ double valueNoise(const Eigen::Vector3d& p, std::uint64_t seed) {
       for (int k = 0; k < 2; ++k) c[i][j][k] = latticeValue(x + i, y + j, z + k, seed);
   auto lerp = [](double a, double b, double s) { return a + (b - a) * s; };
   return lerp(lerp(lerp(c[0][0][0], c[1][0][0], t.x()), lerp(c[0][1][0], c[1][1][0], t.x()), t.y()),
-              lerp(lerp(c[0][0][1], c[1][0][1], t.x()), lerp(c[0][1][1], c[1][1][1], t.x()), t.y()), t.z());
+              lerp(lerp(c[0][0][1], c[1][0][1], t.x()), lerp(c[0][1][1], c[1][1][1], t.x()), t.y()),
+              t.z());
 }
 
 double fbm(const Eigen::Vector3d& p, std::uint64_t seed) {
@@ -57,16 +59,19 @@ struct EarthTexture {
       for (int i = 0; i < kDetail; ++i) {
         // Periodic: sample the noise on a torus embedded in 4-D, folded into 3-D by two circles.
         const double a = 2 * M_PI * i / kDetail, b = 2 * M_PI * j / kDetail;
-        const Eigen::Vector3d p(3.0 * std::cos(a), 3.0 * std::sin(a) + 2.0 * std::cos(b), 2.0 * std::sin(b));
-        detail[static_cast<std::size_t>(j) * kDetail + i] = static_cast<float>(0.55 + 0.9 * (fbm(p * 2.0, 31) - 0.5) * 2.0);
+        const Eigen::Vector3d p(3.0 * std::cos(a), 3.0 * std::sin(a) + 2.0 * std::cos(b),
+                                2.0 * std::sin(b));
+        detail[static_cast<std::size_t>(j) * kDetail + i] =
+            static_cast<float>(0.55 + 0.9 * (fbm(p * 2.0, 31) - 0.5) * 2.0);
       }
-    const Eigen::Vector3f ocean(0.02f, 0.05f, 0.12f), land(0.14f, 0.12f, 0.07f), ice(0.7f, 0.72f, 0.75f),
-        cloud(0.78f, 0.78f, 0.80f);
+    const Eigen::Vector3f ocean(0.02f, 0.05f, 0.12f), land(0.14f, 0.12f, 0.07f),
+        ice(0.7f, 0.72f, 0.75f), cloud(0.78f, 0.78f, 0.80f);
     for (int j = 0; j < kHeight; ++j) {
       const double lat = M_PI * (0.5 - (j + 0.5) / kHeight);
       for (int i = 0; i < kWidth; ++i) {
         const double lon = 2 * M_PI * ((i + 0.5) / kWidth) - M_PI;
-        const Eigen::Vector3d n(std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon), std::sin(lat));
+        const Eigen::Vector3d n(std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon),
+                                std::sin(lat));
         const double continents = fbm(n * 2.2, 11);
         const double clouds = fbm(n * 5.0 + Eigen::Vector3d(7.1, 3.3, 1.7), 23);
         Eigen::Vector3f a = continents > 0.52 ? land : ocean;
@@ -80,7 +85,8 @@ struct EarthTexture {
   // Bilinear between texel centres (wrapping in longitude).
   Eigen::Vector3f at(const Eigen::Vector3d& n) const {
     const double lat = std::asin(std::clamp(n.z(), -1.0, 1.0)), lon = std::atan2(n.y(), n.x());
-    const double u = (lon + M_PI) / (2 * M_PI) * kWidth - 0.5, v = std::clamp((0.5 - lat / M_PI) * kHeight - 0.5, 0.0, kHeight - 1.0);
+    const double u = (lon + M_PI) / (2 * M_PI) * kWidth - 0.5,
+                 v = std::clamp((0.5 - lat / M_PI) * kHeight - 0.5, 0.0, kHeight - 1.0);
     const int i0 = static_cast<int>(std::floor(u)), j0 = std::min(static_cast<int>(v), kHeight - 2);
     const float fu = static_cast<float>(u - i0), fv = static_cast<float>(v - j0);
     auto texel = [&](int i, int j) -> const Eigen::Vector3f& {
@@ -88,8 +94,10 @@ struct EarthTexture {
     };
     const Eigen::Vector3f coarse = (1 - fv) * ((1 - fu) * texel(i0, j0) + fu * texel(i0 + 1, j0)) +
                                    fv * ((1 - fu) * texel(i0, j0 + 1) + fu * texel(i0 + 1, j0 + 1));
-    const int di = static_cast<int>(std::floor(u / kWidth * kDetail * kDetailRepeat)) & (kDetail - 1);
-    const int dj = static_cast<int>(std::floor(v / kHeight * kDetail * kDetailRepeat / 2)) & (kDetail - 1);
+    const int di =
+        static_cast<int>(std::floor(u / kWidth * kDetail * kDetailRepeat)) & (kDetail - 1);
+    const int dj =
+        static_cast<int>(std::floor(v / kHeight * kDetail * kDetailRepeat / 2)) & (kDetail - 1);
     return coarse * std::max(0.2f, 0.4f + detail[static_cast<std::size_t>(dj) * kDetail + di]);
   }
 };
@@ -123,7 +131,8 @@ const std::vector<Star>& starCatalogue() {
   return stars;
 }
 
-void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, RenderOutput& frame) {
+void compositeBackground(const PinholeCamera& cam, const BackgroundView& view,
+                         RenderOutput& frame) {
   const int W = cam.width, H = cam.height;
   const Eigen::Matrix3d R = view.lvlh_R_camera;
   const Eigen::Matrix3d camera_R_lvlh = R.transpose();
@@ -147,16 +156,19 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
     const Eigen::Vector3d to_earth = (-oc).normalized();
     const double earth_angle = std::asin(std::min(1.0, view.earth_radius / std::sqrt(oc2)));
     const Eigen::Vector3d boresight = R.col(2);
-    const double half_diagonal = std::atan(std::hypot(std::max(cam.cx, W - cam.cx) / cam.fx,
-                                                      std::max(cam.cy, H - cam.cy) / cam.fy));
-    if (std::acos(std::clamp(boresight.dot(to_earth), -1.0, 1.0)) < earth_angle + half_diagonal + 0.05) {
+    const double half_diagonal = std::atan(
+        std::hypot(std::max(cam.cx, W - cam.cx) / cam.fx, std::max(cam.cy, H - cam.cy) / cam.fy));
+    if (std::acos(std::clamp(boresight.dot(to_earth), -1.0, 1.0)) <
+        earth_angle + half_diagonal + 0.05) {
       const EarthTexture& texture = earthTexture();
       const Eigen::Vector3d sun = view.sun_direction;
       const Eigen::Vector3f limb_colour(0.10f, 0.18f, 0.38f);
       const double scale_height = 8000.0;
       // A cheap cone test first: only rays within the Earth's angular radius (plus the limb) of
       // its centre can see it.
-      const double cone = std::cos(std::min(M_PI, std::asin(std::min(1.0, (view.earth_radius + 10 * scale_height) / std::sqrt(oc2))) + 0.01));
+      const double cone = std::cos(std::min(
+          M_PI, std::asin(std::min(1.0, (view.earth_radius + 10 * scale_height) / std::sqrt(oc2))) +
+                    0.01));
       const Eigen::Matrix3f Rf = R.cast<float>();
       const Eigen::Vector3f ef = to_earth.cast<float>();
       const float cone2 = static_cast<float>(cone * cone);
@@ -165,7 +177,9 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
         for (int x = 0; x < W; ++x) {
           const std::size_t i = static_cast<std::size_t>(y) * W + x;
           if (frame.id[i] != 0) continue;
-          const Eigen::Vector3f df = Rf * Eigen::Vector3f(static_cast<float>((x - cam.cx) / cam.fx), static_cast<float>((y - cam.cy) / cam.fy), 1.0f);
+          const Eigen::Vector3f df =
+              Rf * Eigen::Vector3f(static_cast<float>((x - cam.cx) / cam.fx),
+                                   static_cast<float>((y - cam.cy) / cam.fy), 1.0f);
           const float de = df.dot(ef);
           if (!wide && (de <= 0 || de * de < cone2 * df.squaredNorm())) continue;
           const Eigen::Vector3d d = R * ray(x, y);
@@ -174,7 +188,9 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
           if (earth_hit(d, t)) {
             const Eigen::Vector3d n = (oc + t * d) / view.earth_radius;
             const double lit = std::max(0.0, n.dot(sun));
-            if (lit > 0) colour = texture.at(view.eci_R_lvlh * n) * static_cast<float>(lit * view.sun_irradiance);
+            if (lit > 0)
+              colour =
+                  texture.at(view.eci_R_lvlh * n) * static_cast<float>(lit * view.sun_irradiance);
             frame.id[i] = 254;  // the Earth: stars are hidden behind it
           } else {
             // The limb: an exponential atmosphere along the ray's closest approach.
@@ -185,7 +201,8 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
               if (h < 10 * scale_height) {
                 const Eigen::Vector3d n = (oc - b * d).normalized();
                 const double lit = std::max(0.0, n.dot(sun) + 0.15);
-                colour = limb_colour * static_cast<float>(std::exp(-h / scale_height) * lit * view.sun_irradiance);
+                colour = limb_colour * static_cast<float>(std::exp(-h / scale_height) * lit *
+                                                          view.sun_irradiance);
               }
             }
           }
@@ -244,10 +261,13 @@ void compositeBackground(const PinholeCamera& cam, const BackgroundView& view, R
     if (d.z() > 0 && !(view.earth && earth_hit(view.sun_direction, t))) {
       const double u = cam.fx * d.x() / d.z() + cam.cx, v = cam.fy * d.y() / d.z() + cam.cy;
       const double radius = kSunAngularRadius * cam.fx;
-      const float value = static_cast<float>(view.sun_irradiance / (kSunAngularRadius * kSunAngularRadius));
+      const float value =
+          static_cast<float>(view.sun_irradiance / (kSunAngularRadius * kSunAngularRadius));
       if (u > -radius && v > -radius && u < W + radius && v < H + radius) {
-        const int x0 = std::max(0, static_cast<int>(std::floor(u - radius))), x1 = std::min(W - 1, static_cast<int>(std::ceil(u + radius)));
-        const int y0 = std::max(0, static_cast<int>(std::floor(v - radius))), y1 = std::min(H - 1, static_cast<int>(std::ceil(v + radius)));
+        const int x0 = std::max(0, static_cast<int>(std::floor(u - radius))),
+                  x1 = std::min(W - 1, static_cast<int>(std::ceil(u + radius)));
+        const int y0 = std::max(0, static_cast<int>(std::floor(v - radius))),
+                  y1 = std::min(H - 1, static_cast<int>(std::ceil(v + radius)));
         for (int y = y0; y <= y1; ++y)
           for (int x = x0; x <= x1; ++x) {
             const std::size_t i = static_cast<std::size_t>(y) * W + x;

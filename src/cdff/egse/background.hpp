@@ -16,8 +16,8 @@
 namespace cdff::egse {
 
 struct Star {
-  Eigen::Vector3d direction;  // unit, eci
-  double magnitude = 0;       // visual
+  Eigen::Vector3d direction;                         // unit, eci
+  double magnitude = 0;                              // visual
   Eigen::Vector3f colour = Eigen::Vector3f::Ones();  // relative, mean 1
 };
 
@@ -30,7 +30,7 @@ struct BackgroundView {
   Eigen::Vector3d camera_position = Eigen::Vector3d::Zero();  // lvlh
   Eigen::Matrix3d eci_R_lvlh = Eigen::Matrix3d::Identity();
   Eigen::Vector3d sun_direction = Eigen::Vector3d::UnitY();  // lvlh, unit
-  double sun_irradiance = 1.0;  // 0 when the camera is in eclipse
+  double sun_irradiance = 1.0;                               // 0 when the camera is in eclipse
   bool earth = false;
   Eigen::Vector3d earth_centre = Eigen::Vector3d::Zero();  // lvlh
   double earth_radius = 6378137.0;
@@ -42,7 +42,8 @@ struct BackgroundView {
 
 /// Adds the background to the pixels of `frame` with id 0 (nothing rendered there), on the
 /// pinhole canvas `camera`.
-void compositeBackground(const PinholeCamera& camera, const BackgroundView& view, RenderOutput& frame);
+void compositeBackground(const PinholeCamera& camera, const BackgroundView& view,
+                         RenderOutput& frame);
 
 /// Angular radius of the sun seen from 1 AU (rad).
 constexpr double kSunAngularRadius = 0.004652;

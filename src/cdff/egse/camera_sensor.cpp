@@ -12,12 +12,14 @@ namespace cdff::egse {
 namespace {
 
 // Separable Gaussian blur of a C-channel float image, clamped at the borders.
-void gaussianBlur(std::vector<float>& image, std::vector<float>& tmp, int width, int height, int channels, double sigma) {
+void gaussianBlur(std::vector<float>& image, std::vector<float>& tmp, int width, int height,
+                  int channels, double sigma) {
   if (sigma < 0.05) return;
   const int radius = std::max(1, static_cast<int>(std::ceil(3 * sigma)));
   std::vector<float> kernel(2 * radius + 1);
   double total = 0;
-  for (int i = -radius; i <= radius; ++i) total += kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
+  for (int i = -radius; i <= radius; ++i)
+    total += kernel[i + radius] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
   for (float& k : kernel) k = static_cast<float>(k / total);
   tmp.resize(image.size());
   const int C = channels;
@@ -33,7 +35,8 @@ void gaussianBlur(std::vector<float>& image, std::vector<float>& tmp, int width,
           const float* p = row + x * C + c;
           for (int k = -radius; k <= radius; ++k) sum += K[k] * p[k * C];
         } else {
-          for (int k = -radius; k <= radius; ++k) sum += K[k] * row[std::clamp(x + k, 0, width - 1) * C + c];
+          for (int k = -radius; k <= radius; ++k)
+            sum += K[k] * row[std::clamp(x + k, 0, width - 1) * C + c];
         }
         out[x * C + c] = sum;
       }
@@ -46,13 +49,17 @@ void gaussianBlur(std::vector<float>& image, std::vector<float>& tmp, int width,
       const float* centre = tmp.data() + y * stride;
       for (std::size_t i = 0; i < stride; ++i) {
         float sum = 0;
-        for (int k = -radius; k <= radius; ++k) sum += K[k] * centre[static_cast<std::ptrdiff_t>(k) * static_cast<std::ptrdiff_t>(stride) + static_cast<std::ptrdiff_t>(i)];
+        for (int k = -radius; k <= radius; ++k)
+          sum +=
+              K[k] * centre[static_cast<std::ptrdiff_t>(k) * static_cast<std::ptrdiff_t>(stride) +
+                            static_cast<std::ptrdiff_t>(i)];
         out[i] = sum;
       }
     } else {
       for (std::size_t i = 0; i < stride; ++i) {
         float sum = 0;
-        for (int k = -radius; k <= radius; ++k) sum += K[k] * tmp[std::clamp(y + k, 0, height - 1) * stride + i];
+        for (int k = -radius; k <= radius; ++k)
+          sum += K[k] * tmp[std::clamp(y + k, 0, height - 1) * stride + i];
         out[i] = sum;
       }
     }
@@ -72,22 +79,30 @@ Status CameraSpec::validate(const std::string& name) const {
   CDFF_RETURN_IF_ERROR(positive(full_well, "full_well"));
   CDFF_RETURN_IF_ERROR(positive(sensitivity, "sensitivity"));
   if (format != PixelFormat::kGray8 && format != PixelFormat::kBgr8)
-    return invalidParameter("{}: format '{}' is not supported; expected 8UC1 or 8UC3", name, toString(format));
+    return invalidParameter("{}: format '{}' is not supported; expected 8UC1 or 8UC3", name,
+                            toString(format));
   if (!std::isfinite(read_noise) || read_noise < 0)
-    return invalidParameter("{}: 'read_noise' = {} is invalid; expected >= 0 electrons", name, read_noise);
+    return invalidParameter("{}: 'read_noise' = {} is invalid; expected >= 0 electrons", name,
+                            read_noise);
   if (!std::isfinite(gain_db) || gain_db < -20 || gain_db > 40)
-    return invalidParameter("{}: 'gain_db' = {} is out of range; expected [-20, 40]", name, gain_db);
+    return invalidParameter("{}: 'gain_db' = {} is out of range; expected [-20, 40]", name,
+                            gain_db);
   if (supersampling < 1 || supersampling > 8)
-    return invalidParameter("{}: 'supersampling' = {} is out of range; expected [1, 8]", name, supersampling);
+    return invalidParameter("{}: 'supersampling' = {} is out of range; expected [1, 8]", name,
+                            supersampling);
   if (motion_blur_samples < 1 || motion_blur_samples > 32)
-    return invalidParameter("{}: 'motion_blur_samples' = {} is out of range; expected [1, 32]", name, motion_blur_samples);
+    return invalidParameter("{}: 'motion_blur_samples' = {} is out of range; expected [1, 32]",
+                            name, motion_blur_samples);
   if (!std::isfinite(psf_sigma) || psf_sigma < 0 || psf_sigma > 20)
-    return invalidParameter("{}: 'psf_sigma' = {} is out of range; expected [0, 20] px", name, psf_sigma);
+    return invalidParameter("{}: 'psf_sigma' = {} is out of range; expected [0, 20] px", name,
+                            psf_sigma);
   if (f_number < 0 || (f_number > 0 && !(focus_distance > 0)))
-    return invalidParameter("{}: defocus needs 'f_number' > 0 and 'focus_distance' > 0 (got {} and {})", name,
-                            f_number, focus_distance);
+    return invalidParameter(
+        "{}: defocus needs 'f_number' > 0 and 'focus_distance' > 0 (got {} and {})", name, f_number,
+        focus_distance);
   if (shadow_map_size < 64 || shadow_map_size > 8192)
-    return invalidParameter("{}: 'shadow_map_size' = {} is out of range; expected [64, 8192]", name, shadow_map_size);
+    return invalidParameter("{}: 'shadow_map_size' = {} is out of range; expected [64, 8192]", name,
+                            shadow_map_size);
   return Status::ok();
 }
 
@@ -109,7 +124,8 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
     // The pinhole canvas must hold every ray the distorted pixels see: undistort the border.
     double u0 = 1e18, u1 = -1e18, v0 = 1e18, v1 = -1e18;
     auto extend = [&](double x, double y) {
-      const Eigen::Vector2d n = undistortNormalised(m, Eigen::Vector2d((x - m.cx) / m.fx, (y - m.cy) / m.fy));
+      const Eigen::Vector2d n =
+          undistortNormalised(m, Eigen::Vector2d((x - m.cx) / m.fx, (y - m.cy) / m.fy));
       const double u = m.fx * n.x() + m.cx, v = m.fy * n.y() + m.cy;
       u0 = std::min(u0, u);
       u1 = std::max(u1, u);
@@ -130,9 +146,10 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
     canvas.width = static_cast<int>(std::ceil(u1) - std::floor(u0) + 2 * margin + 1);
     canvas.height = static_cast<int>(std::ceil(v1) - std::floor(v0) + 2 * margin + 1);
     if (canvas.width > 3 * m.width || canvas.height > 3 * m.height)
-      return invalidParameter("{}: the distortion is too strong to render: the undistorted field of view needs a "
-                              "{}x{} canvas for a {}x{} image; expected at most 3 times the image size",
-                              name, canvas.width, canvas.height, m.width, m.height);
+      return invalidParameter(
+          "{}: the distortion is too strong to render: the undistorted field of view needs a "
+          "{}x{} canvas for a {}x{} image; expected at most 3 times the image size",
+          name, canvas.width, canvas.height, m.width, m.height);
     s.identity_remap_ = false;
     s.remap_.resize(2 * static_cast<std::size_t>(m.width) * m.height);
     Eigen::Vector2d guess((0 - m.cx) / m.fx, (0 - m.cy) / m.fy);
@@ -162,14 +179,16 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
   return s;
 }
 
-Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& renders, const BackgroundView& view,
-                                         const CameraFaults& faults, Rng& rng) const {
+Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& renders,
+                                         const BackgroundView& view, const CameraFaults& faults,
+                                         Rng& rng) const {
   if (renders.empty()) return invalidInput("{}: no render to expose", name_);
   const int k = spec_.supersampling;
   const int RW = render_camera_.width, RH = render_camera_.height;
   for (const RenderOutput& r : renders)
     if (r.width != RW || r.height != RH)
-      return invalidInput("{}: a render is {}x{}; expected {}x{}", name_, r.width, r.height, RW, RH);
+      return invalidInput("{}: a render is {}x{}; expected {}x{}", name_, r.width, r.height, RW,
+                          RH);
   const int CW = canvas_.width, CH = canvas_.height;
   const std::size_t canvas_pixels = static_cast<std::size_t>(CW) * CH;
   // 1. Average the motion-blur samples and the supersamples onto the canvas.
@@ -182,21 +201,21 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
     canvas.depth = middle.depth;
     canvas.id = middle.id;
   } else
-  for (int y = 0; y < CH; ++y)
-    for (int x = 0; x < CW; ++x) {
-      const std::size_t i = static_cast<std::size_t>(y) * CW + x;
-      float sum[3] = {0, 0, 0};
-      for (const RenderOutput& r : renders)
-        for (int j = 0; j < k; ++j)
-          for (int l = 0; l < k; ++l) {
-            const std::size_t s = static_cast<std::size_t>(y * k + j) * RW + (x * k + l);
-            for (int c = 0; c < 3; ++c) sum[c] += r.radiance[3 * s + c];
-          }
-      for (int c = 0; c < 3; ++c) canvas.radiance[3 * i + c] = sum[c] * weight;
-      const std::size_t centre = static_cast<std::size_t>(y * k + k / 2) * RW + (x * k + k / 2);
-      canvas.depth[i] = middle.depth[centre];
-      canvas.id[i] = middle.id[centre];
-    }
+    for (int y = 0; y < CH; ++y)
+      for (int x = 0; x < CW; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * CW + x;
+        float sum[3] = {0, 0, 0};
+        for (const RenderOutput& r : renders)
+          for (int j = 0; j < k; ++j)
+            for (int l = 0; l < k; ++l) {
+              const std::size_t s = static_cast<std::size_t>(y * k + j) * RW + (x * k + l);
+              for (int c = 0; c < 3; ++c) sum[c] += r.radiance[3 * s + c];
+            }
+        for (int c = 0; c < 3; ++c) canvas.radiance[3 * i + c] = sum[c] * weight;
+        const std::size_t centre = static_cast<std::size_t>(y * k + k / 2) * RW + (x * k + k / 2);
+        canvas.depth[i] = middle.depth[centre];
+        canvas.id[i] = middle.id[centre];
+      }
 
   // 2. Partial occlusion of the target, from the left of the image, to the requested fraction.
   CameraFrame frame;
@@ -210,7 +229,8 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
         ++total;
         nearest = std::min(nearest, canvas.depth[i]);
       }
-    std::size_t wanted = static_cast<std::size_t>(std::llround(std::clamp(faults.occlusion, 0.0, 1.0) * total));
+    std::size_t wanted =
+        static_cast<std::size_t>(std::llround(std::clamp(faults.occlusion, 0.0, 1.0) * total));
     std::size_t hidden = 0;
     for (int x = 0; x < CW && hidden < wanted; ++x)
       for (int y = 0; y < CH && hidden < wanted; ++y) {
@@ -236,11 +256,13 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   bool sun_blocked = false;
   if (view.earth) {
     const Eigen::Vector3d oc = view.camera_position - view.earth_centre;
-    const double b = view.sun_direction.dot(oc), disc = b * b - (oc.squaredNorm() - view.earth_radius * view.earth_radius);
+    const double b = view.sun_direction.dot(oc),
+                 disc = b * b - (oc.squaredNorm() - view.earth_radius * view.earth_radius);
     sun_blocked = disc >= 0 && -b - std::sqrt(disc) > 0;
   }
-  const double half_diagonal = std::atan(std::hypot(std::max(canvas_.cx, CW - canvas_.cx) / canvas_.fx,
-                                                    std::max(canvas_.cy, CH - canvas_.cy) / canvas_.fy));
+  const double half_diagonal =
+      std::atan(std::hypot(std::max(canvas_.cx, CW - canvas_.cx) / canvas_.fx,
+                           std::max(canvas_.cy, CH - canvas_.cy) / canvas_.fy));
   const double off_axis = std::acos(std::clamp(sun.z(), -1.0, 1.0));
   double glare = 0;
   if (view.sun_irradiance > 0 && !sun_blocked) {
@@ -261,15 +283,19 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       su = canvas_.fx * sun.x() / sun.z() + canvas_.cx;
       sv = canvas_.fy * sun.y() / sun.z() + canvas_.cy;
     }
-    const double ghost_alpha[2] = {-0.35, -0.8}, ghost_radius[2] = {0.05 * CW, 0.09 * CW}, ghost_level[2] = {0.6, 0.35};
+    const double ghost_alpha[2] = {-0.35, -0.8}, ghost_radius[2] = {0.05 * CW, 0.09 * CW},
+                 ghost_level[2] = {0.6, 0.35};
     for (int y = 0; y < CH; ++y)
       for (int x = 0; x < CW; ++x) {
-        const Eigen::Vector3d d = Eigen::Vector3d((x - canvas_.cx) / canvas_.fx, (y - canvas_.cy) / canvas_.fy, 1.0).normalized();
+        const Eigen::Vector3d d =
+            Eigen::Vector3d((x - canvas_.cx) / canvas_.fx, (y - canvas_.cy) / canvas_.fy, 1.0)
+                .normalized();
         const double chord2 = 2.0 * (1.0 - d.dot(sun));  // ~ angle^2
         double value = faults.extra_glare + glare * w2 / (chord2 + w2);
         if (ghosts && glare > 1e-6)
           for (int g = 0; g < 2; ++g) {
-            const double gu = canvas_.cx + ghost_alpha[g] * (su - canvas_.cx), gv = canvas_.cy + ghost_alpha[g] * (sv - canvas_.cy);
+            const double gu = canvas_.cx + ghost_alpha[g] * (su - canvas_.cx),
+                         gv = canvas_.cy + ghost_alpha[g] * (sv - canvas_.cy);
             const double r = std::hypot(x - gu, y - gv) / ghost_radius[g];
             if (r < 1.0) value += glare * ghost_level[g] * (1.0 - r * r);
           }
@@ -312,9 +338,12 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       }
       const int iu = std::clamp(static_cast<int>(std::floor(u)), 0, CW - 2);
       const int iv = std::clamp(static_cast<int>(std::floor(v)), 0, CH - 2);
-      const float fu = static_cast<float>(std::clamp(u - iu, 0.0, 1.0)), fv = static_cast<float>(std::clamp(v - iv, 0.0, 1.0));
+      const float fu = static_cast<float>(std::clamp(u - iu, 0.0, 1.0)),
+                  fv = static_cast<float>(std::clamp(v - iv, 0.0, 1.0));
       for (int c = 0; c < C; ++c) {
-        auto at = [&](int xx, int yy) { return canvas_signal[(static_cast<std::size_t>(yy) * CW + xx) * C + c]; };
+        auto at = [&](int xx, int yy) {
+          return canvas_signal[(static_cast<std::size_t>(yy) * CW + xx) * C + c];
+        };
         signal[i * C + c] = (1 - fv) * ((1 - fu) * at(iu, iv) + fu * at(iu + 1, iv)) +
                             fv * ((1 - fu) * at(iu, iv + 1) + fu * at(iu + 1, iv + 1));
       }
@@ -328,7 +357,8 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       const std::uint8_t label = canvas.id[a];
       const bool same = label != 0 && canvas.id[a + 1] == label && canvas.id[a + CW] == label &&
                         canvas.id[a + CW + 1] == label;
-      const float d00 = canvas.depth[a], d01 = canvas.depth[a + 1], d10 = canvas.depth[a + CW], d11 = canvas.depth[a + CW + 1];
+      const float d00 = canvas.depth[a], d01 = canvas.depth[a + 1], d10 = canvas.depth[a + CW],
+                  d11 = canvas.depth[a + CW + 1];
       const float smooth_limit = 0.02f * std::min({d00, d01, d10, d11});
       if (same && std::max({d00, d01, d10, d11}) - std::min({d00, d01, d10, d11}) < smooth_limit)
         depth[i] = (1 - fv) * ((1 - fu) * d00 + fu * d01) + fv * ((1 - fu) * d10 + fu * d11);
@@ -365,9 +395,11 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
     double e = faults.dark ? 0.0 : std::max(0.0, static_cast<double>(signal[i]) * to_electrons);
     if (spec_.noise) e += std::sqrt(e + read2) * rng.normal();
     e = std::clamp(e, 0.0, spec_.full_well);
-    bytes[i] = static_cast<std::uint8_t>(std::min(255.0, e * to_dn + 0.5));  // e >= 0: rounds to nearest
+    bytes[i] =
+        static_cast<std::uint8_t>(std::min(255.0, e * to_dn + 0.5));  // e >= 0: rounds to nearest
   }
-  auto image = Image::fromBytes(std::move(bytes), W, H, colour ? PixelFormat::kBgr8 : PixelFormat::kGray8);
+  auto image =
+      Image::fromBytes(std::move(bytes), W, H, colour ? PixelFormat::kBgr8 : PixelFormat::kGray8);
   if (!image) return image.status();
   frame.image = std::move(image).value();
   frame.image.camera = spec_.model;

@@ -22,26 +22,26 @@
 namespace cdff::egse {
 
 struct CameraSpec {
-  CameraModel model;                        // the real camera: intrinsics and distortion
+  CameraModel model;                         // the real camera: intrinsics and distortion
   PixelFormat format = PixelFormat::kGray8;  // kGray8 or kBgr8
-  double exposure_time = 0.004;   // s
+  double exposure_time = 0.004;              // s
   double gain_db = 0.0;
-  double full_well = 20000.0;     // e-
-  double read_noise = 12.0;       // e- rms
-  double sensitivity = 7.0e6;     // e-/s for radiance 1 (a white plate facing the sun)
+  double full_well = 20000.0;  // e-
+  double read_noise = 12.0;    // e- rms
+  double sensitivity = 7.0e6;  // e-/s for radiance 1 (a white plate facing the sun)
   bool noise = true;
-  double psf_sigma = 0.5;         // px, optics
-  double f_number = 0.0;          // 0: no defocus
-  double focus_distance = 0.0;    // m (with f_number > 0)
-  double focal_length = 6e-3;     // m (defocus)
-  double pixel_pitch = 4.4e-6;    // m (defocus)
-  int supersampling = 1;          // k x k samples per canvas pixel (far range: sub-pixel targets)
-  int motion_blur_samples = 1;    // renders averaged over the exposure
+  double psf_sigma = 0.5;       // px, optics
+  double f_number = 0.0;        // 0: no defocus
+  double focus_distance = 0.0;  // m (with f_number > 0)
+  double focal_length = 6e-3;   // m (defocus)
+  double pixel_pitch = 4.4e-6;  // m (defocus)
+  int supersampling = 1;        // k x k samples per canvas pixel (far range: sub-pixel targets)
+  int motion_blur_samples = 1;  // renders averaged over the exposure
   bool stars = true;
   double star_gain = 1.0;
-  double glare_strength = 0.03;   // stray light of a sun at the edge of the field of view
-  double glare_width = 0.07;      // rad, angular width of the glare halo
-  double glare_decay = 0.09;      // rad, fall-off as the sun moves away from the field of view
+  double glare_strength = 0.03;  // stray light of a sun at the edge of the field of view
+  double glare_width = 0.07;     // rad, angular width of the glare halo
+  double glare_decay = 0.09;     // rad, fall-off as the sun moves away from the field of view
   int shadow_map_size = 1024;
 
   Status validate(const std::string& name) const;
@@ -51,10 +51,10 @@ enum class OcclusionMode { kOccluder, kShadow };
 
 /// Fault effects on one frame (from the fault schedule).
 struct CameraFaults {
-  bool dark = false;             // the camera failed: read noise only
-  double glare_gain = 1.0;       // multiplies glare_strength (sun glare / saturation fault)
-  double extra_glare = 0.0;      // a uniform veil added (radiance units)
-  double occlusion = 0.0;        // fraction of the target's pixels hidden (0..1)
+  bool dark = false;         // the camera failed: read noise only
+  double glare_gain = 1.0;   // multiplies glare_strength (sun glare / saturation fault)
+  double extra_glare = 0.0;  // a uniform veil added (radiance units)
+  double occlusion = 0.0;    // fraction of the target's pixels hidden (0..1)
   OcclusionMode occlusion_mode = OcclusionMode::kOccluder;
 };
 

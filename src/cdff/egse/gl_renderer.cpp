@@ -174,7 +174,9 @@ struct GlModel {
   double radius = 0;
 };
 
-Eigen::Matrix4f toGl(const Eigen::Isometry3d& T) { return T.matrix().cast<float>(); }
+Eigen::Matrix4f toGl(const Eigen::Isometry3d& T) {
+  return T.matrix().cast<float>();
+}
 
 class GlRenderer final : public Renderer {
  public:
@@ -205,32 +207,45 @@ class GlRenderer final : public Renderer {
     // chose otherwise (the figures in docs/benchmarks.md are for one core).
     setenv("LP_NUM_THREADS", "1", 0);
     const char* client_extensions = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    auto get_platform_display =
-        reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
-    if (client_extensions && std::strstr(client_extensions, "EGL_MESA_platform_surfaceless") && get_platform_display)
+    auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+        eglGetProcAddress("eglGetPlatformDisplayEXT"));
+    if (client_extensions && std::strstr(client_extensions, "EGL_MESA_platform_surfaceless") &&
+        get_platform_display)
       display_ = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     if (display_ == EGL_NO_DISPLAY)
-      return notFound("opengl renderer: no EGL surfaceless display (EGL_MESA_platform_surfaceless missing; "
-                      "client extensions: {})", client_extensions ? client_extensions : "none");
+      return notFound(
+          "opengl renderer: no EGL surfaceless display (EGL_MESA_platform_surfaceless missing; "
+          "client extensions: {})",
+          client_extensions ? client_extensions : "none");
     EGLint major = 0, minor = 0;
     if (!eglInitialize(display_, &major, &minor)) {
       display_ = EGL_NO_DISPLAY;
       return notFound("opengl renderer: eglInitialize failed (EGL error 0x{:x})", eglGetError());
     }
-    if (!eglBindAPI(EGL_OPENGL_API)) return notFound("opengl renderer: EGL cannot bind desktop OpenGL");
-    const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+    if (!eglBindAPI(EGL_OPENGL_API))
+      return notFound("opengl renderer: EGL cannot bind desktop OpenGL");
+    const EGLint config_attributes[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE,
+                                        EGL_OPENGL_BIT, EGL_NONE};
     EGLConfig config = nullptr;
     EGLint count = 0;
     eglChooseConfig(display_, config_attributes, &config, 1, &count);
-    const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 3,
-                                         EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+    const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION,
+                                         3,
+                                         EGL_CONTEXT_MINOR_VERSION,
+                                         3,
+                                         EGL_CONTEXT_OPENGL_PROFILE_MASK,
+                                         EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                          EGL_NONE};
-    context_ = eglCreateContext(display_, count > 0 ? config : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, context_attributes);
+    context_ = eglCreateContext(display_, count > 0 ? config : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT,
+                                context_attributes);
     if (context_ == EGL_NO_CONTEXT)
-      return notFound("opengl renderer: cannot create an OpenGL 3.3 core context (EGL error 0x{:x})", eglGetError());
+      return notFound(
+          "opengl renderer: cannot create an OpenGL 3.3 core context (EGL error 0x{:x})",
+          eglGetError());
     if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
-      return notFound("opengl renderer: cannot make the context current without a surface (EGL error 0x{:x})",
-                      eglGetError());
+      return notFound(
+          "opengl renderer: cannot make the context current without a surface (EGL error 0x{:x})",
+          eglGetError());
     const char* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     const char* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
     const char* threads = std::getenv("LP_NUM_THREADS");
@@ -247,8 +262,8 @@ class GlRenderer final : public Renderer {
     glGenTextures(1, &crinkle_texture_);
     glBindTexture(GL_TEXTURE_2D, crinkle_texture_);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8UI, kCrinkleSize, kCrinkleSize, 0, GL_RED_INTEGER, GL_UNSIGNED_BYTE,
-                 crinkleCells().data());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8UI, kCrinkleSize, kCrinkleSize, 0, GL_RED_INTEGER,
+                 GL_UNSIGNED_BYTE, crinkleCells().data());
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
     glGenFramebuffers(1, &shadow_fbo_);
@@ -261,8 +276,8 @@ class GlRenderer final : public Renderer {
   Result<int> addModel(const TargetModel& model) override {
     CDFF_RETURN_IF_ERROR(model.validate());
     if (model.materials.size() > kMaxMaterials)
-      return invalidInput("opengl renderer: model '{}' has {} materials; expected at most {}", model.name,
-                          model.materials.size(), kMaxMaterials);
+      return invalidInput("opengl renderer: model '{}' has {} materials; expected at most {}",
+                          model.name, model.materials.size(), kMaxMaterials);
     makeCurrent();
     GlModel m;
     std::vector<float> interleaved;
@@ -278,26 +293,34 @@ class GlRenderer final : public Renderer {
     glBindVertexArray(m.vao);
     glGenBuffers(1, &m.vbo);
     glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
-    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)), interleaved.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(interleaved.size() * sizeof(float)),
+                 interleaved.data(), GL_STATIC_DRAW);
     glEnableVertexAttribArray(0);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
     glEnableVertexAttribArray(1);
-    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<void*>(3 * sizeof(float)));
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                          reinterpret_cast<void*>(3 * sizeof(float)));
     glGenBuffers(1, &m.ebo);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m.ebo);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+                 static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
+                 GL_STATIC_DRAW);
     glBindVertexArray(0);
     m.index_count = static_cast<GLsizei>(indices.size());
     // Per-triangle material indices, fetched with gl_PrimitiveID.
-    std::vector<std::uint16_t> materials(model.triangle_material.begin(), model.triangle_material.end());
+    std::vector<std::uint16_t> materials(model.triangle_material.begin(),
+                                         model.triangle_material.end());
     glGenBuffers(1, &m.material_buffer);
     glBindBuffer(GL_TEXTURE_BUFFER, m.material_buffer);
-    glBufferData(GL_TEXTURE_BUFFER, static_cast<GLsizeiptr>(materials.size() * sizeof(std::uint16_t)), materials.data(), GL_STATIC_DRAW);
+    glBufferData(GL_TEXTURE_BUFFER,
+                 static_cast<GLsizeiptr>(materials.size() * sizeof(std::uint16_t)),
+                 materials.data(), GL_STATIC_DRAW);
     glGenTextures(1, &m.material_texture);
     glBindTexture(GL_TEXTURE_BUFFER, m.material_texture);
     glTexBuffer(GL_TEXTURE_BUFFER, GL_R16UI, m.material_buffer);
     m.materials = model.materials;
-    for (const Material& mat : m.materials) m.cutoff.push_back(std::exp(-13.8f / std::max(mat.shininess, 1.0f)));
+    for (const Material& mat : m.materials)
+      m.cutoff.push_back(std::exp(-13.8f / std::max(mat.shininess, 1.0f)));
     m.centre = model.boundingCentre();
     m.radius = model.boundingRadius();
     CDFF_RETURN_IF_ERROR(checkGl("model upload"));
@@ -307,11 +330,14 @@ class GlRenderer final : public Renderer {
 
   Status render(const RenderScene& scene, const PinholeCamera& cam, RenderOutput& out) override {
     if (cam.width <= 0 || cam.height <= 0 || !(cam.fx > 0) || !(cam.fy > 0))
-      return invalidInput("opengl renderer: camera {}x{} with fx = {}, fy = {}; expected a positive size and focal lengths",
-                          cam.width, cam.height, cam.fx, cam.fy);
+      return invalidInput(
+          "opengl renderer: camera {}x{} with fx = {}, fy = {}; expected a positive size and focal "
+          "lengths",
+          cam.width, cam.height, cam.fx, cam.fy);
     for (const RenderObject& o : scene.objects)
       if (o.model < 0 || o.model >= static_cast<int>(models_.size()))
-        return invalidInput("opengl renderer: object uses model {}; {} models were added", o.model, models_.size());
+        return invalidInput("opengl renderer: object uses model {}; {} models were added", o.model,
+                            models_.size());
     makeCurrent();
     CDFF_RETURN_IF_ERROR(ensureTargets(cam.width, cam.height));
     // Shadow map.
@@ -321,11 +347,14 @@ class GlRenderer final : public Renderer {
     if (lit && scene.shadows) {
       std::vector<std::pair<Eigen::Vector3d, double>> casters;
       for (const RenderObject& o : scene.objects)
-        if (o.casts_shadow) casters.emplace_back(o.camera_T_object * models_[o.model].centre, models_[o.model].radius);
+        if (o.casts_shadow)
+          casters.emplace_back(o.camera_T_object * models_[o.model].centre,
+                               models_[o.model].radius);
       shadow = fitShadowFrame(scene.sun_direction, casters, scene.shadow_map_size);
       if (shadow.valid) {
         depth_range = 0;
-        for (const auto& [c, r] : casters) depth_range = std::max(depth_range, std::abs((shadow.sun_T_camera * c).z()) + r);
+        for (const auto& [c, r] : casters)
+          depth_range = std::max(depth_range, std::abs((shadow.sun_T_camera * c).z()) + r);
         depth_range = depth_range * 1.05 + 1.0;
         CDFF_RETURN_IF_ERROR(renderShadow(scene, shadow, depth_range));
       }
@@ -333,7 +362,8 @@ class GlRenderer final : public Renderer {
     // Tight near and far planes around the objects keep the depth buffer precise at any range.
     double near_plane = std::numeric_limits<double>::infinity(), far_plane = cam.near_plane * 2;
     for (const RenderObject& o : scene.objects) {
-      const double z = (o.camera_T_object * models_[o.model].centre).z(), r = models_[o.model].radius;
+      const double z = (o.camera_T_object * models_[o.model].centre).z(),
+                   r = models_[o.model].radius;
       near_plane = std::min(near_plane, z - r);
       far_plane = std::max(far_plane, z + r);
     }
@@ -410,7 +440,8 @@ class GlRenderer final : public Renderer {
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadBuffer(GL_COLOR_ATTACHMENT0);
     glReadPixels(0, 0, cam.width, cam.height, GL_RGBA, GL_FLOAT, readback_.data());
-    if (out.width != cam.width || out.height != cam.height || out.depth.size() != pixels) out.resize(cam.width, cam.height);
+    if (out.width != cam.width || out.height != cam.height || out.depth.size() != pixels)
+      out.resize(cam.width, cam.height);
     glReadBuffer(GL_COLOR_ATTACHMENT1);
     glReadPixels(0, 0, cam.width, cam.height, GL_RED_INTEGER, GL_UNSIGNED_BYTE, out.id.data());
     CDFF_RETURN_IF_ERROR(checkGl("rendering"));
@@ -430,7 +461,9 @@ class GlRenderer final : public Renderer {
 
   Status checkGl(const char* what) {
     const GLenum error = glGetError();
-    if (error != GL_NO_ERROR) return {StatusCode::kInternal, fmt::format("opengl renderer: GL error 0x{:x} during {}", error, what)};
+    if (error != GL_NO_ERROR)
+      return {StatusCode::kInternal,
+              fmt::format("opengl renderer: GL error 0x{:x} during {}", error, what)};
     return Status::ok();
   }
 
@@ -441,7 +474,8 @@ class GlRenderer final : public Renderer {
 
   void setMaterials(const GlModel& m) {
     float diffuse[3 * kMaxMaterials] = {}, specular[3 * kMaxMaterials] = {};
-    float shininess[kMaxMaterials] = {}, strength[kMaxMaterials] = {}, scale[kMaxMaterials] = {}, cutoff[kMaxMaterials] = {};
+    float shininess[kMaxMaterials] = {}, strength[kMaxMaterials] = {}, scale[kMaxMaterials] = {},
+          cutoff[kMaxMaterials] = {};
     GLint pattern[kMaxMaterials] = {};
     for (std::size_t i = 0; i < m.materials.size(); ++i) {
       const Material& mat = m.materials[i];
@@ -469,12 +503,14 @@ class GlRenderer final : public Renderer {
       if (shadow_texture_) glDeleteTextures(1, &shadow_texture_);
       glGenTextures(1, &shadow_texture_);
       glBindTexture(GL_TEXTURE_2D, shadow_texture_);
-      glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, shadow.size, shadow.size, 0, GL_DEPTH_COMPONENT, GL_FLOAT, nullptr);
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, shadow.size, shadow.size, 0,
+                   GL_DEPTH_COMPONENT, GL_FLOAT, nullptr);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
       glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_NONE);
       glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo_);
-      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_texture_, 0);
+      glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_texture_,
+                             0);
       glDrawBuffer(GL_NONE);
       glReadBuffer(GL_NONE);
       if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
@@ -496,7 +532,8 @@ class GlRenderer final : public Renderer {
     for (const RenderObject& o : scene.objects) {
       if (!o.casts_shadow) continue;
       const GlModel& m = models_[o.model];
-      uniformMatrix4(shadow_program_, "sun_T_object", toGl(shadow.sun_T_camera * o.camera_T_object));
+      uniformMatrix4(shadow_program_, "sun_T_object",
+                     toGl(shadow.sun_T_camera * o.camera_T_object));
       glBindVertexArray(m.vao);
       glDrawElements(GL_TRIANGLES, m.index_count, GL_UNSIGNED_INT, nullptr);
     }
@@ -516,7 +553,8 @@ class GlRenderer final : public Renderer {
     glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, colour_texture_, 0);
     glGenTextures(1, &id_texture_);
     glBindTexture(GL_TEXTURE_2D, id_texture_);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8UI, width, height, 0, GL_RED_INTEGER, GL_UNSIGNED_BYTE, nullptr);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8UI, width, height, 0, GL_RED_INTEGER, GL_UNSIGNED_BYTE,
+                 nullptr);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_TEXTURE_2D, id_texture_, 0);
     glGenRenderbuffers(1, &depth_buffer_);
@@ -524,7 +562,8 @@ class GlRenderer final : public Renderer {
     glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, width, height);
     glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_buffer_);
     if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      return {StatusCode::kInternal, fmt::format("opengl renderer: the {}x{} framebuffer is incomplete", width, height)};
+      return {StatusCode::kInternal,
+              fmt::format("opengl renderer: the {}x{} framebuffer is incomplete", width, height)};
     width_ = width;
     height_ = height;
     return checkGl("framebuffer set-up");
@@ -550,7 +589,8 @@ class GlRenderer final : public Renderer {
         char log[4096] = {};
         glGetShaderInfoLog(shader, sizeof(log), nullptr, log);
         glDeleteShader(shader);
-        return Status(StatusCode::kInternal, fmt::format("opengl renderer: shader compilation failed: {}", log));
+        return Status(StatusCode::kInternal,
+                      fmt::format("opengl renderer: shader compilation failed: {}", log));
       }
       return shader;
     };
@@ -570,7 +610,8 @@ class GlRenderer final : public Renderer {
       char log[4096] = {};
       glGetProgramInfoLog(program, sizeof(log), nullptr, log);
       glDeleteProgram(program);
-      return Status(StatusCode::kInternal, fmt::format("opengl renderer: program link failed: {}", log));
+      return Status(StatusCode::kInternal,
+                    fmt::format("opengl renderer: program link failed: {}", log));
     }
     return program;
   }

@@ -8,21 +8,26 @@ Status ImuSpec::validate(const std::string& name) const {
   if (!std::isfinite(rate) || rate <= 0 || rate > 10000)
     return invalidParameter("{}: 'rate' = {} Hz is out of range; expected (0, 10000]", name, rate);
   const std::pair<double, const char*> figures[] = {
-      {gyro_noise_density, "gyro_noise_density"}, {accel_noise_density, "accel_noise_density"},
-      {gyro_bias_sigma, "gyro_bias_sigma"},       {accel_bias_sigma, "accel_bias_sigma"},
-      {gyro_bias_random_walk, "gyro_bias_random_walk"}, {accel_bias_random_walk, "accel_bias_random_walk"}};
+      {gyro_noise_density, "gyro_noise_density"},
+      {accel_noise_density, "accel_noise_density"},
+      {gyro_bias_sigma, "gyro_bias_sigma"},
+      {accel_bias_sigma, "accel_bias_sigma"},
+      {gyro_bias_random_walk, "gyro_bias_random_walk"},
+      {accel_bias_random_walk, "accel_bias_random_walk"}};
   for (const auto& [value, key] : figures)
     if (!std::isfinite(value) || value < 0)
-      return invalidParameter("{}: '{}' = {} is invalid; expected a finite value >= 0", name, key, value);
+      return invalidParameter("{}: '{}' = {} is invalid; expected a finite value >= 0", name, key,
+                              value);
   if (!(gyro_range > 0) || !(accel_range > 0))
-    return invalidParameter("{}: ranges ({} rad/s, {} m/s^2) must be > 0", name, gyro_range, accel_range);
+    return invalidParameter("{}: ranges ({} rad/s, {} m/s^2) must be > 0", name, gyro_range,
+                            accel_range);
   return Status::ok();
 }
 
 ImuTruth imuTruth(const World& world, const Eigen::Isometry3d& servicer_T_imu, double t) {
   const BodyState s = world.servicer(t);
   const Eigen::Matrix3d servicer_R_lvlh = s.lvlh_T_body.linear().transpose();
-  const Eigen::Vector3d& w = s.angular_velocity;       // servicer axes
+  const Eigen::Vector3d& w = s.angular_velocity;  // servicer axes
   const Eigen::Vector3d& alpha = s.angular_acceleration;
   const Eigen::Vector3d r = servicer_T_imu.translation();  // lever arm, servicer axes
   const Eigen::Vector3d f_servicer =
@@ -52,9 +57,11 @@ Result<ImuSensor> ImuSensor::create(const ImuSpec& spec, const std::string& name
   return s;
 }
 
-Result<ImuSample> ImuSensor::sample(const World& world, double t, const std::vector<ImuBiasJump>& jumps) {
+Result<ImuSample> ImuSensor::sample(const World& world, double t,
+                                    const std::vector<ImuBiasJump>& jumps) {
   if (!(t > last_time_))
-    return invalidInput("{}: sample at t = {} s after one at {} s; expected increasing times", name_, t, last_time_);
+    return invalidInput("{}: sample at t = {} s after one at {} s; expected increasing times",
+                        name_, t, last_time_);
   const ImuTruth truth = imuTruth(world, servicer_T_imu_, t);
   Rng rng = Rng::stream(seed_, name_, index_++);
   Eigen::Vector3d n_gyro, n_accel, w_gyro, w_accel;
@@ -84,7 +91,8 @@ Result<ImuSample> ImuSensor::sample(const World& world, double t, const std::vec
   s.angular_velocity = truth.angular_velocity + gyro_bias_ + gyro_jump_ + sg * n_gyro;
   s.linear_acceleration = truth.specific_force + accel_bias_ + accel_jump_ + sa * n_accel;
   s.angular_velocity = s.angular_velocity.cwiseMax(-spec_.gyro_range).cwiseMin(spec_.gyro_range);
-  s.linear_acceleration = s.linear_acceleration.cwiseMax(-spec_.accel_range).cwiseMin(spec_.accel_range);
+  s.linear_acceleration =
+      s.linear_acceleration.cwiseMax(-spec_.accel_range).cwiseMin(spec_.accel_range);
   s.angular_velocity_covariance = Eigen::Matrix3d::Identity() * (sg * sg);
   s.linear_acceleration_covariance = Eigen::Matrix3d::Identity() * (sa * sa);
   return s;

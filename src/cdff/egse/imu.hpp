@@ -29,24 +29,24 @@
 namespace cdff::egse {
 
 struct ImuSpec {
-  double rate = 120.0;                                      // Hz
-  double gyro_noise_density = 0.05 * M_PI / 180.0;          // rad/s/sqrt(Hz)
-  double accel_noise_density = 0.002;                       // m/s^2/sqrt(Hz)
-  double gyro_bias_sigma = 1.0 * M_PI / 180.0;              // rad/s, turn-on bias (1 sigma)
-  double accel_bias_sigma = 0.02;                           // m/s^2
-  double gyro_bias_random_walk = 1e-4;                      // rad/s/sqrt(s)
-  double accel_bias_random_walk = 1e-4;                     // m/s^2/sqrt(s)
-  std::optional<Eigen::Vector3d> gyro_bias;   // fixed turn-on bias instead of a random one
+  double rate = 120.0;                              // Hz
+  double gyro_noise_density = 0.05 * M_PI / 180.0;  // rad/s/sqrt(Hz)
+  double accel_noise_density = 0.002;               // m/s^2/sqrt(Hz)
+  double gyro_bias_sigma = 1.0 * M_PI / 180.0;      // rad/s, turn-on bias (1 sigma)
+  double accel_bias_sigma = 0.02;                   // m/s^2
+  double gyro_bias_random_walk = 1e-4;              // rad/s/sqrt(s)
+  double accel_bias_random_walk = 1e-4;             // m/s^2/sqrt(s)
+  std::optional<Eigen::Vector3d> gyro_bias;         // fixed turn-on bias instead of a random one
   std::optional<Eigen::Vector3d> accel_bias;
-  double gyro_range = 300.0 * M_PI / 180.0;   // rad/s full scale
-  double accel_range = 50.0;                  // m/s^2 full scale
-  bool noise = true;                          // false: exact truth (biases and noise off)
+  double gyro_range = 300.0 * M_PI / 180.0;  // rad/s full scale
+  double accel_range = 50.0;                 // m/s^2 full scale
+  bool noise = true;                         // false: exact truth (biases and noise off)
 
   Status validate(const std::string& name) const;
 };
 
 struct ImuBiasJump {
-  double time = 0;  // s
+  double time = 0;                                  // s
   Eigen::Vector3d gyro = Eigen::Vector3d::Zero();   // rad/s, added from `time` on
   Eigen::Vector3d accel = Eigen::Vector3d::Zero();  // m/s^2
 };

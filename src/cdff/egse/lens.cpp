@@ -51,10 +51,12 @@ Eigen::Vector2d undistortNormalised(const CameraModel& c, const Eigen::Vector2d&
     Eigen::Matrix2d J;
     if (c.distortion_model == DistortionModel::kRadialTangential) {
       // Analytic Jacobian of the radial-tangential model.
-      const double k1 = coefficient(c, 0), k2 = coefficient(c, 1), p1 = coefficient(c, 2), p2 = coefficient(c, 3),
-                   k3 = coefficient(c, 4), k4 = coefficient(c, 5), k5 = coefficient(c, 6), k6 = coefficient(c, 7);
+      const double k1 = coefficient(c, 0), k2 = coefficient(c, 1), p1 = coefficient(c, 2),
+                   p2 = coefficient(c, 3), k3 = coefficient(c, 4), k4 = coefficient(c, 5),
+                   k5 = coefficient(c, 6), k6 = coefficient(c, 7);
       const double x = p.x(), y = p.y(), r2 = x * x + y * y, r4 = r2 * r2;
-      const double N = 1 + k1 * r2 + k2 * r4 + k3 * r4 * r2, D = 1 + k4 * r2 + k5 * r4 + k6 * r4 * r2;
+      const double N = 1 + k1 * r2 + k2 * r4 + k3 * r4 * r2,
+                   D = 1 + k4 * r2 + k5 * r4 + k6 * r4 * r2;
       const double dN = k1 + 2 * k2 * r2 + 3 * k3 * r4, dD = k4 + 2 * k5 * r2 + 3 * k6 * r4;
       const double R = N / D, dR = (dN * D - N * dD) / (D * D);  // dR / d(r^2)
       J(0, 0) = R + 2 * x * x * dR + 2 * p1 * y + 6 * p2 * x;
@@ -64,8 +66,12 @@ Eigen::Vector2d undistortNormalised(const CameraModel& c, const Eigen::Vector2d&
     } else {
       // Central differences (the fisheye model is smooth and cheap).
       constexpr double h = 1e-7;
-      J.col(0) = (distortNormalised(c, p + Eigen::Vector2d(h, 0)) - distortNormalised(c, p - Eigen::Vector2d(h, 0))) / (2 * h);
-      J.col(1) = (distortNormalised(c, p + Eigen::Vector2d(0, h)) - distortNormalised(c, p - Eigen::Vector2d(0, h))) / (2 * h);
+      J.col(0) = (distortNormalised(c, p + Eigen::Vector2d(h, 0)) -
+                  distortNormalised(c, p - Eigen::Vector2d(h, 0))) /
+                 (2 * h);
+      J.col(1) = (distortNormalised(c, p + Eigen::Vector2d(0, h)) -
+                  distortNormalised(c, p - Eigen::Vector2d(0, h))) /
+                 (2 * h);
     }
     p -= J.inverse() * residual;
   }
@@ -78,7 +84,8 @@ Eigen::Vector2d projectWithDistortion(const CameraModel& c, const Eigen::Vector3
 }
 
 Eigen::Vector3d pixelRay(const CameraModel& c, double u, double v) {
-  const Eigen::Vector2d n = undistortNormalised(c, Eigen::Vector2d((u - c.cx) / c.fx, (v - c.cy) / c.fy));
+  const Eigen::Vector2d n =
+      undistortNormalised(c, Eigen::Vector2d((u - c.cx) / c.fx, (v - c.cy) / c.fy));
   return Eigen::Vector3d(n.x(), n.y(), 1.0).normalized();
 }
 

@@ -4,9 +4,8 @@ namespace cdff::egse {
 
 namespace {
 
-Material make(std::string name, Eigen::Vector3f diffuse, Eigen::Vector3f specular,
-              float shininess, SurfacePattern pattern, float strength, float scale,
-              float lidar) {
+Material make(std::string name, Eigen::Vector3f diffuse, Eigen::Vector3f specular, float shininess,
+              SurfacePattern pattern, float strength, float scale, float lidar) {
   Material m;
   m.name = std::move(name);
   m.diffuse = diffuse;
@@ -37,18 +36,18 @@ std::vector<Material> makeTable() {
   set(MaterialId::kRadiator, make("radiator", V(0.78f, 0.78f, 0.80f), V(0.25f, 0.25f, 0.25f),
                                   250.0f, SurfacePattern::kNone, 0.0f, 0.05f, 0.8f));
   // Black anodised launch adapter ring.
-  set(MaterialId::kAdapterRing, make("adapter_ring", V(0.06f, 0.06f, 0.065f),
-                                     V(0.25f, 0.25f, 0.25f), 35.0f, SurfacePattern::kNone, 0.0f,
-                                     0.05f, 0.1f));
+  set(MaterialId::kAdapterRing,
+      make("adapter_ring", V(0.06f, 0.06f, 0.065f), V(0.25f, 0.25f, 0.25f), 35.0f,
+           SurfacePattern::kNone, 0.0f, 0.05f, 0.1f));
   set(MaterialId::kStructure, make("structure", V(0.35f, 0.35f, 0.36f), V(0.45f, 0.45f, 0.45f),
                                    40.0f, SurfacePattern::kNone, 0.0f, 0.05f, 0.5f));
   set(MaterialId::kAntenna, make("antenna", V(0.72f, 0.72f, 0.70f), V(0.04f, 0.04f, 0.04f), 10.0f,
                                  SurfacePattern::kNone, 0.0f, 0.05f, 0.75f));
-  set(MaterialId::kThruster, make("thruster", V(0.20f, 0.19f, 0.18f), V(0.55f, 0.52f, 0.50f),
-                                  60.0f, SurfacePattern::kNone, 0.0f, 0.05f, 0.3f));
-  set(MaterialId::kServicerBody, make("servicer_body", V(0.50f, 0.50f, 0.52f),
-                                      V(0.60f, 0.60f, 0.62f), 100.0f, SurfacePattern::kCrinkle,
-                                      0.18f, 0.04f, 0.6f));
+  set(MaterialId::kThruster, make("thruster", V(0.20f, 0.19f, 0.18f), V(0.55f, 0.52f, 0.50f), 60.0f,
+                                  SurfacePattern::kNone, 0.0f, 0.05f, 0.3f));
+  set(MaterialId::kServicerBody,
+      make("servicer_body", V(0.50f, 0.50f, 0.52f), V(0.60f, 0.60f, 0.62f), 100.0f,
+           SurfacePattern::kCrinkle, 0.18f, 0.04f, 0.6f));
   return t;
 }
 

@@ -31,7 +31,8 @@ struct Material {
   SurfacePattern pattern = SurfacePattern::kNone;
   float pattern_strength = 0.0f;  // crinkle: facet tilt (rad); cells: interconnect albedo boost
   float pattern_scale = 0.05f;    // m: crinkle facet size, or solar cell pitch
-  float lidar_reflectivity = 0.5f;  // diffuse reflectance at 905 nm (LIDAR intensity, ToF amplitude)
+  float lidar_reflectivity =
+      0.5f;  // diffuse reflectance at 905 nm (LIDAR intensity, ToF amplitude)
 };
 
 /// The built-in materials; their indices are MaterialId values.

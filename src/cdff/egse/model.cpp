@@ -17,11 +17,12 @@ Status TargetModel::validate() const {
   if (triangle_material.size() != mesh.triangles.size())
     return invalidInput("model '{}' has {} triangles but {} triangle materials; expected one each",
                         name, mesh.triangles.size(), triangle_material.size());
-  if (materials.empty()) return invalidInput("model '{}' has no materials; expected at least one", name);
+  if (materials.empty())
+    return invalidInput("model '{}' has no materials; expected at least one", name);
   for (std::size_t t = 0; t < triangle_material.size(); ++t)
     if (triangle_material[t] >= materials.size())
-      return invalidInput("model '{}' triangle {} uses material {}; expected an index < {}", name, t,
-                          triangle_material[t], materials.size());
+      return invalidInput("model '{}' triangle {} uses material {}; expected an index < {}", name,
+                          t, triangle_material[t], materials.size());
   for (std::size_t p = 0; p < polygons.size(); ++p) {
     if (polygons[p].vertices.size() < 3)
       return invalidInput("model '{}' polygon {} has {} vertices; expected at least 3", name, p,
@@ -40,7 +41,9 @@ Eigen::AlignedBox3d TargetModel::bounds() const {
   return box;
 }
 
-Eigen::Vector3d TargetModel::boundingCentre() const { return bounds().center(); }
+Eigen::Vector3d TargetModel::boundingCentre() const {
+  return bounds().center();
+}
 
 double TargetModel::boundingRadius() const {
   const Eigen::Vector3d c = boundingCentre();
@@ -154,11 +157,14 @@ void ModelBuilder::addRevolution(const Eigen::Isometry3d& pose,
       std::array<std::uint32_t, 4> quad = {ring0[i], ring0[j], ring1[j], ring1[i]};
       if (!outward) quad = {ring0[i], ring1[i], ring1[j], ring0[j]};
       // Orientation check against the band normal (robust to descending profiles).
-      const Eigen::Vector3d qa = vertices_[quad[0]].cast<double>(), qb = vertices_[quad[1]].cast<double>(),
-                            qc = vertices_[quad[2]].cast<double>(), qd = vertices_[quad[3]].cast<double>();
+      const Eigen::Vector3d qa = vertices_[quad[0]].cast<double>(),
+                            qb = vertices_[quad[1]].cast<double>(),
+                            qc = vertices_[quad[2]].cast<double>(),
+                            qd = vertices_[quad[3]].cast<double>();
       Eigen::Vector3d fn = (qc - qa).cross(qd - qb);
       if (fn.norm() < 1e-18) fn = (qb - qa).cross(qc - qa);
-      const Eigen::Vector3d mid_normal = normals_[quad[0]].cast<double>() + normals_[quad[2]].cast<double>();
+      const Eigen::Vector3d mid_normal =
+          normals_[quad[0]].cast<double>() + normals_[quad[2]].cast<double>();
       if (fn.dot(mid_normal) < 0) std::swap(quad[1], quad[3]);
       ModelPolygon polygon;
       polygon.material = material;
@@ -338,7 +344,8 @@ PointCloud samplePointCloud(const TargetModel& model, std::size_t count, std::ui
                                wb * mesh.vertex_normals[t[1]].cast<double>() +
                                wc * mesh.vertex_normals[t[2]].cast<double>())
                                   .normalized();
-    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
     Point4f normal(static_cast<float>(n.x()), static_cast<float>(n.y()), static_cast<float>(n.z()));
     normal.pad = 0.0f;
     normals.push_back(normal);

@@ -27,7 +27,7 @@ struct ModelPolygon {
 
 struct TargetModel {
   std::string name;
-  TriangleMesh mesh;                          // in the model (body) frame, metres
+  TriangleMesh mesh;                             // in the model (body) frame, metres
   std::vector<std::uint16_t> triangle_material;  // index into `materials`, one per triangle
   std::vector<Material> materials;
   std::vector<ModelPolygon> polygons;  // the face model; empty for loaded meshes (triangles serve)

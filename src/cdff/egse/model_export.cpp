@@ -65,7 +65,8 @@ Status writeObj(const TargetModel& model, const std::filesystem::path& path) {
   std::fprintf(f, "# CDFF simulator model '%s' in frame '%s', metres\n", model.name.c_str(),
                model.mesh.frame_id.c_str());
   std::fprintf(f, "mtllib %s\no %s\n", mtl_path.filename().c_str(), sanitise(model.name).c_str());
-  for (const auto& v : model.mesh.vertices) std::fprintf(f, "v %.9g %.9g %.9g\n", v.x(), v.y(), v.z());
+  for (const auto& v : model.mesh.vertices)
+    std::fprintf(f, "v %.9g %.9g %.9g\n", v.x(), v.y(), v.z());
   for (const auto& n : model.mesh.vertex_normals)
     std::fprintf(f, "vn %.7g %.7g %.7g\n", n.x(), n.y(), n.z());
   // Faces grouped by material, in material order, so that each material has one usemtl.
@@ -133,7 +134,8 @@ Status writePointCloudPly(const PointCloud& cloud, const std::filesystem::path& 
   std::fprintf(f, "comment CDFF point cloud in frame '%s', metres\n", cloud.frame_id.c_str());
   std::fprintf(f, "element vertex %zu\nproperty float x\nproperty float y\nproperty float z\n",
                cloud.size());
-  if (cloud.hasNormals()) std::fprintf(f, "property float nx\nproperty float ny\nproperty float nz\n");
+  if (cloud.hasNormals())
+    std::fprintf(f, "property float nx\nproperty float ny\nproperty float nz\n");
   if (!cloud.intensity.empty()) std::fprintf(f, "property float intensity\n");
   std::fprintf(f, "end_header\n");
   for (std::size_t i = 0; i < cloud.size(); ++i) {
@@ -182,7 +184,8 @@ Status writeCao(const TargetModel& model, const std::filesystem::path& path) {
   std::fprintf(f, "# 3D points\n%zu\n", points.size());
   for (const auto& p : points) std::fprintf(f, "%.9g %.9g %.9g\n", p.x(), p.y(), p.z());
   std::fprintf(f, "# 3D lines\n0\n# Faces from 3D lines\n0\n");
-  std::fprintf(f, "# Faces from 3D points (counter-clockwise seen from outside)\n%zu\n", faces.size());
+  std::fprintf(f, "# Faces from 3D points (counter-clockwise seen from outside)\n%zu\n",
+               faces.size());
   for (const auto& face : faces) {
     std::fprintf(f, "%zu", face.size());
     for (std::uint32_t v : face) std::fprintf(f, " %u", v);
@@ -197,8 +200,7 @@ Status writeEdges(const std::vector<ModelEdge>& edges, const std::filesystem::pa
   if (!file) return file.status();
   std::FILE* f = file->get();
   std::fprintf(f, "# CDFF edge model v1: one edge per line, metres, model frame\n");
-  std::fprintf(f,
-               "# ax ay az bx by bz  nlx nly nlz  nrx nry nrz  dihedral_rad boundary crease\n");
+  std::fprintf(f, "# ax ay az bx by bz  nlx nly nlz  nrx nry nrz  dihedral_rad boundary crease\n");
   std::fprintf(f, "%zu\n", edges.size());
   for (const ModelEdge& e : edges)
     std::fprintf(f, "%.9g %.9g %.9g %.9g %.9g %.9g %.7g %.7g %.7g %.7g %.7g %.7g %.7g %d %d\n",
@@ -229,11 +231,11 @@ Result<std::vector<ModelEdge>> readEdges(const std::filesystem::path& path) {
     }
     ModelEdge e;
     int boundary = 0, crease = 0;
-    const int read = std::sscanf(
-        line.c_str(), "%f %f %f %f %f %f %f %f %f %f %f %f %f %d %d", &e.a.x(), &e.a.y(), &e.a.z(),
-        &e.b.x(), &e.b.y(), &e.b.z(), &e.normal_left.x(), &e.normal_left.y(), &e.normal_left.z(),
-        &e.normal_right.x(), &e.normal_right.y(), &e.normal_right.z(), &e.dihedral_angle,
-        &boundary, &crease);
+    const int read = std::sscanf(line.c_str(), "%f %f %f %f %f %f %f %f %f %f %f %f %f %d %d",
+                                 &e.a.x(), &e.a.y(), &e.a.z(), &e.b.x(), &e.b.y(), &e.b.z(),
+                                 &e.normal_left.x(), &e.normal_left.y(), &e.normal_left.z(),
+                                 &e.normal_right.x(), &e.normal_right.y(), &e.normal_right.z(),
+                                 &e.dihedral_angle, &boundary, &crease);
     if (read != 15)
       return Status(StatusCode::kCorruptData,
                     fmt::format("{}:{}: expected 15 fields (13 numbers and 2 flags), read {}",
@@ -261,7 +263,8 @@ Result<ModelExport> exportModel(const TargetModel& model, const std::filesystem:
   out.edges = directory / (basename + "_edges.txt");
   CDFF_RETURN_IF_ERROR(writeObj(model, out.obj));
   CDFF_RETURN_IF_ERROR(writePly(model, out.ply, true));
-  CDFF_RETURN_IF_ERROR(writePointCloudPly(samplePointCloud(model, point_count, seed), out.points_ply));
+  CDFF_RETURN_IF_ERROR(
+      writePointCloudPly(samplePointCloud(model, point_count, seed), out.points_ply));
   CDFF_RETURN_IF_ERROR(writeCao(model, out.cao));
   CDFF_RETURN_IF_ERROR(writeEdges(extractEdges(model), out.edges));
   return out;

@@ -19,7 +19,9 @@ namespace cdff::egse {
 
 namespace {
 
-Status corrupt(const std::string& message) { return {StatusCode::kCorruptData, message}; }
+Status corrupt(const std::string& message) {
+  return {StatusCode::kCorruptData, message};
+}
 
 Result<std::string> readWholeFile(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -204,11 +206,12 @@ Result<TargetModel> finish(std::string name, std::vector<Eigen::Vector3f> positi
                            const std::vector<std::uint16_t>& materials_of_triangles,
                            std::vector<Material> materials, const MeshLoadOptions& options,
                            const std::filesystem::path& path) {
-  if (triangles.empty()) return corrupt(fmt::format("'{}' holds no triangles; expected a mesh", path.string()));
+  if (triangles.empty())
+    return corrupt(fmt::format("'{}' holds no triangles; expected a mesh", path.string()));
   applyOptions(positions, options);
-  TargetModel model = buildModelFromTriangles(std::move(name), positions, triangles,
-                                              materials_of_triangles, std::move(materials),
-                                              options.smoothing_angle);
+  TargetModel model =
+      buildModelFromTriangles(std::move(name), positions, triangles, materials_of_triangles,
+                              std::move(materials), options.smoothing_angle);
   CDFF_RETURN_IF_ERROR(model.validate().withContext(path.string()));
   return model;
 }
@@ -226,18 +229,21 @@ Status readMtl(const std::filesystem::path& path, std::map<std::string, Material
     if (t.empty() || t[0][0] == '#') continue;
     auto vec3 = [&](Eigen::Vector3f& v) -> Status {
       if (t.size() < 4)
-        return corrupt(fmt::format("{}:{}: '{}' needs 3 numbers", path.string(), reader.line(), t[0]));
+        return corrupt(
+            fmt::format("{}:{}: '{}' needs 3 numbers", path.string(), reader.line(), t[0]));
       for (int i = 0; i < 3; ++i) {
         double d;
         if (!parseDouble(t[1 + i], d))
-          return corrupt(fmt::format("{}:{}: '{}' is not a number", path.string(), reader.line(), t[1 + i]));
+          return corrupt(
+              fmt::format("{}:{}: '{}' is not a number", path.string(), reader.line(), t[1 + i]));
         v[i] = static_cast<float>(d);
       }
       return Status::ok();
     };
     if (t[0] == "newmtl" && t.size() >= 2) {
       const std::string name(t[1]);
-      out[name] = materialFromColour(name, Eigen::Vector3f::Constant(0.5f), Eigen::Vector3f::Zero(), 1.0f);
+      out[name] =
+          materialFromColour(name, Eigen::Vector3f::Constant(0.5f), Eigen::Vector3f::Zero(), 1.0f);
       current = &out[name];
     } else if (current && t[0] == "Kd") {
       CDFF_RETURN_IF_ERROR(vec3(current->diffuse));
@@ -247,7 +253,8 @@ Status readMtl(const std::filesystem::path& path, std::map<std::string, Material
     } else if (current && t[0] == "Ns" && t.size() >= 2) {
       double d;
       if (!parseDouble(t[1], d))
-        return corrupt(fmt::format("{}:{}: 'Ns {}' is not a number", path.string(), reader.line(), t[1]));
+        return corrupt(
+            fmt::format("{}:{}: 'Ns {}' is not a number", path.string(), reader.line(), t[1]));
       current->shininess = static_cast<float>(std::max(1.0, d));
     }
   }
@@ -275,29 +282,35 @@ Result<TargetModel> loadObj(const std::filesystem::path& path, const MeshLoadOpt
     const int ln = reader.line();
     if (t[0] == "v") {
       if (t.size() < 4)
-        return corrupt(fmt::format("{}:{}: vertex has {} coordinates; expected 'v x y z'", file, ln, t.size() - 1));
+        return corrupt(fmt::format("{}:{}: vertex has {} coordinates; expected 'v x y z'", file, ln,
+                                   t.size() - 1));
       Eigen::Vector3f p;
       for (int i = 0; i < 3; ++i) {
         double d;
         if (!parseDouble(t[1 + i], d))
-          return corrupt(fmt::format("{}:{}: vertex coordinate '{}' is not a finite number", file, ln, t[1 + i]));
+          return corrupt(fmt::format("{}:{}: vertex coordinate '{}' is not a finite number", file,
+                                     ln, t[1 + i]));
         p[i] = static_cast<float>(d);
       }
       positions.push_back(p);
     } else if (t[0] == "f") {
       if (t.size() < 4)
-        return corrupt(fmt::format("{}:{}: face has {} vertices; expected at least 3", file, ln, t.size() - 1));
+        return corrupt(fmt::format("{}:{}: face has {} vertices; expected at least 3", file, ln,
+                                   t.size() - 1));
       std::vector<std::uint32_t> face;
       for (std::size_t i = 1; i < t.size(); ++i) {
         const std::string_view first = t[i].substr(0, t[i].find('/'));
         long long index;
         if (!parseLong(first, index) || index == 0)
-          return corrupt(fmt::format("{}:{}: face vertex '{}' is not a vertex index (1-based, or negative)",
-                                     file, ln, t[i]));
-        const long long resolved = index > 0 ? index - 1 : static_cast<long long>(positions.size()) + index;
+          return corrupt(
+              fmt::format("{}:{}: face vertex '{}' is not a vertex index (1-based, or negative)",
+                          file, ln, t[i]));
+        const long long resolved =
+            index > 0 ? index - 1 : static_cast<long long>(positions.size()) + index;
         if (resolved < 0 || resolved >= static_cast<long long>(positions.size()))
-          return corrupt(fmt::format("{}:{}: face vertex {} refers to a vertex not defined yet ({} so far)",
-                                     file, ln, index, positions.size()));
+          return corrupt(
+              fmt::format("{}:{}: face vertex {} refers to a vertex not defined yet ({} so far)",
+                          file, ln, index, positions.size()));
         face.push_back(static_cast<std::uint32_t>(resolved));
       }
       if (current == UINT16_MAX) current = table.index("");
@@ -328,11 +341,11 @@ enum class PlyType { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, 
 
 std::optional<PlyType> plyType(std::string_view name) {
   static const std::map<std::string, PlyType, std::less<>> types = {
-      {"char", PlyType::kInt8},     {"int8", PlyType::kInt8},     {"uchar", PlyType::kUint8},
-      {"uint8", PlyType::kUint8},   {"short", PlyType::kInt16},   {"int16", PlyType::kInt16},
-      {"ushort", PlyType::kUint16}, {"uint16", PlyType::kUint16}, {"int", PlyType::kInt32},
-      {"int32", PlyType::kInt32},   {"uint", PlyType::kUint32},   {"uint32", PlyType::kUint32},
-      {"float", PlyType::kFloat32}, {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
+      {"char", PlyType::kInt8},      {"int8", PlyType::kInt8},       {"uchar", PlyType::kUint8},
+      {"uint8", PlyType::kUint8},    {"short", PlyType::kInt16},     {"int16", PlyType::kInt16},
+      {"ushort", PlyType::kUint16},  {"uint16", PlyType::kUint16},   {"int", PlyType::kInt32},
+      {"int32", PlyType::kInt32},    {"uint", PlyType::kUint32},     {"uint32", PlyType::kUint32},
+      {"float", PlyType::kFloat32},  {"float32", PlyType::kFloat32}, {"double", PlyType::kFloat64},
       {"float64", PlyType::kFloat64}};
   auto it = types.find(name);
   if (it == types.end()) return std::nullopt;
@@ -341,10 +354,18 @@ std::optional<PlyType> plyType(std::string_view name) {
 
 int plySize(PlyType t) {
   switch (t) {
-    case PlyType::kInt8: case PlyType::kUint8: return 1;
-    case PlyType::kInt16: case PlyType::kUint16: return 2;
-    case PlyType::kInt32: case PlyType::kUint32: case PlyType::kFloat32: return 4;
-    case PlyType::kFloat64: return 8;
+    case PlyType::kInt8:
+    case PlyType::kUint8:
+      return 1;
+    case PlyType::kInt16:
+    case PlyType::kUint16:
+      return 2;
+    case PlyType::kInt32:
+    case PlyType::kUint32:
+    case PlyType::kFloat32:
+      return 4;
+    case PlyType::kFloat64:
+      return 8;
   }
   return 0;
 }
@@ -381,7 +402,8 @@ Result<PlyHeader> parsePlyHeader(const std::string& text, const std::string& fil
   bool have_format = false;
   while (true) {
     if (!reader.next(line))
-      return corrupt(fmt::format("{}:{}: the header ends before 'end_header'", file, reader.line()));
+      return corrupt(
+          fmt::format("{}:{}: the header ends before 'end_header'", file, reader.line()));
     const int ln = reader.line();
     const auto t = tokens(line);
     if (t.empty()) continue;
@@ -397,17 +419,23 @@ Result<PlyHeader> parsePlyHeader(const std::string& text, const std::string& fil
     if (t[0] == "format") {
       if (t.size() != 3)
         return corrupt(fmt::format("{}:{}: malformed format line '{}'", file, ln, line));
-      if (t[1] == "ascii") header.format = PlyFormat::kAscii;
-      else if (t[1] == "binary_little_endian") header.format = PlyFormat::kBinaryLittle;
-      else if (t[1] == "binary_big_endian") header.format = PlyFormat::kBinaryBig;
+      if (t[1] == "ascii")
+        header.format = PlyFormat::kAscii;
+      else if (t[1] == "binary_little_endian")
+        header.format = PlyFormat::kBinaryLittle;
+      else if (t[1] == "binary_big_endian")
+        header.format = PlyFormat::kBinaryBig;
       else
-        return corrupt(fmt::format("{}:{}: unknown PLY format '{}'; expected ascii, "
-                                   "binary_little_endian or binary_big_endian", file, ln, t[1]));
+        return corrupt(
+            fmt::format("{}:{}: unknown PLY format '{}'; expected ascii, "
+                        "binary_little_endian or binary_big_endian",
+                        file, ln, t[1]));
       have_format = true;
     } else if (t[0] == "element") {
       long long count;
       if (t.size() != 3 || !parseLong(t[2], count) || count < 0)
-        return corrupt(fmt::format("{}:{}: malformed element line '{}'; expected 'element NAME COUNT'", file, ln, line));
+        return corrupt(fmt::format(
+            "{}:{}: malformed element line '{}'; expected 'element NAME COUNT'", file, ln, line));
       header.elements.push_back({std::string(t[1]), static_cast<std::size_t>(count), {}});
     } else if (t[0] == "property") {
       if (header.elements.empty())
@@ -445,7 +473,10 @@ Result<PlyHeader> parsePlyHeader(const std::string& text, const std::string& fil
 class PlyBody {
  public:
   PlyBody(const std::string& text, const PlyHeader& header, std::string file)
-      : text_(text), format_(header.format), pos_(header.body_offset), line_(header.body_line + 1),
+      : text_(text),
+        format_(header.format),
+        pos_(header.body_offset),
+        line_(header.body_line + 1),
         file_(std::move(file)) {}
 
   Status read(PlyType type, double& value) {
@@ -460,14 +491,54 @@ class PlyBody {
     if (big != (std::endian::native == std::endian::big)) std::reverse(bytes, bytes + size);
     pos_ += size;
     switch (type) {
-      case PlyType::kInt8: { std::int8_t v; std::memcpy(&v, bytes, 1); value = v; break; }
-      case PlyType::kUint8: { std::uint8_t v; std::memcpy(&v, bytes, 1); value = v; break; }
-      case PlyType::kInt16: { std::int16_t v; std::memcpy(&v, bytes, 2); value = v; break; }
-      case PlyType::kUint16: { std::uint16_t v; std::memcpy(&v, bytes, 2); value = v; break; }
-      case PlyType::kInt32: { std::int32_t v; std::memcpy(&v, bytes, 4); value = v; break; }
-      case PlyType::kUint32: { std::uint32_t v; std::memcpy(&v, bytes, 4); value = v; break; }
-      case PlyType::kFloat32: { float v; std::memcpy(&v, bytes, 4); value = v; break; }
-      case PlyType::kFloat64: { double v; std::memcpy(&v, bytes, 8); value = v; break; }
+      case PlyType::kInt8: {
+        std::int8_t v;
+        std::memcpy(&v, bytes, 1);
+        value = v;
+        break;
+      }
+      case PlyType::kUint8: {
+        std::uint8_t v;
+        std::memcpy(&v, bytes, 1);
+        value = v;
+        break;
+      }
+      case PlyType::kInt16: {
+        std::int16_t v;
+        std::memcpy(&v, bytes, 2);
+        value = v;
+        break;
+      }
+      case PlyType::kUint16: {
+        std::uint16_t v;
+        std::memcpy(&v, bytes, 2);
+        value = v;
+        break;
+      }
+      case PlyType::kInt32: {
+        std::int32_t v;
+        std::memcpy(&v, bytes, 4);
+        value = v;
+        break;
+      }
+      case PlyType::kUint32: {
+        std::uint32_t v;
+        std::memcpy(&v, bytes, 4);
+        value = v;
+        break;
+      }
+      case PlyType::kFloat32: {
+        float v;
+        std::memcpy(&v, bytes, 4);
+        value = v;
+        break;
+      }
+      case PlyType::kFloat64: {
+        double v;
+        std::memcpy(&v, bytes, 8);
+        value = v;
+        break;
+      }
     }
     return Status::ok();
   }
@@ -493,14 +564,17 @@ class PlyBody {
 
  private:
   Status readAscii(double& value) {
-    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r')) ++pos_;
+    while (pos_ < text_.size() &&
+           (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\r'))
+      ++pos_;
     if (pos_ >= text_.size() || text_[pos_] == '\n')
       return corrupt(fmt::format("{}:{}: {} has too few values", file_, line_, context_));
     std::size_t end = pos_;
     while (end < text_.size() && !std::isspace(static_cast<unsigned char>(text_[end]))) ++end;
     const std::string_view token(text_.data() + pos_, end - pos_);
     if (!parseDouble(token, value))
-      return corrupt(fmt::format("{}:{}: '{}' in {} is not a number", file_, line_, token, context_));
+      return corrupt(
+          fmt::format("{}:{}: '{}' in {} is not a number", file_, line_, token, context_));
     pos_ = end;
     return Status::ok();
   }
@@ -558,7 +632,8 @@ Result<TargetModel> loadPly(const std::filesystem::path& path, const MeshLoadOpt
           double count;
           CDFF_RETURN_IF_ERROR(body.read(prop.count_type, count));
           if (count < 0 || count > 1e6)
-            return corrupt(fmt::format("{}: {} {} has a list of {} entries", body.where(), element.name, i, count));
+            return corrupt(fmt::format("{}: {} {} has a list of {} entries", body.where(),
+                                       element.name, i, count));
           for (int j = 0; j < static_cast<int>(count); ++j) {
             double value;
             CDFF_RETURN_IF_ERROR(body.read(prop.type, value));
@@ -574,7 +649,8 @@ Result<TargetModel> loadPly(const std::filesystem::path& path, const MeshLoadOpt
           CDFF_RETURN_IF_ERROR(body.read(prop.type, value));
           if (is_vertex) {
             if (!std::isfinite(value))
-              return corrupt(fmt::format("{}: vertex {} has a non-finite coordinate", body.where(), i));
+              return corrupt(
+                  fmt::format("{}: vertex {} has a non-finite coordinate", body.where(), i));
             if (static_cast<int>(k) == ix) p.x() = static_cast<float>(value);
             if (static_cast<int>(k) == iy) p.y() = static_cast<float>(value);
             if (static_cast<int>(k) == iz) p.z() = static_cast<float>(value);
@@ -587,7 +663,8 @@ Result<TargetModel> loadPly(const std::filesystem::path& path, const MeshLoadOpt
       if (is_vertex) positions.push_back(p);
       if (is_face) {
         if (face.size() < 3)
-          return corrupt(fmt::format("{}: face {} has {} vertices; expected at least 3", body.where(), i, face.size()));
+          return corrupt(fmt::format("{}: face {} has {} vertices; expected at least 3",
+                                     body.where(), i, face.size()));
         for (std::size_t j = 1; j + 1 < face.size(); ++j) {
           triangles.push_back({face[0], face[j], face[j + 1]});
           raw_material.push_back(material);
@@ -616,7 +693,8 @@ Result<PointCloud> readPointCloudPly(const std::filesystem::path& path) {
   PlyBody body(*text, *header, file);
   for (const PlyElement& element : header->elements) {
     std::map<std::string, int> index;
-    for (std::size_t p = 0; p < element.properties.size(); ++p) index[element.properties[p].name] = static_cast<int>(p);
+    for (std::size_t p = 0; p < element.properties.size(); ++p)
+      index[element.properties[p].name] = static_cast<int>(p);
     const bool is_vertex = element.name == "vertex";
     if (is_vertex && (!index.count("x") || !index.count("y") || !index.count("z")))
       return corrupt(fmt::format("{}: the vertex element lacks x, y or z properties", file));
@@ -640,7 +718,8 @@ Result<PointCloud> readPointCloudPly(const std::filesystem::path& path) {
       }
       CDFF_RETURN_IF_ERROR(body.endElement());
       if (!is_vertex) continue;
-      points.emplace_back(static_cast<float>(values[index["x"]]), static_cast<float>(values[index["y"]]),
+      points.emplace_back(static_cast<float>(values[index["x"]]),
+                          static_cast<float>(values[index["y"]]),
                           static_cast<float>(values[index["z"]]));
       if (has_normals) {
         Point4f n(static_cast<float>(values[index["nx"]]), static_cast<float>(values[index["ny"]]),
@@ -719,12 +798,14 @@ Result<TargetModel> loadStl(const std::filesystem::path& path, const MeshLoadOpt
       if (t[0] == "vertex") {
         if (!in_loop) return corrupt(fmt::format("{}:{}: 'vertex' outside 'outer loop'", file, ln));
         if (t.size() != 4)
-          return corrupt(fmt::format("{}:{}: vertex has {} coordinates; expected 3", file, ln, t.size() - 1));
+          return corrupt(
+              fmt::format("{}:{}: vertex has {} coordinates; expected 3", file, ln, t.size() - 1));
         Eigen::Vector3f p;
         for (int i = 0; i < 3; ++i) {
           double d;
           if (!parseDouble(t[1 + i], d))
-            return corrupt(fmt::format("{}:{}: vertex coordinate '{}' is not a finite number", file, ln, t[1 + i]));
+            return corrupt(fmt::format("{}:{}: vertex coordinate '{}' is not a finite number", file,
+                                       ln, t[1 + i]));
           p[i] = static_cast<float>(d);
         }
         loop.push_back(weld(index, positions, p));
@@ -733,7 +814,8 @@ Result<TargetModel> loadStl(const std::filesystem::path& path, const MeshLoadOpt
         loop.clear();
       } else if (t[0] == "endloop") {
         if (loop.size() != 3)
-          return corrupt(fmt::format("{}:{}: a facet has {} vertices; expected 3", file, ln, loop.size()));
+          return corrupt(
+              fmt::format("{}:{}: a facet has {} vertices; expected 3", file, ln, loop.size()));
         if (loop[0] != loop[1] && loop[1] != loop[2] && loop[0] != loop[2])
           triangles.push_back({loop[0], loop[1], loop[2]});
         in_loop = false;
@@ -777,7 +859,8 @@ Result<std::string> decodeBase64(std::string_view in, const std::string& where) 
     if (c == '=') break;
     if (std::isspace(static_cast<unsigned char>(c))) continue;
     const int v = value(c);
-    if (v < 0) return corrupt(fmt::format("{}: invalid base64 character '{}' at offset {}", where, c, i));
+    if (v < 0)
+      return corrupt(fmt::format("{}: invalid base64 character '{}' at offset {}", where, c, i));
     buffer = (buffer << 6) | v;
     bits += 6;
     if (bits >= 8) {
@@ -797,24 +880,40 @@ class Gltf {
   Status accessor(std::size_t index, int components, std::vector<double>& out, std::size_t& count) {
     const auto& accessors = doc_.value("accessors", nlohmann::json::array());
     if (index >= accessors.size())
-      return corrupt(fmt::format("{}: accessor {} does not exist ({} accessors)", file_, index, accessors.size()));
+      return corrupt(fmt::format("{}: accessor {} does not exist ({} accessors)", file_, index,
+                                 accessors.size()));
     const auto& a = accessors[index];
     const std::string where = fmt::format("{}: accessors[{}]", file_, index);
-    if (a.contains("sparse")) return corrupt(fmt::format("{}: sparse accessors are not supported", where));
+    if (a.contains("sparse"))
+      return corrupt(fmt::format("{}: sparse accessors are not supported", where));
     if (!a.contains("bufferView")) return corrupt(fmt::format("{}: has no bufferView", where));
     const int component_type = a.value("componentType", 0);
     count = a.value("count", std::size_t{0});
     const std::string type = a.value("type", std::string());
-    const int expected = type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" ? 4 : 0;
+    const int expected = type == "SCALAR" ? 1
+                         : type == "VEC2" ? 2
+                         : type == "VEC3" ? 3
+                         : type == "VEC4" ? 4
+                                          : 0;
     if (expected != components)
       return corrupt(fmt::format("{}: type '{}'; expected {} components", where, type, components));
     int size = 0;
     switch (component_type) {
-      case 5120: case 5121: size = 1; break;
-      case 5122: case 5123: size = 2; break;
-      case 5125: case 5126: size = 4; break;
+      case 5120:
+      case 5121:
+        size = 1;
+        break;
+      case 5122:
+      case 5123:
+        size = 2;
+        break;
+      case 5125:
+      case 5126:
+        size = 4;
+        break;
       default:
-        return corrupt(fmt::format("{}: componentType {} is not one of 5120-5126", where, component_type));
+        return corrupt(
+            fmt::format("{}: componentType {} is not one of 5120-5126", where, component_type));
     }
     const auto& views = doc_.value("bufferViews", nlohmann::json::array());
     const std::size_t view_index = a["bufferView"].get<std::size_t>();
@@ -823,15 +922,18 @@ class Gltf {
     const auto& view = views[view_index];
     const std::size_t buffer = view.value("buffer", std::size_t{0});
     if (buffer >= buffers_.size())
-      return corrupt(fmt::format("{}: bufferViews[{}] uses buffer {}, which does not exist", file_, view_index, buffer));
+      return corrupt(fmt::format("{}: bufferViews[{}] uses buffer {}, which does not exist", file_,
+                                 view_index, buffer));
     const std::size_t view_offset = view.value("byteOffset", std::size_t{0});
     const std::size_t view_length = view.value("byteLength", std::size_t{0});
-    const std::size_t stride = view.value("byteStride", static_cast<std::size_t>(size * components));
+    const std::size_t stride =
+        view.value("byteStride", static_cast<std::size_t>(size * components));
     const std::size_t offset = view_offset + a.value("byteOffset", std::size_t{0});
     const std::string& data = buffers_[buffer];
     if (view_offset + view_length > data.size())
-      return corrupt(fmt::format("{}: bufferViews[{}] spans bytes {}..{} of buffer {}, which has {} bytes",
-                                 file_, view_index, view_offset, view_offset + view_length, buffer, data.size()));
+      return corrupt(fmt::format(
+          "{}: bufferViews[{}] spans bytes {}..{} of buffer {}, which has {} bytes", file_,
+          view_index, view_offset, view_offset + view_length, buffer, data.size()));
     if (count > 0 && offset + (count - 1) * stride + size * components > view_offset + view_length)
       return corrupt(fmt::format("{}: {} elements of stride {} overrun bufferViews[{}] ({} bytes)",
                                  where, count, stride, view_index, view_length));
@@ -841,12 +943,42 @@ class Gltf {
         const char* p = data.data() + offset + e * stride + c * size;
         double v = 0;
         switch (component_type) {
-          case 5120: { std::int8_t x; std::memcpy(&x, p, 1); v = x; break; }
-          case 5121: { std::uint8_t x; std::memcpy(&x, p, 1); v = x; break; }
-          case 5122: { std::int16_t x; std::memcpy(&x, p, 2); v = x; break; }
-          case 5123: { std::uint16_t x; std::memcpy(&x, p, 2); v = x; break; }
-          case 5125: { std::uint32_t x; std::memcpy(&x, p, 4); v = x; break; }
-          case 5126: { float x; std::memcpy(&x, p, 4); v = x; break; }
+          case 5120: {
+            std::int8_t x;
+            std::memcpy(&x, p, 1);
+            v = x;
+            break;
+          }
+          case 5121: {
+            std::uint8_t x;
+            std::memcpy(&x, p, 1);
+            v = x;
+            break;
+          }
+          case 5122: {
+            std::int16_t x;
+            std::memcpy(&x, p, 2);
+            v = x;
+            break;
+          }
+          case 5123: {
+            std::uint16_t x;
+            std::memcpy(&x, p, 2);
+            v = x;
+            break;
+          }
+          case 5125: {
+            std::uint32_t x;
+            std::memcpy(&x, p, 4);
+            v = x;
+            break;
+          }
+          case 5126: {
+            float x;
+            std::memcpy(&x, p, 4);
+            v = x;
+            break;
+          }
         }
         out[e * components + c] = v;
       }
@@ -873,12 +1005,15 @@ Eigen::Matrix4d nodeMatrix(const nlohmann::json& node) {
   Eigen::Vector3d t = Eigen::Vector3d::Zero(), s = Eigen::Vector3d::Ones();
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   if (node.contains("translation"))
-    t = {node["translation"][0].get<double>(), node["translation"][1].get<double>(), node["translation"][2].get<double>()};
+    t = {node["translation"][0].get<double>(), node["translation"][1].get<double>(),
+         node["translation"][2].get<double>()};
   if (node.contains("rotation"))  // x, y, z, w
     q = Eigen::Quaterniond(node["rotation"][3].get<double>(), node["rotation"][0].get<double>(),
-                           node["rotation"][1].get<double>(), node["rotation"][2].get<double>()).normalized();
+                           node["rotation"][1].get<double>(), node["rotation"][2].get<double>())
+            .normalized();
   if (node.contains("scale"))
-    s = {node["scale"][0].get<double>(), node["scale"][1].get<double>(), node["scale"][2].get<double>()};
+    s = {node["scale"][0].get<double>(), node["scale"][1].get<double>(),
+         node["scale"][2].get<double>()};
   m.topLeftCorner<3, 3>() = q.toRotationMatrix() * s.asDiagonal();
   m.topRightCorner<3, 1>() = t;
   return m;
@@ -894,23 +1029,28 @@ Status addGltfMesh(Gltf& gltf, std::size_t mesh_index, const Eigen::Matrix4d& tr
                    MaterialTable& table, GltfMeshes& out) {
   const auto& meshes = gltf.doc().value("meshes", nlohmann::json::array());
   if (mesh_index >= meshes.size())
-    return corrupt(fmt::format("{}: mesh {} does not exist ({} meshes)", gltf.file(), mesh_index, meshes.size()));
+    return corrupt(fmt::format("{}: mesh {} does not exist ({} meshes)", gltf.file(), mesh_index,
+                               meshes.size()));
   const auto& primitives = meshes[mesh_index].value("primitives", nlohmann::json::array());
   const auto& materials = gltf.doc().value("materials", nlohmann::json::array());
   for (std::size_t p = 0; p < primitives.size(); ++p) {
     const auto& prim = primitives[p];
     const int mode = prim.value("mode", 4);
     if (mode != 4)
-      return corrupt(fmt::format("{}: meshes[{}].primitives[{}] has mode {}; only triangles (4) are supported",
-                                 gltf.file(), mesh_index, p, mode));
+      return corrupt(
+          fmt::format("{}: meshes[{}].primitives[{}] has mode {}; only triangles (4) are supported",
+                      gltf.file(), mesh_index, p, mode));
     if (!prim.contains("attributes") || !prim["attributes"].contains("POSITION"))
-      return corrupt(fmt::format("{}: meshes[{}].primitives[{}] has no POSITION attribute", gltf.file(), mesh_index, p));
+      return corrupt(fmt::format("{}: meshes[{}].primitives[{}] has no POSITION attribute",
+                                 gltf.file(), mesh_index, p));
     std::vector<double> pos;
     std::size_t count = 0;
-    CDFF_RETURN_IF_ERROR(gltf.accessor(prim["attributes"]["POSITION"].get<std::size_t>(), 3, pos, count));
+    CDFF_RETURN_IF_ERROR(
+        gltf.accessor(prim["attributes"]["POSITION"].get<std::size_t>(), 3, pos, count));
     const std::uint32_t base = static_cast<std::uint32_t>(out.positions.size());
     for (std::size_t i = 0; i < count; ++i) {
-      const Eigen::Vector4d h = transform * Eigen::Vector4d(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
+      const Eigen::Vector4d h =
+          transform * Eigen::Vector4d(pos[3 * i], pos[3 * i + 1], pos[3 * i + 2], 1.0);
       out.positions.push_back(h.head<3>().cast<float>());
     }
     std::vector<std::uint32_t> indices;
@@ -920,24 +1060,27 @@ Status addGltfMesh(Gltf& gltf, std::size_t mesh_index, const Eigen::Matrix4d& tr
       CDFF_RETURN_IF_ERROR(gltf.accessor(prim["indices"].get<std::size_t>(), 1, raw, n));
       for (double v : raw) {
         if (v < 0 || v >= static_cast<double>(count))
-          return corrupt(fmt::format("{}: meshes[{}].primitives[{}] index {} is out of range; expected < {}",
-                                     gltf.file(), mesh_index, p, v, count));
+          return corrupt(
+              fmt::format("{}: meshes[{}].primitives[{}] index {} is out of range; expected < {}",
+                          gltf.file(), mesh_index, p, v, count));
         indices.push_back(static_cast<std::uint32_t>(v));
       }
     } else {
       for (std::size_t i = 0; i < count; ++i) indices.push_back(static_cast<std::uint32_t>(i));
     }
     if (indices.size() % 3 != 0)
-      return corrupt(fmt::format("{}: meshes[{}].primitives[{}] has {} indices; expected a multiple of 3",
-                                 gltf.file(), mesh_index, p, indices.size()));
+      return corrupt(
+          fmt::format("{}: meshes[{}].primitives[{}] has {} indices; expected a multiple of 3",
+                      gltf.file(), mesh_index, p, indices.size()));
     std::uint16_t material = 0;
     if (!prim.contains("material")) {
       material = table.index("");
     } else {
       const std::size_t m = prim["material"].get<std::size_t>();
       if (m >= materials.size())
-        return corrupt(fmt::format("{}: meshes[{}].primitives[{}] uses material {}, which does not exist",
-                                   gltf.file(), mesh_index, p, m));
+        return corrupt(
+            fmt::format("{}: meshes[{}].primitives[{}] uses material {}, which does not exist",
+                        gltf.file(), mesh_index, p, m));
       const auto& mat = materials[m];
       const std::string name = mat.value("name", fmt::format("material_{}", m));
       Eigen::Vector3f colour = Eigen::Vector3f::Constant(0.8f);
@@ -951,7 +1094,8 @@ Status addGltfMesh(Gltf& gltf, std::size_t mesh_index, const Eigen::Matrix4d& tr
       }
       // Metal-roughness to Blinn-Phong: metals reflect their colour specularly, dielectrics 4 %.
       const Eigen::Vector3f diffuse = colour * (1.0f - metallic);
-      const Eigen::Vector3f specular = Eigen::Vector3f::Constant(0.04f) * (1 - metallic) + colour * metallic;
+      const Eigen::Vector3f specular =
+          Eigen::Vector3f::Constant(0.04f) * (1 - metallic) + colour * metallic;
       const float alpha = std::max(roughness * roughness, 1e-3f);
       const float shininess = std::clamp(2.0f / (alpha * alpha) - 2.0f, 1.0f, 2000.0f);
       const Material described = materialFromColour(name, diffuse, specular, shininess);
@@ -959,7 +1103,8 @@ Status addGltfMesh(Gltf& gltf, std::size_t mesh_index, const Eigen::Matrix4d& tr
     }
     const bool flips = transform.topLeftCorner<3, 3>().determinant() < 0;
     for (std::size_t i = 0; i + 2 < indices.size(); i += 3) {
-      std::array<std::uint32_t, 3> tri = {base + indices[i], base + indices[i + 1], base + indices[i + 2]};
+      std::array<std::uint32_t, 3> tri = {base + indices[i], base + indices[i + 1],
+                                          base + indices[i + 2]};
       if (flips) std::swap(tri[1], tri[2]);
       if (tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2]) continue;
       out.triangles.push_back(tri);
@@ -973,11 +1118,14 @@ Status addGltfNode(Gltf& gltf, std::size_t node_index, const Eigen::Matrix4d& pa
                    MaterialTable& table, GltfMeshes& out, int depth) {
   const auto& nodes = gltf.doc().value("nodes", nlohmann::json::array());
   if (node_index >= nodes.size())
-    return corrupt(fmt::format("{}: node {} does not exist ({} nodes)", gltf.file(), node_index, nodes.size()));
-  if (depth > 64) return corrupt(fmt::format("{}: the node hierarchy is deeper than 64 (a cycle?)", gltf.file()));
+    return corrupt(fmt::format("{}: node {} does not exist ({} nodes)", gltf.file(), node_index,
+                               nodes.size()));
+  if (depth > 64)
+    return corrupt(fmt::format("{}: the node hierarchy is deeper than 64 (a cycle?)", gltf.file()));
   const auto& node = nodes[node_index];
   const Eigen::Matrix4d m = parent * nodeMatrix(node);
-  if (node.contains("mesh")) CDFF_RETURN_IF_ERROR(addGltfMesh(gltf, node["mesh"].get<std::size_t>(), m, table, out));
+  if (node.contains("mesh"))
+    CDFF_RETURN_IF_ERROR(addGltfMesh(gltf, node["mesh"].get<std::size_t>(), m, table, out));
   for (const auto& child : node.value("children", nlohmann::json::array()))
     CDFF_RETURN_IF_ERROR(addGltfNode(gltf, child.get<std::size_t>(), m, table, out, depth + 1));
   return Status::ok();
@@ -996,24 +1144,31 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
   bool have_glb_bin = false;
   if (data.size() >= 4 && data.compare(0, 4, "glTF") == 0) {
     // GLB: 12-byte header (magic, version, length), then chunks (length, type, data).
-    if (data.size() < 20) return corrupt(fmt::format("{}: byte {}: truncated GLB header", file, data.size()));
+    if (data.size() < 20)
+      return corrupt(fmt::format("{}: byte {}: truncated GLB header", file, data.size()));
     std::uint32_t version, length;
     std::memcpy(&version, data.data() + 4, 4);
     std::memcpy(&length, data.data() + 8, 4);
-    if (version != 2) return corrupt(fmt::format("{}: byte 4: GLB version {}; expected 2", file, version));
+    if (version != 2)
+      return corrupt(fmt::format("{}: byte 4: GLB version {}; expected 2", file, version));
     if (length > data.size())
-      return corrupt(fmt::format("{}: byte 8: GLB length {} exceeds the file size {}", file, length, data.size()));
+      return corrupt(fmt::format("{}: byte 8: GLB length {} exceeds the file size {}", file, length,
+                                 data.size()));
     std::size_t offset = 12;
     while (offset + 8 <= length) {
       std::uint32_t chunk_length, chunk_type;
       std::memcpy(&chunk_length, data.data() + offset, 4);
       std::memcpy(&chunk_type, data.data() + offset + 4, 4);
       if (offset + 8 + chunk_length > length)
-        return corrupt(fmt::format("{}: byte {}: chunk of {} bytes runs past the end ({} bytes)", file,
-                                   offset, chunk_length, length));
+        return corrupt(fmt::format("{}: byte {}: chunk of {} bytes runs past the end ({} bytes)",
+                                   file, offset, chunk_length, length));
       const std::string chunk = data.substr(offset + 8, chunk_length);
-      if (chunk_type == 0x4E4F534Au) json_text = chunk;  // "JSON"
-      else if (chunk_type == 0x004E4942u) { glb_bin = chunk; have_glb_bin = true; }  // "BIN\0"
+      if (chunk_type == 0x4E4F534Au)
+        json_text = chunk;  // "JSON"
+      else if (chunk_type == 0x004E4942u) {
+        glb_bin = chunk;
+        have_glb_bin = true;
+      }  // "BIN\0"
       offset += 8 + ((chunk_length + 3) & ~3u);
     }
     if (json_text.empty()) return corrupt(fmt::format("{}: the GLB has no JSON chunk", file));
@@ -1025,10 +1180,12 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
     doc = nlohmann::json::parse(json_text);
   } catch (const nlohmann::json::parse_error& e) {
     // nlohmann counts bytes from 1; offsets here count from 0 like the binary formats.
-    return corrupt(fmt::format("{}: byte {}: invalid JSON: {}", file, e.byte > 0 ? e.byte - 1 : 0, e.what()));
+    return corrupt(
+        fmt::format("{}: byte {}: invalid JSON: {}", file, e.byte > 0 ? e.byte - 1 : 0, e.what()));
   }
   try {
-    const std::string version = doc.contains("asset") ? doc["asset"].value("version", std::string()) : std::string();
+    const std::string version =
+        doc.contains("asset") ? doc["asset"].value("version", std::string()) : std::string();
     if (version.empty() || version[0] != '2')
       return corrupt(fmt::format("{}: asset.version is '{}'; expected glTF 2.x", file, version));
     std::vector<std::string> buffers;
@@ -1039,15 +1196,19 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
       std::string bytes;
       if (!buffer.contains("uri")) {
         if (b != 0 || !have_glb_bin)
-          return corrupt(fmt::format("{}: buffers[{}] has no uri and there is no GLB binary chunk", file, b));
+          return corrupt(
+              fmt::format("{}: buffers[{}] has no uri and there is no GLB binary chunk", file, b));
         bytes = glb_bin;
       } else {
         const std::string uri = buffer["uri"].get<std::string>();
         if (uri.rfind("data:", 0) == 0) {
           const std::size_t comma = uri.find(',');
-          if (comma == std::string::npos || uri.substr(0, comma).find(";base64") == std::string::npos)
-            return corrupt(fmt::format("{}: buffers[{}] has a data URI that is not base64", file, b));
-          auto decoded = decodeBase64(std::string_view(uri).substr(comma + 1), fmt::format("{}: buffers[{}]", file, b));
+          if (comma == std::string::npos ||
+              uri.substr(0, comma).find(";base64") == std::string::npos)
+            return corrupt(
+                fmt::format("{}: buffers[{}] has a data URI that is not base64", file, b));
+          auto decoded = decodeBase64(std::string_view(uri).substr(comma + 1),
+                                      fmt::format("{}: buffers[{}]", file, b));
           if (!decoded) return decoded.status();
           bytes = std::move(*decoded);
         } else {
@@ -1059,7 +1220,8 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
         }
       }
       if (bytes.size() < length)
-        return corrupt(fmt::format("{}: buffers[{}] holds {} bytes; byteLength says {}", file, b, bytes.size(), length));
+        return corrupt(fmt::format("{}: buffers[{}] holds {} bytes; byteLength says {}", file, b,
+                                   bytes.size(), length));
       buffers.push_back(std::move(bytes));
     }
     Gltf gltf(doc, std::move(buffers), file);
@@ -1069,9 +1231,11 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
     if (!scenes.empty()) {
       const std::size_t scene = doc.value("scene", std::size_t{0});
       if (scene >= scenes.size())
-        return corrupt(fmt::format("{}: scene {} does not exist ({} scenes)", file, scene, scenes.size()));
+        return corrupt(
+            fmt::format("{}: scene {} does not exist ({} scenes)", file, scene, scenes.size()));
       for (const auto& node : scenes[scene].value("nodes", nlohmann::json::array()))
-        CDFF_RETURN_IF_ERROR(addGltfNode(gltf, node.get<std::size_t>(), Eigen::Matrix4d::Identity(), table, meshes, 0));
+        CDFF_RETURN_IF_ERROR(addGltfNode(gltf, node.get<std::size_t>(), Eigen::Matrix4d::Identity(),
+                                         table, meshes, 0));
     } else {
       const auto& mesh_list = doc.value("meshes", nlohmann::json::array());
       for (std::size_t m = 0; m < mesh_list.size(); ++m)
@@ -1086,7 +1250,8 @@ Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOp
 
 Result<TargetModel> loadModel(const std::filesystem::path& path, const MeshLoadOptions& options) {
   const std::string ext = lower(path.extension().string());
-  if (!std::filesystem::exists(path)) return notFound("mesh file '{}' does not exist", path.string());
+  if (!std::filesystem::exists(path))
+    return notFound("mesh file '{}' does not exist", path.string());
   if (ext == ".obj") return loadObj(path, options);
   if (ext == ".ply") return loadPly(path, options);
   if (ext == ".stl") return loadStl(path, options);

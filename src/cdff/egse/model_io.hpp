@@ -16,8 +16,8 @@
 namespace cdff::egse {
 
 struct MeshLoadOptions {
-  double scale = 1.0;      // applied to the file's coordinates (e.g. 0.001 for millimetres)
-  bool recentre = false;   // move the bounding-box centre to the origin
+  double scale = 1.0;     // applied to the file's coordinates (e.g. 0.001 for millimetres)
+  bool recentre = false;  // move the bounding-box centre to the origin
   /// Faces between triangles bending less than this (rad) are shaded smooth when the file has no
   /// normals.
   double smoothing_angle = 0.5235987755982988;
@@ -25,11 +25,13 @@ struct MeshLoadOptions {
 };
 
 /// Loads OBJ, PLY, STL, glTF or GLB, chosen by the file extension (case-insensitive).
-Result<TargetModel> loadModel(const std::filesystem::path& path, const MeshLoadOptions& options = {});
+Result<TargetModel> loadModel(const std::filesystem::path& path,
+                              const MeshLoadOptions& options = {});
 Result<TargetModel> loadObj(const std::filesystem::path& path, const MeshLoadOptions& options = {});
 Result<TargetModel> loadPly(const std::filesystem::path& path, const MeshLoadOptions& options = {});
 Result<TargetModel> loadStl(const std::filesystem::path& path, const MeshLoadOptions& options = {});
-Result<TargetModel> loadGltf(const std::filesystem::path& path, const MeshLoadOptions& options = {});
+Result<TargetModel> loadGltf(const std::filesystem::path& path,
+                             const MeshLoadOptions& options = {});
 
 /// Wavefront OBJ with a material library `<stem>.mtl` beside it (one `usemtl` per material).
 Status writeObj(const TargetModel& model, const std::filesystem::path& path);

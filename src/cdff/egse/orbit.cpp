@@ -20,7 +20,8 @@ Eigen::Vector3d Orbit::targetPositionEci(double t) const {
   return semiMajorAxis() * Eigen::Vector3d(std::cos(u), std::sin(u), 0.0);
 }
 
-Eigen::Vector3d Orbit::naturalAcceleration(const Eigen::Vector3d& r, const Eigen::Vector3d& v) const {
+Eigen::Vector3d Orbit::naturalAcceleration(const Eigen::Vector3d& r,
+                                           const Eigen::Vector3d& v) const {
   const double n = meanMotion();
   return {2 * n * v.y() + 3 * n * n * r.x(), -2 * n * v.x(), -n * n * r.z()};
 }

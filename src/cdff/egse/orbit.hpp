@@ -18,13 +18,13 @@
 
 namespace cdff::egse {
 
-constexpr double kEarthMu = 3.986004418e14;      // m^3/s^2
-constexpr double kEarthRadius = 6378137.0;       // m (equatorial)
-constexpr double kSunMagnitude = -26.74;         // apparent visual magnitude at 1 AU
+constexpr double kEarthMu = 3.986004418e14;  // m^3/s^2
+constexpr double kEarthRadius = 6378137.0;   // m (equatorial)
+constexpr double kSunMagnitude = -26.74;     // apparent visual magnitude at 1 AU
 
 struct Orbit {
-  bool enabled = true;       // false: free space, no Earth, n = 0
-  double altitude = 500e3;   // m above kEarthRadius (circular orbit)
+  bool enabled = true;      // false: free space, no Earth, n = 0
+  double altitude = 500e3;  // m above kEarthRadius (circular orbit)
 
   double semiMajorAxis() const { return kEarthRadius + altitude; }
   /// Mean motion n (rad/s); 0 in free space.
@@ -38,8 +38,8 @@ struct Orbit {
   /// The acceleration CW dynamics give a free-flying chaser at (r, v) in lvlh: r'' = this + f.
   Eigen::Vector3d naturalAcceleration(const Eigen::Vector3d& r, const Eigen::Vector3d& v) const;
   /// Free-drift CW propagation (closed form) of (r0, v0) by t seconds.
-  void propagate(const Eigen::Vector3d& r0, const Eigen::Vector3d& v0, double t,
-                 Eigen::Vector3d& r, Eigen::Vector3d& v) const;
+  void propagate(const Eigen::Vector3d& r0, const Eigen::Vector3d& v0, double t, Eigen::Vector3d& r,
+                 Eigen::Vector3d& v) const;
 };
 
 }  // namespace cdff::egse

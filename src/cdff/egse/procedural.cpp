@@ -38,22 +38,24 @@ Status TargetSpec::validate() const {
   CDFF_RETURN_IF_ERROR(positive(bus_size.z(), "bus_size[2]"));
   if (solar_wings) {
     if (panels_per_wing < 1 || panels_per_wing > 8)
-      return invalidParameter("target model: 'panels_per_wing' = {} is out of range; expected [1, 8]",
-                              panels_per_wing);
+      return invalidParameter(
+          "target model: 'panels_per_wing' = {} is out of range; expected [1, 8]", panels_per_wing);
     CDFF_RETURN_IF_ERROR(positive(panel_size.x(), "panel_size[0]"));
     CDFF_RETURN_IF_ERROR(positive(panel_size.y(), "panel_size[1]"));
     CDFF_RETURN_IF_ERROR(positive(panel_thickness, "panel_thickness"));
     CDFF_RETURN_IF_ERROR(positive(yoke_length, "yoke_length"));
     if (!std::isfinite(panel_gap) || panel_gap < 0)
-      return invalidParameter("target model: 'panel_gap' = {} is invalid; expected >= 0 m", panel_gap);
+      return invalidParameter("target model: 'panel_gap' = {} is invalid; expected >= 0 m",
+                              panel_gap);
   }
   if (adapter_ring) {
     CDFF_RETURN_IF_ERROR(positive(ring_diameter, "ring_diameter"));
     CDFF_RETURN_IF_ERROR(positive(ring_height, "ring_height"));
     CDFF_RETURN_IF_ERROR(positive(ring_wall, "ring_wall"));
     if (ring_wall * 2 >= ring_diameter)
-      return invalidParameter("target model: 'ring_wall' = {} m is too thick for 'ring_diameter' = {} m",
-                              ring_wall, ring_diameter);
+      return invalidParameter(
+          "target model: 'ring_wall' = {} m is too thick for 'ring_diameter' = {} m", ring_wall,
+          ring_diameter);
     if (ring_diameter + 2 * ring_flange_width > std::min(bus_size.y(), bus_size.z()) + 1e-9)
       return invalidParameter(
           "target model: 'ring_diameter' = {} m (+ flange) does not fit the bus's -x face ({} x {} "
@@ -99,7 +101,8 @@ Result<TargetModel> makeTargetSatellite(const TargetSpec& spec) {
       // Yoke: a thin strut from the +-y face to the first panel.
       const double yoke_y = h.y() + spec.yoke_length / 2;
       b.addBox(at({0, side * yoke_y, 0}), {0.02, spec.yoke_length / 2, 0.02}, structure);
-      const Eigen::Matrix3d tilt = Eigen::AngleAxisd(spec.wing_angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      const Eigen::Matrix3d tilt =
+          Eigen::AngleAxisd(spec.wing_angle, Eigen::Vector3d::UnitY()).toRotationMatrix();
       double y = h.y() + spec.yoke_length + spec.panel_gap;
       for (int p = 0; p < spec.panels_per_wing; ++p) {
         const Eigen::Vector3d centre(0, side * (y + spec.panel_size.x() / 2), 0);
@@ -124,7 +127,8 @@ Result<TargetModel> makeTargetSatellite(const TargetSpec& spec) {
     b.addAnnulus(at(base * Eigen::Vector3d(0, 0, hr - lip), R), ro, ro + flange, spec.segments,
                  ring, false);
     b.addRevolution(base, {{ro + flange, hr - lip}, {ro + flange, hr}}, spec.segments, ring, true);
-    b.addAnnulus(at(base * Eigen::Vector3d(0, 0, hr), R), ri, ro + flange, spec.segments, ring, true);
+    b.addAnnulus(at(base * Eigen::Vector3d(0, 0, hr), R), ri, ro + flange, spec.segments, ring,
+                 true);
     b.addRevolution(base, {{ri, 0.0}, {ri, hr}}, spec.segments, ring, false);
     if (spec.launcher_brackets) {
       // Four brackets on the deck, outside the ring, at 45 degrees.
@@ -132,7 +136,8 @@ Result<TargetModel> makeTargetSatellite(const TargetSpec& spec) {
         const double a = M_PI / 4 + k * M_PI / 2;
         const double r = ro + flange + 0.05;
         const Eigen::Vector3d c(-h.x() - 0.03, r * std::cos(a), r * std::sin(a));
-        const Eigen::Matrix3d Rb = Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix();
+        const Eigen::Matrix3d Rb =
+            Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX()).toRotationMatrix();
         b.addBox(at(c, Rb), {0.03, 0.04, 0.02}, structure);
       }
     }

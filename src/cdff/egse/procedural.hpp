@@ -44,9 +44,9 @@ struct TargetSpec {
   double mast_height = 0.25;   // m
   // Thrusters on the -x face
   bool thrusters = true;
-  double thruster_length = 0.08;  // m
+  double thruster_length = 0.08;         // m
   double thruster_exit_diameter = 0.05;  // m
-  int segments = 32;  // tessellation of round parts
+  int segments = 32;                     // tessellation of round parts
 
   /// Ok when every size is positive and finite and the parts fit the bus.
   Status validate() const;

@@ -36,7 +36,8 @@ Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3
 LidarSpec LidarSpec::vlp16() {
   LidarSpec s;
   // VLP-16 laser IDs 0..15 in firing order: even IDs -15, -13, ..., odd IDs 1, 3, ... degrees.
-  for (int i = 0; i < 16; ++i) s.elevations.push_back((i % 2 == 0 ? -15.0 + i : static_cast<double>(i)) * M_PI / 180.0);
+  for (int i = 0; i < 16; ++i)
+    s.elevations.push_back((i % 2 == 0 ? -15.0 + i : static_cast<double>(i)) * M_PI / 180.0);
   return s;
 }
 
@@ -45,25 +46,30 @@ Status LidarSpec::validate(const std::string& name) const {
     return invalidParameter("{}: {} laser elevations; expected 1 to 256", name, elevations.size());
   for (double e : elevations)
     if (!std::isfinite(e) || std::abs(e) >= M_PI / 2)
-      return invalidParameter("{}: laser elevation {} rad is invalid; expected within (-pi/2, pi/2)", name, e);
+      return invalidParameter(
+          "{}: laser elevation {} rad is invalid; expected within (-pi/2, pi/2)", name, e);
   CDFF_RETURN_IF_ERROR(positive(rotation_rate, name, "rotation_rate"));
   CDFF_RETURN_IF_ERROR(positive(firing_cycle, name, "firing_cycle"));
   if (!std::isfinite(laser_interval) || laser_interval < 0 ||
       laser_interval * static_cast<double>(elevations.size()) > firing_cycle + 1e-12)
-    return invalidParameter("{}: {} lasers x 'laser_interval' {} s do not fit in 'firing_cycle' {} s", name,
-                            elevations.size(), laser_interval, firing_cycle);
+    return invalidParameter(
+        "{}: {} lasers x 'laser_interval' {} s do not fit in 'firing_cycle' {} s", name,
+        elevations.size(), laser_interval, firing_cycle);
   if (firing_cycle > 1.0 / rotation_rate)
-    return invalidParameter("{}: 'firing_cycle' = {} s is longer than a revolution ({} s)", name, firing_cycle,
-                            1.0 / rotation_rate);
+    return invalidParameter("{}: 'firing_cycle' = {} s is longer than a revolution ({} s)", name,
+                            firing_cycle, 1.0 / rotation_rate);
   CDFF_RETURN_IF_ERROR(positive(max_range, name, "max_range"));
   if (!std::isfinite(min_range) || min_range < 0 || min_range >= max_range)
-    return invalidParameter("{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
-                            min_range, max_range);
+    return invalidParameter(
+        "{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
+        min_range, max_range);
   if (!std::isfinite(range_noise) || range_noise < 0)
-    return invalidParameter("{}: 'range_noise' = {} is invalid; expected >= 0 m", name, range_noise);
+    return invalidParameter("{}: 'range_noise' = {} is invalid; expected >= 0 m", name,
+                            range_noise);
   CDFF_RETURN_IF_ERROR(probability(dropout_probability, name, "dropout_probability"));
   if (!std::isfinite(spurious_rate) || spurious_rate < 0)
-    return invalidParameter("{}: 'spurious_rate' = {} is invalid; expected >= 0 per scan", name, spurious_rate);
+    return invalidParameter("{}: 'spurious_rate' = {} is invalid; expected >= 0 per scan", name,
+                            spurious_rate);
   return Status::ok();
 }
 
@@ -75,15 +81,17 @@ Result<LidarSensor> LidarSensor::create(const LidarSpec& spec, const std::string
   s.cycles_ = static_cast<std::size_t>(std::floor((1.0 / spec.rotation_rate) / spec.firing_cycle));
   std::vector<std::size_t> order(spec.elevations.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return spec.elevations[a] < spec.elevations[b]; });
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return spec.elevations[a] < spec.elevations[b];
+  });
   s.ring_.resize(order.size());
   for (std::size_t r = 0; r < order.size(); ++r) s.ring_[order[r]] = static_cast<std::uint16_t>(r);
   return s;
 }
 
 Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel& model,
-                                     const RelativePose& sensor_T_target, double start, const LidarFaults& faults,
-                                     Rng& rng) const {
+                                     const RelativePose& sensor_T_target, double start,
+                                     const LidarFaults& faults, Rng& rng) const {
   const LidarSpec& sp = spec_;
   const double period = 1.0 / sp.rotation_rate, omega = 2 * M_PI * sp.rotation_rate;
   const std::size_t lasers = sp.elevations.size();
@@ -91,17 +99,20 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
   const double key_step = 1e-3;
   const std::size_t keys = static_cast<std::size_t>(std::ceil(period / key_step)) + 1;
   std::vector<Eigen::Isometry3d> sensor_T_target_keys(keys);
-  for (std::size_t k = 0; k < keys; ++k) sensor_T_target_keys[k] = sensor_T_target(start + std::min(period, k * key_step));
+  for (std::size_t k = 0; k < keys; ++k)
+    sensor_T_target_keys[k] = sensor_T_target(start + std::min(period, k * key_step));
   auto pose_at = [&](double dt) {
     if (!sp.motion_during_scan) return sensor_T_target_keys.front();
     const double x = std::clamp(dt / key_step, 0.0, static_cast<double>(keys - 1));
     const std::size_t k = std::min(static_cast<std::size_t>(x), keys - 2);
-    return interpolate(sensor_T_target_keys[k], sensor_T_target_keys[k + 1], x - static_cast<double>(k));
+    return interpolate(sensor_T_target_keys[k], sensor_T_target_keys[k + 1],
+                       x - static_cast<double>(k));
   };
   // Only rays towards the target's bounding sphere (grown by the motion over the scan) are cast.
   const Eigen::Vector3d centre_model = model.boundingCentre();
   const double radius = model.boundingRadius();
-  Eigen::Vector3d c0 = sensor_T_target_keys.front() * centre_model, c1 = sensor_T_target_keys.back() * centre_model;
+  Eigen::Vector3d c0 = sensor_T_target_keys.front() * centre_model,
+                  c1 = sensor_T_target_keys.back() * centre_model;
   const double motion = (c1 - c0).norm();
   const Eigen::Vector3d c_mid = 0.5 * (c0 + c1);
   const double reach = radius + motion + 0.05;
@@ -131,7 +142,8 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
       const double t = tj + l * sp.laser_interval;
       const double az = omega * t, el = sp.elevations[l];
       // Azimuth grows clockwise seen from above (the VLP-16's spin), from +x towards -y.
-      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az), std::sin(el));
+      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az),
+                              std::sin(el));
       if (d.dot(c_dir) < cone_cos) continue;
       candidates.push_back({j * lasers + l, t, d});
     }
@@ -140,7 +152,8 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     const Eigen::Isometry3d target_T_sensor = pose_at(candidates[i].time).inverse();
     rays[i].origin = target_T_sensor.translation().cast<float>();
-    rays[i].direction = (target_T_sensor.linear() * candidates[i].direction).normalized().cast<float>();
+    rays[i].direction =
+        (target_T_sensor.linear() * candidates[i].direction).normalized().cast<float>();
     rays[i].t_min = 0.0f;
     rays[i].t_max = static_cast<float>(sp.max_range * 1.5);
   }
@@ -152,7 +165,8 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
   std::vector<std::uint16_t> rings;
   std::vector<std::int32_t> offsets;
   auto emit = [&](const Eigen::Vector3d& p, double t, std::size_t laser, float value) {
-    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z()));
+    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
     intensity.push_back(value);
     rings.push_back(ring_[laser]);
     offsets.push_back(static_cast<std::int32_t>(std::llround(t * 1e6)));
@@ -162,8 +176,10 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
     while (next_spurious < spurious.size() && spurious[next_spurious].first <= slot) {
       const auto [s, range] = spurious[next_spurious++];
       const std::size_t j = s / lasers, l = s % lasers;
-      const double t = j * sp.firing_cycle + l * sp.laser_interval, az = omega * t, el = sp.elevations[l];
-      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az), std::sin(el));
+      const double t = j * sp.firing_cycle + l * sp.laser_interval, az = omega * t,
+                   el = sp.elevations[l];
+      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az),
+                              std::sin(el));
       emit(range * d, t, l, static_cast<float>(rng.uniform(0.0, 20.0)));
     }
   };
@@ -205,14 +221,17 @@ Status TofSpec::validate(const std::string& name) const {
   CDFF_RETURN_IF_ERROR(model.validate().withContext(name));
   CDFF_RETURN_IF_ERROR(positive(max_range, name, "max_range"));
   if (!std::isfinite(min_range) || min_range < 0 || min_range >= max_range)
-    return invalidParameter("{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
-                            min_range, max_range);
-  if (!std::isfinite(noise_constant) || noise_constant < 0 || !std::isfinite(noise_quadratic) || noise_quadratic < 0)
-    return invalidParameter("{}: noise ({} m + {} m/m^2 r^2) is invalid; expected >= 0", name, noise_constant,
-                            noise_quadratic);
+    return invalidParameter(
+        "{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
+        min_range, max_range);
+  if (!std::isfinite(noise_constant) || noise_constant < 0 || !std::isfinite(noise_quadratic) ||
+      noise_quadratic < 0)
+    return invalidParameter("{}: noise ({} m + {} m/m^2 r^2) is invalid; expected >= 0", name,
+                            noise_constant, noise_quadratic);
   CDFF_RETURN_IF_ERROR(probability(dropout_probability, name, "dropout_probability"));
   if (!std::isfinite(min_amplitude) || min_amplitude < 0)
-    return invalidParameter("{}: 'min_amplitude' = {} is invalid; expected >= 0", name, min_amplitude);
+    return invalidParameter("{}: 'min_amplitude' = {} is invalid; expected >= 0", name,
+                            min_amplitude);
   return Status::ok();
 }
 
@@ -223,18 +242,21 @@ Result<TofSensor> TofSensor::create(const TofSpec& spec, const std::string& name
   s.name_ = name;
   s.rays_.reserve(static_cast<std::size_t>(spec.model.width) * spec.model.height);
   for (int y = 0; y < spec.model.height; ++y)
-    for (int x = 0; x < spec.model.width; ++x) s.rays_.push_back(pixelRay(spec.model, x, y).cast<float>());
+    for (int x = 0; x < spec.model.width; ++x)
+      s.rays_.push_back(pixelRay(spec.model, x, y).cast<float>());
   return s;
 }
 
 Result<DepthMap> TofSensor::capture(const RayCaster& target, const TargetModel& model,
-                                    const Eigen::Isometry3d& sensor_T_target, double extra_dropout, Rng& rng) const {
+                                    const Eigen::Isometry3d& sensor_T_target, double extra_dropout,
+                                    Rng& rng) const {
   const TofSpec& sp = spec_;
   const Eigen::Isometry3d target_T_sensor = sensor_T_target.inverse();
   const Eigen::Matrix3f R = target_T_sensor.linear().cast<float>();
   const Eigen::Vector3f origin = target_T_sensor.translation().cast<float>();
   std::vector<Ray> rays(rays_.size());
-  for (std::size_t i = 0; i < rays_.size(); ++i) rays[i] = {origin, R * rays_[i], 0.0f, static_cast<float>(sp.max_range * 1.5)};
+  for (std::size_t i = 0; i < rays_.size(); ++i)
+    rays[i] = {origin, R * rays_[i], 0.0f, static_cast<float>(sp.max_range * 1.5)};
   std::vector<RayHit> hits(rays.size());
   target.intersect(rays, hits);
   const double dropout = std::clamp(sp.dropout_probability + extra_dropout, 0.0, 1.0);
@@ -253,7 +275,8 @@ Result<DepthMap> TofSensor::capture(const RayCaster& target, const TargetModel& 
   }
   std::vector<std::uint8_t> bytes(depth.size() * sizeof(float));
   std::memcpy(bytes.data(), depth.data(), bytes.size());
-  auto image = Image::fromBytes(std::move(bytes), sp.model.width, sp.model.height, PixelFormat::kFloat32);
+  auto image =
+      Image::fromBytes(std::move(bytes), sp.model.width, sp.model.height, PixelFormat::kFloat32);
   if (!image) return image.status();
   DepthMap map;
   map.image = std::move(image).value();
@@ -265,13 +288,17 @@ Result<DepthMap> TofSensor::capture(const RayCaster& target, const TargetModel& 
 Status RadarSpec::validate(const std::string& name) const {
   CDFF_RETURN_IF_ERROR(positive(max_range, name, "max_range"));
   if (!std::isfinite(min_range) || min_range < 0 || min_range >= max_range)
-    return invalidParameter("{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
-                            min_range, max_range);
+    return invalidParameter(
+        "{}: 'min_range' = {} m is invalid; expected 0 <= min_range < max_range ({} m)", name,
+        min_range, max_range);
   if (!std::isfinite(beam_half_angle) || beam_half_angle <= 0 || beam_half_angle > M_PI)
-    return invalidParameter("{}: 'beam_half_angle' = {} rad is invalid; expected (0, pi]", name, beam_half_angle);
-  if (range_noise < 0 || range_rate_noise < 0 || angle_noise < 0 || !std::isfinite(range_noise + range_rate_noise + angle_noise))
-    return invalidParameter("{}: noise figures must be finite and >= 0 (range {}, range rate {}, angle {})", name,
-                            range_noise, range_rate_noise, angle_noise);
+    return invalidParameter("{}: 'beam_half_angle' = {} rad is invalid; expected (0, pi]", name,
+                            beam_half_angle);
+  if (range_noise < 0 || range_rate_noise < 0 || angle_noise < 0 ||
+      !std::isfinite(range_noise + range_rate_noise + angle_noise))
+    return invalidParameter(
+        "{}: noise figures must be finite and >= 0 (range {}, range rate {}, angle {})", name,
+        range_noise, range_rate_noise, angle_noise);
   return Status::ok();
 }
 
@@ -282,7 +309,8 @@ Result<RangeMeasurement> measureRadar(const RadarSpec& spec, const RayCaster& ta
   m.range_rate_sigma = spec.range_rate_noise;
   m.angle_sigma = spec.angle_noise;
   // Draws first, so that the stream does not depend on detection.
-  const double n_range = rng.normal(), n_rate = rng.normal(), n_a = rng.normal(), n_b = rng.normal();
+  const double n_range = rng.normal(), n_rate = rng.normal(), n_a = rng.normal(),
+               n_b = rng.normal();
   const Eigen::Isometry3d pose = sensor_T_target(t);
   const Eigen::Vector3d centre = pose.translation();  // the target's centre of mass
   const double distance = centre.norm();
@@ -297,7 +325,9 @@ Result<RangeMeasurement> measureRadar(const RadarSpec& spec, const RayCaster& ta
   const double range = hit.hit ? hit.distance : distance;
   if (range < spec.min_range || range > spec.max_range) return m;
   constexpr double h = 1e-3;
-  const double rate = (sensor_T_target(t + h).translation().norm() - sensor_T_target(t - h).translation().norm()) / (2 * h);
+  const double rate =
+      (sensor_T_target(t + h).translation().norm() - sensor_T_target(t - h).translation().norm()) /
+      (2 * h);
   m.valid = true;
   m.range = range + spec.range_noise * n_range;
   m.range_rate = rate + spec.range_rate_noise * n_rate;

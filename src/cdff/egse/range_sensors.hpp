@@ -29,14 +29,14 @@ struct LidarSpec {
   /// Laser elevations (rad) in firing order. Default: the VLP-16's 16 lasers, -15..+15 deg in
   /// 2 deg steps, fired interleaved (-15, 1, -13, 3, ... , -1, 15).
   std::vector<double> elevations;
-  double rotation_rate = 10.0;          // Hz
-  double firing_cycle = 55.296e-6;      // s between firing sequences of all lasers
-  double laser_interval = 2.304e-6;     // s between two lasers of a sequence
+  double rotation_rate = 10.0;                // Hz
+  double firing_cycle = 55.296e-6;            // s between firing sequences of all lasers
+  double laser_interval = 2.304e-6;           // s between two lasers of a sequence
   double min_range = 0.5, max_range = 100.0;  // m
-  double range_noise = 0.03;            // m, 1 sigma
-  double dropout_probability = 0.0;     // per point
-  double spurious_rate = 0.0;           // spurious returns per scan (Poisson mean)
-  bool motion_during_scan = true;       // false: every point at the scan start's pose
+  double range_noise = 0.03;                  // m, 1 sigma
+  double dropout_probability = 0.0;           // per point
+  double spurious_rate = 0.0;                 // spurious returns per scan (Poisson mean)
+  bool motion_during_scan = true;             // false: every point at the scan start's pose
 
   static LidarSpec vlp16();
   Status validate(const std::string& name) const;
@@ -61,8 +61,9 @@ class LidarSensor {
   /// z up) at their own firing time, with ring (0 = lowest beam), time offset from the stamp
   /// (the scan start) and intensity (reflectivity x cos(incidence) x 100). Times are set, the
   /// stamp is left for the caller (it knows the epoch).
-  Result<PointCloud> scan(const RayCaster& target, const TargetModel& model, const RelativePose& sensor_T_target,
-                          double start, const LidarFaults& faults, Rng& rng) const;
+  Result<PointCloud> scan(const RayCaster& target, const TargetModel& model,
+                          const RelativePose& sensor_T_target, double start,
+                          const LidarFaults& faults, Rng& rng) const;
 
  private:
   LidarSpec spec_;
@@ -72,11 +73,11 @@ class LidarSensor {
 };
 
 struct TofSpec {
-  CameraModel model;                  // pinhole (distortion allowed)
+  CameraModel model;                         // pinhole (distortion allowed)
   double min_range = 0.1, max_range = 10.0;  // m
-  double noise_constant = 0.004;      // m, 1 sigma at zero range
-  double noise_quadratic = 0.0015;    // m per m^2: sigma = constant + quadratic r^2
-  double min_amplitude = 0.002;       // reflectivity x cos / r^2 below which a pixel is invalid
+  double noise_constant = 0.004;             // m, 1 sigma at zero range
+  double noise_quadratic = 0.0015;           // m per m^2: sigma = constant + quadratic r^2
+  double min_amplitude = 0.002;  // reflectivity x cos / r^2 below which a pixel is invalid
   double dropout_probability = 0.0;
 
   static TofSpec defaults();
@@ -91,7 +92,8 @@ class TofSensor {
   /// A depth image (Float32, metres along the optical axis, 0 = no measurement) of the target,
   /// with the camera model attached.
   Result<DepthMap> capture(const RayCaster& target, const TargetModel& model,
-                           const Eigen::Isometry3d& sensor_T_target, double extra_dropout, Rng& rng) const;
+                           const Eigen::Isometry3d& sensor_T_target, double extra_dropout,
+                           Rng& rng) const;
 
  private:
   TofSpec spec_;
@@ -114,8 +116,8 @@ struct RadarSpec {
 struct RangeMeasurement {
   Timestamp stamp = 0;
   std::string frame_id;
-  bool valid = false;                                  // false: no detection
-  double range = 0, range_rate = 0;                    // m, m/s
+  bool valid = false;                                    // false: no detection
+  double range = 0, range_rate = 0;                      // m, m/s
   Eigen::Vector3d direction = Eigen::Vector3d::UnitX();  // unit, sensor frame
   double range_sigma = 0, range_rate_sigma = 0, angle_sigma = 0;
 };

@@ -79,8 +79,10 @@ inline void rasterise(const double sx[3], const double sy[3], int width, int hei
       if (s > 0) {
         if (e < 0) lo = std::max(lo, (-e + s - 1) / s);
       } else if (s < 0) {
-        if (e < 0) hi = -1;
-        else hi = std::min(hi, e / (-s));
+        if (e < 0)
+          hi = -1;
+        else
+          hi = std::min(hi, e / (-s));
       } else if (e < 0) {
         hi = -1;
       }
@@ -91,11 +93,14 @@ inline void rasterise(const double sx[3], const double sy[3], int width, int hei
 }
 
 // One division per vector instead of three (Eigen's normalized() divides each coefficient).
-inline Eigen::Vector3f unit(const Eigen::Vector3f& v) { return v * (1.0f / std::sqrt(v.squaredNorm())); }
+inline Eigen::Vector3f unit(const Eigen::Vector3f& v) {
+  return v * (1.0f / std::sqrt(v.squaredNorm()));
+}
 
 // A 3x3 product written out, so that it inlines in the shading loop.
 inline Eigen::Vector3f rotate(const Eigen::Matrix3f& R, const Eigen::Vector3f& v) {
-  return {R(0, 0) * v.x() + R(0, 1) * v.y() + R(0, 2) * v.z(), R(1, 0) * v.x() + R(1, 1) * v.y() + R(1, 2) * v.z(),
+  return {R(0, 0) * v.x() + R(0, 1) * v.y() + R(0, 2) * v.z(),
+          R(1, 0) * v.x() + R(1, 1) * v.y() + R(1, 2) * v.z(),
           R(2, 0) * v.x() + R(2, 1) * v.y() + R(2, 2) * v.z()};
 }
 
@@ -135,7 +140,8 @@ class CpuRenderer final : public Renderer {
     for (const Material& mat : m.materials)
       m.specular_cutoff.push_back(std::exp(-13.8f / std::max(mat.shininess, 1.0f)));
     for (const auto& t : m.triangles) {
-      Eigen::Vector3f n = (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]);
+      Eigen::Vector3f n =
+          (m.vertices[t[1]] - m.vertices[t[0]]).cross(m.vertices[t[2]] - m.vertices[t[0]]);
       n = n.norm() > 0 ? n.normalized() : Eigen::Vector3f::UnitZ();
       // Orient the face normal with the shading normals (files may wind inconsistently).
       if (n.dot(m.normals[t[0]] + m.normals[t[1]] + m.normals[t[2]]) < 0) n = -n;
@@ -152,12 +158,16 @@ class CpuRenderer final : public Renderer {
 
   Status render(const RenderScene& scene, const PinholeCamera& camera, RenderOutput& out) override {
     if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0) || !(camera.fy > 0))
-      return invalidInput("cpu renderer: camera {}x{} with fx = {}, fy = {}; expected a positive size and focal lengths",
-                          camera.width, camera.height, camera.fx, camera.fy);
-    if (scene.objects.size() > 255) return invalidInput("cpu renderer: {} objects; expected at most 255", scene.objects.size());
+      return invalidInput(
+          "cpu renderer: camera {}x{} with fx = {}, fy = {}; expected a positive size and focal "
+          "lengths",
+          camera.width, camera.height, camera.fx, camera.fy);
+    if (scene.objects.size() > 255)
+      return invalidInput("cpu renderer: {} objects; expected at most 255", scene.objects.size());
     for (const RenderObject& o : scene.objects)
       if (o.model < 0 || o.model >= static_cast<int>(models_.size()))
-        return invalidInput("cpu renderer: object uses model {}; {} models were added", o.model, models_.size());
+        return invalidInput("cpu renderer: object uses model {}; {} models were added", o.model,
+                            models_.size());
     const int W = camera.width, H = camera.height;
     const std::size_t pixels = static_cast<std::size_t>(W) * H;
     if (inv_depth_.size() != pixels) {
@@ -222,7 +232,9 @@ class CpuRenderer final : public Renderer {
         const auto& tri = m.triangles[k];
         Eigen::Vector3d poly[9], tmp[9];
         for (int i = 0; i < 3; ++i) poly[i] = fv[tri[i]].cast<double>();
-        if (poly[0].z() > cam.far_plane && poly[1].z() > cam.far_plane && poly[2].z() > cam.far_plane) continue;
+        if (poly[0].z() > cam.far_plane && poly[1].z() > cam.far_plane &&
+            poly[2].z() > cam.far_plane)
+          continue;
         int count = 3;
         bool needs_clip = false;
         for (int i = 0; i < 3 && !needs_clip; ++i)
@@ -239,7 +251,8 @@ class CpuRenderer final : public Renderer {
           }
           if (count < 3) continue;
         }
-        const std::uint32_t code = (static_cast<std::uint32_t>(o) << 24) | static_cast<std::uint32_t>(k);
+        const std::uint32_t code =
+            (static_cast<std::uint32_t>(o) << 24) | static_cast<std::uint32_t>(k);
         // Fan over the (clipped) polygon.
         double u[9], v[9], iz[9];
         for (int i = 0; i < count; ++i) {
@@ -253,14 +266,20 @@ class CpuRenderer final : public Renderer {
           // Inverse depth is affine in screen space: iz = A u + B v + C.
           const double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sx[2] - sx[0]) * (sy[1] - sy[0]);
           if (det == 0) continue;
-          const double A = ((sz[1] - sz[0]) * (sy[2] - sy[0]) - (sz[2] - sz[0]) * (sy[1] - sy[0])) / det;
-          const double B = ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
+          const double A =
+              ((sz[1] - sz[0]) * (sy[2] - sy[0]) - (sz[2] - sz[0]) * (sy[1] - sy[0])) / det;
+          const double B =
+              ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
           const double C = sz[0] - A * sx[0] - B * sy[0];
           // The dirty box grows by the triangle's box (clamped to the image).
-          d.x0 = std::min(d.x0, std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]})))));
-          d.x1 = std::max(d.x1, std::min(W - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]})))));
-          d.y0 = std::min(d.y0, std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]})))));
-          d.y1 = std::max(d.y1, std::min(H - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]})))));
+          d.x0 = std::min(
+              d.x0, std::max(0, static_cast<int>(std::floor(std::min({sx[0], sx[1], sx[2]})))));
+          d.x1 = std::max(
+              d.x1, std::min(W - 1, static_cast<int>(std::ceil(std::max({sx[0], sx[1], sx[2]})))));
+          d.y0 = std::min(
+              d.y0, std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]})))));
+          d.y1 = std::max(
+              d.y1, std::min(H - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]})))));
           rasterise(sx, sy, W, H, [&](int x, int y) {
             const float value = static_cast<float>(A * x + B * y + C);
             const std::size_t i = static_cast<std::size_t>(y) * W + x;
@@ -313,14 +332,19 @@ class CpuRenderer final : public Renderer {
                             s.y() * shadow_frame_.scale + shadow_frame_.offset, s.z()};
       }
       for (const auto& tri : m.triangles) {
-        const double sx[3] = {sun_vertices_[tri[0]].x(), sun_vertices_[tri[1]].x(), sun_vertices_[tri[2]].x()};
-        const double sy[3] = {sun_vertices_[tri[0]].y(), sun_vertices_[tri[1]].y(), sun_vertices_[tri[2]].y()};
-        const double sz[3] = {sun_vertices_[tri[0]].z(), sun_vertices_[tri[1]].z(), sun_vertices_[tri[2]].z()};
+        const double sx[3] = {sun_vertices_[tri[0]].x(), sun_vertices_[tri[1]].x(),
+                              sun_vertices_[tri[2]].x()};
+        const double sy[3] = {sun_vertices_[tri[0]].y(), sun_vertices_[tri[1]].y(),
+                              sun_vertices_[tri[2]].y()};
+        const double sz[3] = {sun_vertices_[tri[0]].z(), sun_vertices_[tri[1]].z(),
+                              sun_vertices_[tri[2]].z()};
         const double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sx[2] - sx[0]) * (sy[1] - sy[0]);
         if (det == 0) continue;
         // Orthographic: depth itself is affine in map coordinates.
-        const double A = ((sz[1] - sz[0]) * (sy[2] - sy[0]) - (sz[2] - sz[0]) * (sy[1] - sy[0])) / det;
-        const double B = ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
+        const double A =
+            ((sz[1] - sz[0]) * (sy[2] - sy[0]) - (sz[2] - sz[0]) * (sy[1] - sy[0])) / det;
+        const double B =
+            ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
         const double C = sz[0] - A * sx[0] - B * sy[0];
         rasterise(sx, sy, S, S, [&](int x, int y) {
           const float depth = static_cast<float>(A * x + B * y + C);
@@ -342,7 +366,8 @@ class CpuRenderer final : public Renderer {
   float shadowFactor(const Eigen::Vector3f& p) const {
     const ShadowFrame& f = shadow_frame_;
     const Eigen::Vector3f s = rotate(sun_R_camera_, p) + sun_t_camera_;
-    const float tx = s.x() * shadow_scale_ + shadow_offset_, ty = s.y() * shadow_scale_ + shadow_offset_;
+    const float tx = s.x() * shadow_scale_ + shadow_offset_,
+                ty = s.y() * shadow_scale_ + shadow_offset_;
     const float fx = std::floor(tx), fy = std::floor(ty);
     const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
     const float wx = tx - fx, wy = ty - fy;
@@ -361,13 +386,15 @@ class CpuRenderer final : public Renderer {
     const Eigen::Vector3f L = scene.sun_direction.normalized().cast<float>();
     const float E = static_cast<float>(scene.sun_irradiance);
     const bool shadows = shadow_frame_.valid;
-    const float offset = shadows ? static_cast<float>(kShadowNormalOffsetTexels * shadow_frame_.texel) : 0.0f;
+    const float offset =
+        shadows ? static_cast<float>(kShadowNormalOffsetTexels * shadow_frame_.texel) : 0.0f;
     const std::uint8_t* crinkle_cells = crinkleCells().data();
     const float* crinkle_tilts = crinkleTilts().data();
     const float ifx = static_cast<float>(1.0 / cam.fx), ify = static_cast<float>(1.0 / cam.fy);
     const float cx = static_cast<float>(cam.cx), cy = static_cast<float>(cam.cy);
     std::vector<Eigen::Matrix3f> rotations;
-    for (const RenderObject& o : scene.objects) rotations.push_back(o.camera_T_object.linear().cast<float>());
+    for (const RenderObject& o : scene.objects)
+      rotations.push_back(o.camera_T_object.linear().cast<float>());
     float* rad = out.radiance.data();
     float* depth = out.depth.data();
     std::uint8_t* ids = out.id.data();
@@ -409,20 +436,25 @@ class CpuRenderer final : public Renderer {
         const float alpha = 1.0f - beta - gamma;
         const auto& tri = m.triangles[k];
         const Material& mat = m.materials[m.material[k]];
-        Eigen::Vector3f n_o = m.flat[k] ? m.face_normal[k]
-                                        : unit(alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] + gamma * m.normals[tri[2]]);
+        Eigen::Vector3f n_o = m.flat[k]
+                                  ? m.face_normal[k]
+                                  : unit(alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] +
+                                         gamma * m.normals[tri[2]]);
         Eigen::Vector3f albedo = mat.diffuse;
         Eigen::Vector3f shading_n_o = n_o;
         if (mat.pattern != SurfacePattern::kNone) {
-          const Eigen::Vector3f p_o = alpha * m.vertices[tri[0]] + beta * m.vertices[tri[1]] + gamma * m.vertices[tri[2]];
+          const Eigen::Vector3f p_o =
+              alpha * m.vertices[tri[0]] + beta * m.vertices[tri[1]] + gamma * m.vertices[tri[2]];
           // Triplanar projection on the plane of the normal's two smaller components.
           const Eigen::Vector3f an = n_o.cwiseAbs();
           const int axis = an.x() >= an.y() && an.x() >= an.z() ? 0 : (an.y() >= an.z() ? 1 : 2);
           const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
           if (mat.pattern == SurfacePattern::kCrinkle) {
             const float tile = kCrinkleTileFacets * mat.pattern_scale;
-            const int tx = static_cast<int>(std::floor(p_o[a1] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
-            const int ty = static_cast<int>(std::floor(p_o[a2] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
+            const int tx =
+                static_cast<int>(std::floor(p_o[a1] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
+            const int ty =
+                static_cast<int>(std::floor(p_o[a2] / tile * kCrinkleSize)) & (kCrinkleSize - 1);
             const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
             Eigen::Vector3f perturbed = n_o;
             perturbed[a1] += mat.pattern_strength * tilt[0];
@@ -496,6 +528,8 @@ class CpuRenderer final : public Renderer {
 
 }  // namespace
 
-std::unique_ptr<Renderer> createCpuRenderer() { return std::make_unique<CpuRenderer>(); }
+std::unique_ptr<Renderer> createCpuRenderer() {
+  return std::make_unique<CpuRenderer>();
+}
 
 }  // namespace cdff::egse

@@ -33,10 +33,12 @@ Result<std::unique_ptr<RayCaster>> RayCaster::create(const TargetModel& model) {
   impl.scene = rtcNewScene(impl.device);
   rtcSetSceneBuildQuality(impl.scene, RTC_BUILD_QUALITY_HIGH);
   RTCGeometry geometry = rtcNewGeometry(impl.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                               3 * sizeof(float), model.mesh.vertices.size()));
-  auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                 3 * sizeof(unsigned), model.mesh.triangles.size()));
+  auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                               RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                               model.mesh.vertices.size()));
+  auto* indices = static_cast<unsigned*>(
+      rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                              3 * sizeof(unsigned), model.mesh.triangles.size()));
   if (!vertices || !indices) {
     rtcReleaseGeometry(geometry);
     return Status(StatusCode::kInternal, "embree: cannot allocate the geometry buffers");
@@ -56,7 +58,8 @@ Result<std::unique_ptr<RayCaster>> RayCaster::create(const TargetModel& model) {
   rtcCommitScene(impl.scene);
   const RTCError error = rtcGetDeviceError(impl.device);
   if (error != RTC_ERROR_NONE)
-    return Status(StatusCode::kInternal, fmt::format("embree: building the scene failed (error {})", static_cast<int>(error)));
+    return Status(StatusCode::kInternal, fmt::format("embree: building the scene failed (error {})",
+                                                     static_cast<int>(error)));
   return caster;
 }
 
@@ -112,7 +115,8 @@ void RayCaster::intersect(std::span<const Ray> rays, std::span<RayHit> hits) con
     const std::size_t n = std::min(kBatch, rays.size() - start);
     for (std::size_t i = 0; i < n; ++i) fill(batch[i], rays[start + i]);
     rtcIntersect1M(impl_->scene, &context, batch, static_cast<unsigned>(n), sizeof(RTCRayHit));
-    for (std::size_t i = 0; i < n; ++i) hits[start + i] = toHit(batch[i], rays[start + i], impl_->face_normals);
+    for (std::size_t i = 0; i < n; ++i)
+      hits[start + i] = toHit(batch[i], rays[start + i], impl_->face_normals);
   }
 }
 

@@ -23,9 +23,9 @@ struct Ray {
 
 struct RayHit {
   bool hit = false;
-  float distance = 0.0f;                               // along the (unit) direction
+  float distance = 0.0f;  // along the (unit) direction
   std::uint32_t triangle = 0;
-  Eigen::Vector3f normal = Eigen::Vector3f::Zero();    // geometric, unit, facing the ray's origin
+  Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // geometric, unit, facing the ray's origin
 };
 
 class RayCaster {

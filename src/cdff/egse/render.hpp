@@ -38,9 +38,9 @@ struct PinholeCamera {
 };
 
 struct RenderObject {
-  int model = -1;                                              // from Renderer::addModel
+  int model = -1;                                                     // from Renderer::addModel
   Eigen::Isometry3d camera_T_object = Eigen::Isometry3d::Identity();  // optical frame <- body
-  std::uint8_t id = 1;                                         // written to the id buffer (> 0)
+  std::uint8_t id = 1;  // written to the id buffer (> 0)
   bool casts_shadow = true;
 };
 
@@ -74,7 +74,8 @@ class Renderer {
   virtual std::string description() const = 0;
   /// Uploads a model once; returns the handle RenderObject::model refers to.
   virtual Result<int> addModel(const TargetModel& model) = 0;
-  virtual Status render(const RenderScene& scene, const PinholeCamera& camera, RenderOutput& out) = 0;
+  virtual Status render(const RenderScene& scene, const PinholeCamera& camera,
+                        RenderOutput& out) = 0;
 };
 
 /// The CPU rasteriser (always available).

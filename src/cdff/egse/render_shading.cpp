@@ -20,9 +20,12 @@ void RenderOutput::resize(int w, int h) {
 
 const char* toString(RendererBackend backend) {
   switch (backend) {
-    case RendererBackend::kAuto: return "auto";
-    case RendererBackend::kOpenGl: return "opengl";
-    case RendererBackend::kCpu: return "cpu";
+    case RendererBackend::kAuto:
+      return "auto";
+    case RendererBackend::kOpenGl:
+      return "opengl";
+    case RendererBackend::kCpu:
+      return "cpu";
   }
   return "?";
 }
@@ -69,8 +72,12 @@ const Crinkle& crinkle() {
 
 }  // namespace
 
-const std::vector<std::uint8_t>& crinkleCells() { return crinkle().cells; }
-const std::vector<float>& crinkleTilts() { return crinkle().tilts; }
+const std::vector<std::uint8_t>& crinkleCells() {
+  return crinkle().cells;
+}
+const std::vector<float>& crinkleTilts() {
+  return crinkle().tilts;
+}
 
 ShadowFrame fitShadowFrame(const Eigen::Vector3d& sun_direction,
                            const std::vector<std::pair<Eigen::Vector3d, double>>& casters, int size,
@@ -78,7 +85,8 @@ ShadowFrame fitShadowFrame(const Eigen::Vector3d& sun_direction,
   ShadowFrame f;
   if (casters.empty() || size < 2 || sun_direction.norm() < 1e-12) return f;
   const Eigen::Vector3d z = -sun_direction.normalized();  // along the light
-  const Eigen::Vector3d helper = std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d helper =
+      std::abs(z.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
   const Eigen::Vector3d x = helper.cross(z).normalized();
   const Eigen::Vector3d y = z.cross(x);
   const Eigen::Vector3d c = casters.front().first;

@@ -49,7 +49,8 @@ struct ZigguratTables {
     auto pdf = [](double v) { return std::exp(-0.5 * v * v); };
     x[0] = kV / pdf(kR);  // the base strip is a rectangle plus the tail
     x[1] = kR;
-    for (int i = 2; i < kLayers; ++i) x[i] = std::sqrt(-2.0 * std::log(kV / x[i - 1] + pdf(x[i - 1])));
+    for (int i = 2; i < kLayers; ++i)
+      x[i] = std::sqrt(-2.0 * std::log(kV / x[i - 1] + pdf(x[i - 1])));
     x[kLayers] = 0.0;
     for (int i = 0; i <= kLayers; ++i) f[i] = pdf(x[i]);
   }

@@ -15,25 +15,38 @@ namespace cdff::egse {
 
 const char* toString(SensorType type) {
   switch (type) {
-    case SensorType::kCamera: return "camera";
-    case SensorType::kLidar: return "lidar";
-    case SensorType::kTof: return "tof";
-    case SensorType::kImu: return "imu";
-    case SensorType::kRadar: return "radar";
+    case SensorType::kCamera:
+      return "camera";
+    case SensorType::kLidar:
+      return "lidar";
+    case SensorType::kTof:
+      return "tof";
+    case SensorType::kImu:
+      return "imu";
+    case SensorType::kRadar:
+      return "radar";
   }
   return "?";
 }
 
 const char* toString(FaultType type) {
   switch (type) {
-    case FaultType::kCameraFailure: return "camera_failure";
-    case FaultType::kGlare: return "glare";
-    case FaultType::kLidarDropout: return "lidar_dropout";
-    case FaultType::kLidarSpurious: return "lidar_spurious";
-    case FaultType::kImuBiasJump: return "imu_bias_jump";
-    case FaultType::kDroppedFrames: return "dropped_frames";
-    case FaultType::kLateFrames: return "late_frames";
-    case FaultType::kOcclusion: return "occlusion";
+    case FaultType::kCameraFailure:
+      return "camera_failure";
+    case FaultType::kGlare:
+      return "glare";
+    case FaultType::kLidarDropout:
+      return "lidar_dropout";
+    case FaultType::kLidarSpurious:
+      return "lidar_spurious";
+    case FaultType::kImuBiasJump:
+      return "imu_bias_jump";
+    case FaultType::kDroppedFrames:
+      return "dropped_frames";
+    case FaultType::kLateFrames:
+      return "late_frames";
+    case FaultType::kOcclusion:
+      return "occlusion";
   }
   return "?";
 }
@@ -111,7 +124,9 @@ class Field {
     YAML::Node child = node_.IsMap() ? node_[key] : YAML::Node(YAML::NodeType::Undefined);
     return Field(child, path_.empty() ? key : path_ + "." + key, context_);
   }
-  bool has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull(); }
+  bool has(const std::string& key) const {
+    return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
+  }
 
   Status isMap() const {
     if (!node_.IsMap()) return fail("a mapping (key: value pairs)");
@@ -133,14 +148,15 @@ class Field {
         }
       }
       const Field bad(it->first, path_.empty() ? key : path_ + "." + key, context_);
-      return invalidParameter("{}: unknown key '{}'{}; expected one of {{{}}}", bad.where(), bad.path(),
-                              best.empty() ? "" : fmt::format(" (did you mean '{}'?)", best),
-                              fmt::join(allowed, ", "));
+      return invalidParameter(
+          "{}: unknown key '{}'{}; expected one of {{{}}}", bad.where(), bad.path(),
+          best.empty() ? "" : fmt::format(" (did you mean '{}'?)", best), fmt::join(allowed, ", "));
     }
     return Status::ok();
   }
 
-  Status number(double& out, double low, double high, const std::string& unit, bool low_open = false) const {
+  Status number(double& out, double low, double high, const std::string& unit,
+                bool low_open = false) const {
     double v = 0;
     try {
       v = node_.as<double>();
@@ -149,7 +165,8 @@ class Field {
     }
     const bool below = low_open ? !(v > low) : !(v >= low);
     if (!std::isfinite(v) || below || !(v <= high))
-      return fail(fmt::format("a number in {}{}, {}]{}", low_open ? "(" : "[", low, high, unit.empty() ? "" : " " + unit));
+      return fail(fmt::format("a number in {}{}, {}]{}", low_open ? "(" : "[", low, high,
+                              unit.empty() ? "" : " " + unit));
     out = v;
     return Status::ok();
   }
@@ -187,15 +204,18 @@ class Field {
   }
   Status choice(std::string& out, const std::vector<std::string>& choices) const {
     std::string v;
-    if (!node_.IsScalar() || std::find(choices.begin(), choices.end(), (v = node_.Scalar())) == choices.end())
+    if (!node_.IsScalar() ||
+        std::find(choices.begin(), choices.end(), (v = node_.Scalar())) == choices.end())
       return fail(fmt::format("one of {{{}}}", fmt::join(choices, ", ")));
     out = v;
     return Status::ok();
   }
   Status numbers(std::vector<double>& out, std::size_t min_size, std::size_t max_size) const {
-    const std::string expected = min_size == max_size ? fmt::format("a list of {} numbers", min_size)
-                                                      : fmt::format("a list of {} to {} numbers", min_size, max_size);
-    if (!node_.IsSequence() || node_.size() < min_size || node_.size() > max_size) return fail(expected);
+    const std::string expected =
+        min_size == max_size ? fmt::format("a list of {} numbers", min_size)
+                             : fmt::format("a list of {} to {} numbers", min_size, max_size);
+    if (!node_.IsSequence() || node_.size() < min_size || node_.size() > max_size)
+      return fail(expected);
     out.clear();
     for (std::size_t i = 0; i < node_.size(); ++i) {
       double v;
@@ -268,14 +288,16 @@ CameraModel prosilicaGc1600h() {
   return m;
 }
 
-Eigen::Isometry3d mountAt(const Eigen::Vector3d& p, const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
+Eigen::Isometry3d mountAt(const Eigen::Vector3d& p,
+                          const Eigen::Quaterniond& q = Eigen::Quaterniond::Identity()) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = q.toRotationMatrix();
   T.translation() = p;
   return T;
 }
 
-const std::vector<std::string> kCommonSensorKeys = {"type", "enabled", "rate", "phase", "latency", "mount"};
+const std::vector<std::string> kCommonSensorKeys = {"type",  "enabled", "rate",
+                                                    "phase", "latency", "mount"};
 
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
@@ -301,8 +323,9 @@ Status readCameraModel(const Field& f, CameraModel& m, bool allow_distortion) {
   if (!allow_distortion) return Status::ok();
   if (f.has("distortion_model")) {
     std::string model;
-    CDFF_RETURN_IF_ERROR(f["distortion_model"].choice(model, {"none", "radial_tangential", "equidistant"}));
-    m.distortion_model = model == "none" ? DistortionModel::kNone
+    CDFF_RETURN_IF_ERROR(
+        f["distortion_model"].choice(model, {"none", "radial_tangential", "equidistant"}));
+    m.distortion_model = model == "none"          ? DistortionModel::kNone
                          : model == "equidistant" ? DistortionModel::kEquidistant
                                                   : DistortionModel::kRadialTangential;
     if (m.distortion_model == DistortionModel::kNone) m.distortion.clear();
@@ -311,7 +334,8 @@ Status readCameraModel(const Field& f, CameraModel& m, bool allow_distortion) {
     const std::size_t n_min = m.distortion_model == DistortionModel::kEquidistant ? 4 : 4;
     const std::size_t n_max = m.distortion_model == DistortionModel::kEquidistant ? 4 : 8;
     CDFF_RETURN_IF_ERROR(f["distortion"].numbers(m.distortion, n_min, n_max));
-    if (m.distortion_model == DistortionModel::kNone) m.distortion_model = DistortionModel::kRadialTangential;
+    if (m.distortion_model == DistortionModel::kNone)
+      m.distortion_model = DistortionModel::kRadialTangential;
   }
   return Status::ok();
 }
@@ -332,11 +356,34 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
   }
   switch (s.type) {
     case SensorType::kCamera: {
-      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys,
-          {"width", "height", "fx", "fy", "cx", "cy", "focal_length", "pixel_pitch", "distortion_model", "distortion",
-           "format", "exposure_time", "gain_db", "full_well", "read_noise", "sensitivity", "noise", "psf_sigma",
-           "f_number", "focus_distance", "supersampling", "motion_blur_samples", "stars", "star_gain",
-           "glare_strength", "glare_width_deg", "glare_decay_deg", "shadow_map_size"})));
+      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys, {"width",
+                                                                "height",
+                                                                "fx",
+                                                                "fy",
+                                                                "cx",
+                                                                "cy",
+                                                                "focal_length",
+                                                                "pixel_pitch",
+                                                                "distortion_model",
+                                                                "distortion",
+                                                                "format",
+                                                                "exposure_time",
+                                                                "gain_db",
+                                                                "full_well",
+                                                                "read_noise",
+                                                                "sensitivity",
+                                                                "noise",
+                                                                "psf_sigma",
+                                                                "f_number",
+                                                                "focus_distance",
+                                                                "supersampling",
+                                                                "motion_blur_samples",
+                                                                "stars",
+                                                                "star_gain",
+                                                                "glare_strength",
+                                                                "glare_width_deg",
+                                                                "glare_decay_deg",
+                                                                "shadow_map_size"})));
       CameraSpec& c = s.camera;
       c.shadow_map_size = shadow_map_size;
       CDFF_RETURN_IF_ERROR(readCameraModel(f, c.model, true));
@@ -351,7 +398,8 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
       CDFF_RETURN_IF_ERROR(optNumber(f, "gain_db", c.gain_db, -20, 40, "dB"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "full_well", c.full_well, 0, 1e7, "electrons", true));
       CDFF_RETURN_IF_ERROR(optNumber(f, "read_noise", c.read_noise, 0, 1e4, "electrons"));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "sensitivity", c.sensitivity, 0, 1e15, "electrons/s", true));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "sensitivity", c.sensitivity, 0, 1e15, "electrons/s", true));
       CDFF_RETURN_IF_ERROR(optBool(f, "noise", c.noise));
       CDFF_RETURN_IF_ERROR(optNumber(f, "psf_sigma", c.psf_sigma, 0, 20, "px"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "f_number", c.f_number, 0, 100));
@@ -361,20 +409,24 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
       CDFF_RETURN_IF_ERROR(optBool(f, "stars", c.stars));
       CDFF_RETURN_IF_ERROR(optNumber(f, "star_gain", c.star_gain, 0, 1e9));
       CDFF_RETURN_IF_ERROR(optNumber(f, "glare_strength", c.glare_strength, 0, 1e6));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "glare_width_deg", c.glare_width, 0, 90, "deg", true, kDeg));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "glare_decay_deg", c.glare_decay, 0, 90, "deg", true, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "glare_width_deg", c.glare_width, 0, 90, "deg", true, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "glare_decay_deg", c.glare_decay, 0, 90, "deg", true, kDeg));
       CDFF_RETURN_IF_ERROR(optInt(f, "shadow_map_size", c.shadow_map_size, 64, 8192));
       return c.validate(s.name).withContext(f.where() + ": " + f.path());
     }
     case SensorType::kLidar: {
-      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys,
-          {"elevations_deg", "firing_cycle", "laser_interval", "min_range", "max_range", "range_noise",
-           "dropout_probability", "spurious_rate", "motion_during_scan"})));
+      CDFF_RETURN_IF_ERROR(f.allowOnly(
+          with(kCommonSensorKeys,
+               {"elevations_deg", "firing_cycle", "laser_interval", "min_range", "max_range",
+                "range_noise", "dropout_probability", "spurious_rate", "motion_during_scan"})));
       LidarSpec& l = s.lidar;
       if (f.has("elevations_deg")) {
         CDFF_RETURN_IF_ERROR(f["elevations_deg"].numbers(l.elevations, 1, 256));
         for (double& e : l.elevations) {
-          if (std::abs(e) >= 90) return f["elevations_deg"].fail("elevations within (-90, 90) degrees");
+          if (std::abs(e) >= 90)
+            return f["elevations_deg"].fail("elevations within (-90, 90) degrees");
           e *= kDeg;
         }
       }
@@ -385,14 +437,16 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
       CDFF_RETURN_IF_ERROR(optNumber(f, "max_range", l.max_range, 0, 1e5, "m", true));
       CDFF_RETURN_IF_ERROR(optNumber(f, "range_noise", l.range_noise, 0, 100, "m"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "dropout_probability", l.dropout_probability, 0, 1));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "spurious_rate", l.spurious_rate, 0, 1e6, "returns per scan"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "spurious_rate", l.spurious_rate, 0, 1e6, "returns per scan"));
       CDFF_RETURN_IF_ERROR(optBool(f, "motion_during_scan", l.motion_during_scan));
       return l.validate(s.name).withContext(f.where() + ": " + f.path());
     }
     case SensorType::kTof: {
-      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys,
-          {"width", "height", "fx", "fy", "cx", "cy", "focal_length", "pixel_pitch", "min_range", "max_range",
-           "noise_constant", "noise_quadratic", "min_amplitude", "dropout_probability"})));
+      CDFF_RETURN_IF_ERROR(f.allowOnly(
+          with(kCommonSensorKeys, {"width", "height", "fx", "fy", "cx", "cy", "focal_length",
+                                   "pixel_pitch", "min_range", "max_range", "noise_constant",
+                                   "noise_quadratic", "min_amplitude", "dropout_probability"})));
       TofSpec& t = s.tof;
       CDFF_RETURN_IF_ERROR(readCameraModel(f, t.model, false));
       CDFF_RETURN_IF_ERROR(optNumber(f, "min_range", t.min_range, 0, 1e4, "m"));
@@ -404,17 +458,22 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
       return t.validate(s.name).withContext(f.where() + ": " + f.path());
     }
     case SensorType::kImu: {
-      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys,
-          {"gyro_noise_density", "accel_noise_density", "gyro_bias_sigma", "accel_bias_sigma", "gyro_bias_random_walk",
-           "accel_bias_random_walk", "gyro_bias", "accel_bias", "gyro_range", "accel_range", "noise"})));
+      CDFF_RETURN_IF_ERROR(f.allowOnly(with(
+          kCommonSensorKeys, {"gyro_noise_density", "accel_noise_density", "gyro_bias_sigma",
+                              "accel_bias_sigma", "gyro_bias_random_walk", "accel_bias_random_walk",
+                              "gyro_bias", "accel_bias", "gyro_range", "accel_range", "noise"})));
       ImuSpec& i = s.imu;
       i.rate = s.rate;
-      CDFF_RETURN_IF_ERROR(optNumber(f, "gyro_noise_density", i.gyro_noise_density, 0, 1, "rad/s/sqrt(Hz)"));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "accel_noise_density", i.accel_noise_density, 0, 10, "m/s^2/sqrt(Hz)"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "gyro_noise_density", i.gyro_noise_density, 0, 1, "rad/s/sqrt(Hz)"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "accel_noise_density", i.accel_noise_density, 0, 10, "m/s^2/sqrt(Hz)"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "gyro_bias_sigma", i.gyro_bias_sigma, 0, 10, "rad/s"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "accel_bias_sigma", i.accel_bias_sigma, 0, 100, "m/s^2"));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "gyro_bias_random_walk", i.gyro_bias_random_walk, 0, 1, "rad/s/sqrt(s)"));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "accel_bias_random_walk", i.accel_bias_random_walk, 0, 10, "m/s^2/sqrt(s)"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "gyro_bias_random_walk", i.gyro_bias_random_walk, 0, 1, "rad/s/sqrt(s)"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "accel_bias_random_walk", i.accel_bias_random_walk, 0, 10, "m/s^2/sqrt(s)"));
       if (f.has("gyro_bias")) {
         Eigen::Vector3d b;
         CDFF_RETURN_IF_ERROR(f["gyro_bias"].vec3(b));
@@ -431,15 +490,18 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
       return i.validate(s.name).withContext(f.where() + ": " + f.path());
     }
     case SensorType::kRadar: {
-      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys,
-          {"min_range", "max_range", "beam_half_angle_deg", "range_noise", "range_rate_noise", "angle_noise_deg"})));
+      CDFF_RETURN_IF_ERROR(f.allowOnly(
+          with(kCommonSensorKeys, {"min_range", "max_range", "beam_half_angle_deg", "range_noise",
+                                   "range_rate_noise", "angle_noise_deg"})));
       RadarSpec& r = s.radar;
       CDFF_RETURN_IF_ERROR(optNumber(f, "min_range", r.min_range, 0, 1e8, "m"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "max_range", r.max_range, 0, 1e8, "m", true));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "beam_half_angle_deg", r.beam_half_angle, 0, 180, "deg", true, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "beam_half_angle_deg", r.beam_half_angle, 0, 180, "deg", true, kDeg));
       CDFF_RETURN_IF_ERROR(optNumber(f, "range_noise", r.range_noise, 0, 1e4, "m"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "range_rate_noise", r.range_rate_noise, 0, 1e3, "m/s"));
-      CDFF_RETURN_IF_ERROR(optNumber(f, "angle_noise_deg", r.angle_noise, 0, 90, "deg", false, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(f, "angle_noise_deg", r.angle_noise, 0, 90, "deg", false, kDeg));
       return r.validate(s.name).withContext(f.where() + ": " + f.path());
     }
   }
@@ -451,19 +513,23 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
 Status applyOverride(YAML::Node& root, const std::string& text, Context& context) {
   const std::size_t eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
-    return invalidParameter("--set {}: expected KEY=VALUE with a dotted key, e.g. sensors.lidar.range_noise=0.05", text);
+    return invalidParameter(
+        "--set {}: expected KEY=VALUE with a dotted key, e.g. sensors.lidar.range_noise=0.05",
+        text);
   const std::string key = text.substr(0, eq), value_text = text.substr(eq + 1);
   std::vector<std::string> parts;
   std::stringstream ss(key);
   for (std::string part; std::getline(ss, part, '.');) {
-    if (part.empty()) return invalidParameter("--set {}: the key '{}' has an empty part", text, key);
+    if (part.empty())
+      return invalidParameter("--set {}: the key '{}' has an empty part", text, key);
     parts.push_back(part);
   }
   YAML::Node value;
   try {
     value = YAML::Load(value_text);
   } catch (const YAML::Exception& e) {
-    return invalidParameter("--set {}: the value '{}' is not valid YAML: {}", text, value_text, e.msg);
+    return invalidParameter("--set {}: the value '{}' is not valid YAML: {}", text, value_text,
+                            e.msg);
   }
   YAML::Node current = root;
   std::string walked;
@@ -475,8 +541,8 @@ Status applyOverride(YAML::Node& root, const std::string& text, Context& context
       char* end = nullptr;
       const long index = std::strtol(part.c_str(), &end, 10);
       if (*end != '\0' || index < 0 || static_cast<std::size_t>(index) >= current.size())
-        return invalidParameter("--set {}: '{}' indexes a list of {} items; expected 0 to {}", text, walked,
-                                current.size(), static_cast<long>(current.size()) - 1);
+        return invalidParameter("--set {}: '{}' indexes a list of {} items; expected 0 to {}", text,
+                                walked, current.size(), static_cast<long>(current.size()) - 1);
       if (last) {
         current[static_cast<std::size_t>(index)] = value;
       } else {
@@ -486,12 +552,14 @@ Status applyOverride(YAML::Node& root, const std::string& text, Context& context
       continue;
     }
     if (!current.IsMap() && !current.IsNull() && current.IsDefined())
-      return invalidParameter("--set {}: '{}' is a value, not a mapping with keys", text,
-                              walked.substr(0, walked.size() - part.size() - (walked.size() > part.size() ? 1 : 0)));
+      return invalidParameter(
+          "--set {}: '{}' is a value, not a mapping with keys", text,
+          walked.substr(0, walked.size() - part.size() - (walked.size() > part.size() ? 1 : 0)));
     if (last) {
       current[part] = value;
     } else {
-      if (!current[part].IsDefined() || current[part].IsNull()) current[part] = YAML::Node(YAML::NodeType::Map);
+      if (!current[part].IsDefined() || current[part].IsNull())
+        current[part] = YAML::Node(YAML::NodeType::Map);
       YAML::Node next = current[part];
       current.reset(next);
     }
@@ -573,20 +641,23 @@ std::vector<SensorConfig> defaultSensors() {
 // ------------------------------------------------------------------------------ parsing
 
 Result<Scenario> parseScenario(const std::string& text, const std::string& source,
-                               const std::vector<std::string>& overrides, const std::filesystem::path& base) {
+                               const std::vector<std::string>& overrides,
+                               const std::filesystem::path& base) {
   Context context;
   context.source = source;
   YAML::Node root;
   try {
     root = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
-    return invalidParameter("{}:{}:{}: invalid YAML: {}", source, e.mark.line + 1, e.mark.column + 1, e.msg);
+    return invalidParameter("{}:{}:{}: invalid YAML: {}", source, e.mark.line + 1,
+                            e.mark.column + 1, e.msg);
   }
   if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
   for (const std::string& o : overrides) CDFF_RETURN_IF_ERROR(applyOverride(root, o, context));
   const Field top(root, "", &context);
-  CDFF_RETURN_IF_ERROR(top.allowOnly({"name", "description", "duration", "seed", "orbit", "target", "servicer",
-                                      "lighting", "background", "sensors", "faults", "truth", "renderer"}));
+  CDFF_RETURN_IF_ERROR(
+      top.allowOnly({"name", "description", "duration", "seed", "orbit", "target", "servicer",
+                     "lighting", "background", "sensors", "faults", "truth", "renderer"}));
   Scenario sc;
   sc.name = std::filesystem::path(source).stem().string();
   if (top.has("name")) CDFF_RETURN_IF_ERROR(top["name"].string(sc.name));
@@ -627,17 +698,21 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
         std::filesystem::path p(model);
         sc.target_mesh = p.is_absolute() || base.empty() ? p : base / p;
         if (!std::filesystem::exists(sc.target_mesh))
-          return notFound("{}: target.model = {}: the mesh file '{}' does not exist", t["model"].where(), model,
-                          sc.target_mesh.string());
+          return notFound("{}: target.model = {}: the mesh file '{}' does not exist",
+                          t["model"].where(), model, sc.target_mesh.string());
       }
     }
     if (t.has("procedural")) {
       const Field p = t["procedural"];
-      CDFF_RETURN_IF_ERROR(p.allowOnly({"bus_size", "solar_wings", "panels_per_wing", "panel_size", "panel_thickness",
-                                        "panel_gap", "yoke_length", "wing_angle_deg", "adapter_ring", "ring_diameter",
-                                        "ring_height", "ring_wall", "ring_flange_width", "launcher_brackets", "antenna",
-                                        "dish_diameter", "dish_depth", "mast_height", "thrusters", "thruster_length",
-                                        "thruster_exit_diameter", "segments"}));
+      CDFF_RETURN_IF_ERROR(
+          p.allowOnly({"bus_size",          "solar_wings",       "panels_per_wing",
+                       "panel_size",        "panel_thickness",   "panel_gap",
+                       "yoke_length",       "wing_angle_deg",    "adapter_ring",
+                       "ring_diameter",     "ring_height",       "ring_wall",
+                       "ring_flange_width", "launcher_brackets", "antenna",
+                       "dish_diameter",     "dish_depth",        "mast_height",
+                       "thrusters",         "thruster_length",   "thruster_exit_diameter",
+                       "segments"}));
       TargetSpec& s = sc.target_spec;
       CDFF_RETURN_IF_ERROR(optVec3(p, "bus_size", s.bus_size));
       CDFF_RETURN_IF_ERROR(optBool(p, "solar_wings", s.solar_wings));
@@ -650,7 +725,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       CDFF_RETURN_IF_ERROR(optNumber(p, "panel_thickness", s.panel_thickness, 0, 1, "m", true));
       CDFF_RETURN_IF_ERROR(optNumber(p, "panel_gap", s.panel_gap, 0, 1, "m"));
       CDFF_RETURN_IF_ERROR(optNumber(p, "yoke_length", s.yoke_length, 0, 10, "m", true));
-      CDFF_RETURN_IF_ERROR(optNumber(p, "wing_angle_deg", s.wing_angle, -180, 180, "deg", false, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(p, "wing_angle_deg", s.wing_angle, -180, 180, "deg", false, kDeg));
       CDFF_RETURN_IF_ERROR(optBool(p, "adapter_ring", s.adapter_ring));
       CDFF_RETURN_IF_ERROR(optNumber(p, "ring_diameter", s.ring_diameter, 0, 10, "m", true));
       CDFF_RETURN_IF_ERROR(optNumber(p, "ring_height", s.ring_height, 0, 5, "m", true));
@@ -663,7 +739,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       CDFF_RETURN_IF_ERROR(optNumber(p, "mast_height", s.mast_height, 0, 10, "m", true));
       CDFF_RETURN_IF_ERROR(optBool(p, "thrusters", s.thrusters));
       CDFF_RETURN_IF_ERROR(optNumber(p, "thruster_length", s.thruster_length, 0, 2, "m", true));
-      CDFF_RETURN_IF_ERROR(optNumber(p, "thruster_exit_diameter", s.thruster_exit_diameter, 0, 2, "m", true));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(p, "thruster_exit_diameter", s.thruster_exit_diameter, 0, 2, "m", true));
       CDFF_RETURN_IF_ERROR(optInt(p, "segments", s.segments, 8, 256));
       CDFF_RETURN_IF_ERROR(s.validate().withContext(p.where() + ": target.procedural"));
     }
@@ -673,7 +750,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       CDFF_RETURN_IF_ERROR(optNumber(m, "scale", sc.mesh_options.scale, 0, 1e6, "", true));
       CDFF_RETURN_IF_ERROR(optBool(m, "recentre", sc.mesh_options.recentre));
       CDFF_RETURN_IF_ERROR(optRpy(m, "rpy_deg", sc.mesh_rotation));
-      CDFF_RETURN_IF_ERROR(optNumber(m, "smoothing_angle_deg", sc.mesh_options.smoothing_angle, 0, 180, "deg", false, kDeg));
+      CDFF_RETURN_IF_ERROR(optNumber(m, "smoothing_angle_deg", sc.mesh_options.smoothing_angle, 0,
+                                     180, "deg", false, kDeg));
     }
     if (t.has("attitude")) {
       const Field a = t["attitude"];
@@ -681,7 +759,7 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       if (a.has("mode")) {
         std::string mode;
         CDFF_RETURN_IF_ERROR(a["mode"].choice(mode, {"lvlh", "inertial", "tumbling"}));
-        sc.target_attitude = mode == "inertial" ? TargetAttitudeKind::kInertial
+        sc.target_attitude = mode == "inertial"   ? TargetAttitudeKind::kInertial
                              : mode == "tumbling" ? TargetAttitudeKind::kTumbling
                                                   : TargetAttitudeKind::kLvlh;
       }
@@ -692,7 +770,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       if (a.has("inertia")) {
         Eigen::Vector3d inertia;
         CDFF_RETURN_IF_ERROR(a["inertia"].vec3(inertia));
-        if (inertia.minCoeff() <= 0) return a["inertia"].fail("three positive principal moments of inertia in kg m^2");
+        if (inertia.minCoeff() <= 0)
+          return a["inertia"].fail("three positive principal moments of inertia in kg m^2");
         sc.target_inertia = inertia;
       }
     }
@@ -704,15 +783,19 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
     if (s.has("trajectory")) {
       const Field tr = s["trajectory"];
       std::string type = "hold";
-      if (tr.has("type")) CDFF_RETURN_IF_ERROR(tr["type"].choice(type, {"hold", "line", "waypoints", "fly_around", "cw"}));
+      if (tr.has("type"))
+        CDFF_RETURN_IF_ERROR(
+            tr["type"].choice(type, {"hold", "line", "waypoints", "fly_around", "cw"}));
       if (type == "hold") {
         CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "position"}));
         sc.translation = TranslationKind::kHold;
         CDFF_RETURN_IF_ERROR(optVec3(tr, "position", sc.start));
       } else if (type == "line") {
-        CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "start", "end", "start_time", "end_time", "profile"}));
+        CDFF_RETURN_IF_ERROR(
+            tr.allowOnly({"type", "start", "end", "start_time", "end_time", "profile"}));
         sc.translation = TranslationKind::kLine;
-        if (!tr.has("start") || !tr.has("end")) return tr.fail("a line with 'start' and 'end' positions (lvlh, m)");
+        if (!tr.has("start") || !tr.has("end"))
+          return tr.fail("a line with 'start' and 'end' positions (lvlh, m)");
         CDFF_RETURN_IF_ERROR(tr["start"].vec3(sc.start));
         CDFF_RETURN_IF_ERROR(tr["end"].vec3(sc.end));
         CDFF_RETURN_IF_ERROR(optNumber(tr, "start_time", sc.start_time, 0, 1e6, "s"));
@@ -727,29 +810,37 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       } else if (type == "waypoints") {
         CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "times", "positions"}));
         sc.translation = TranslationKind::kWaypoints;
-        if (!tr.has("times") || !tr.has("positions")) return tr.fail("waypoints with 'times' (s) and 'positions' (lvlh, m)");
+        if (!tr.has("times") || !tr.has("positions"))
+          return tr.fail("waypoints with 'times' (s) and 'positions' (lvlh, m)");
         CDFF_RETURN_IF_ERROR(tr["times"].numbers(sc.waypoint_times, 2, 100000));
         const Field positions = tr["positions"];
         if (!positions.node().IsSequence() || positions.node().size() != sc.waypoint_times.size())
-          return positions.fail(fmt::format("a list of {} positions, one per time", sc.waypoint_times.size()));
+          return positions.fail(
+              fmt::format("a list of {} positions, one per time", sc.waypoint_times.size()));
         for (std::size_t i = 0; i < positions.node().size(); ++i) {
           Eigen::Vector3d p;
-          CDFF_RETURN_IF_ERROR(Field(positions.node()[i], positions.path() + "." + std::to_string(i), &context).vec3(p));
+          CDFF_RETURN_IF_ERROR(
+              Field(positions.node()[i], positions.path() + "." + std::to_string(i), &context)
+                  .vec3(p));
           sc.waypoints.push_back(p);
         }
         for (std::size_t i = 1; i < sc.waypoint_times.size(); ++i)
-          if (!(sc.waypoint_times[i] > sc.waypoint_times[i - 1])) return tr["times"].fail("strictly increasing times");
+          if (!(sc.waypoint_times[i] > sc.waypoint_times[i - 1]))
+            return tr["times"].fail("strictly increasing times");
         sc.start = sc.waypoints.front();
       } else if (type == "fly_around") {
-        CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "centre", "axis", "reference", "radius", "radial_rate", "rate_deg_s", "phase_deg"}));
+        CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "centre", "axis", "reference", "radius",
+                                           "radial_rate", "rate_deg_s", "phase_deg"}));
         sc.translation = TranslationKind::kFlyAround;
         CDFF_RETURN_IF_ERROR(optVec3(tr, "centre", sc.centre));
         if (tr.has("axis")) CDFF_RETURN_IF_ERROR(tr["axis"].direction(sc.axis));
         if (tr.has("reference")) CDFF_RETURN_IF_ERROR(tr["reference"].direction(sc.reference));
-        if (std::abs(sc.axis.dot(sc.reference)) > 0.999) return tr["reference"].fail("a direction not parallel to 'axis'");
+        if (std::abs(sc.axis.dot(sc.reference)) > 0.999)
+          return tr["reference"].fail("a direction not parallel to 'axis'");
         CDFF_RETURN_IF_ERROR(optNumber(tr, "radius", sc.radius, 0, 1e6, "m", true));
         CDFF_RETURN_IF_ERROR(optNumber(tr, "radial_rate", sc.radial_rate, -100, 100, "m/s"));
-        CDFF_RETURN_IF_ERROR(optNumber(tr, "rate_deg_s", sc.angular_rate, -90, 90, "deg/s", false, kDeg));
+        CDFF_RETURN_IF_ERROR(
+            optNumber(tr, "rate_deg_s", sc.angular_rate, -90, 90, "deg/s", false, kDeg));
         CDFF_RETURN_IF_ERROR(optNumber(tr, "phase_deg", sc.phase, -360, 360, "deg", false, kDeg));
       } else {
         CDFF_RETURN_IF_ERROR(tr.allowOnly({"type", "position", "velocity"}));
@@ -760,17 +851,20 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
     }
     if (s.has("attitude")) {
       const Field a = s["attitude"];
-      CDFF_RETURN_IF_ERROR(a.allowOnly({"mode", "up", "yaw_offset_deg", "pitch_offset_deg", "rpy_deg"}));
+      CDFF_RETURN_IF_ERROR(
+          a.allowOnly({"mode", "up", "yaw_offset_deg", "pitch_offset_deg", "rpy_deg"}));
       if (a.has("mode")) {
         std::string mode;
         CDFF_RETURN_IF_ERROR(a["mode"].choice(mode, {"target_pointing", "lvlh", "inertial"}));
-        sc.servicer_attitude = mode == "lvlh" ? ServicerAttitudeKind::kLvlh
+        sc.servicer_attitude = mode == "lvlh"       ? ServicerAttitudeKind::kLvlh
                                : mode == "inertial" ? ServicerAttitudeKind::kInertial
                                                     : ServicerAttitudeKind::kTargetPointing;
       }
       if (a.has("up")) CDFF_RETURN_IF_ERROR(a["up"].direction(sc.up));
-      CDFF_RETURN_IF_ERROR(optNumber(a, "yaw_offset_deg", sc.yaw_offset, -180, 180, "deg", false, kDeg));
-      CDFF_RETURN_IF_ERROR(optNumber(a, "pitch_offset_deg", sc.pitch_offset, -90, 90, "deg", false, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(a, "yaw_offset_deg", sc.yaw_offset, -180, 180, "deg", false, kDeg));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(a, "pitch_offset_deg", sc.pitch_offset, -90, 90, "deg", false, kDeg));
       CDFF_RETURN_IF_ERROR(optRpy(a, "rpy_deg", sc.servicer_orientation));
     }
     if (s.has("mockup")) {
@@ -780,8 +874,10 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       CDFF_RETURN_IF_ERROR(optBool(m, "enabled", sc.servicer_mockup));
       CDFF_RETURN_IF_ERROR(optVec3(m, "bus_size", sc.servicer_spec.bus_size));
       CDFF_RETURN_IF_ERROR(optNumber(m, "probe_length", sc.servicer_spec.probe_length, 0, 10, "m"));
-      CDFF_RETURN_IF_ERROR(optNumber(m, "probe_diameter", sc.servicer_spec.probe_diameter, 0, 1, "m", true));
-      CDFF_RETURN_IF_ERROR(sc.servicer_spec.validate().withContext(m.where() + ": servicer.mockup"));
+      CDFF_RETURN_IF_ERROR(
+          optNumber(m, "probe_diameter", sc.servicer_spec.probe_diameter, 0, 1, "m", true));
+      CDFF_RETURN_IF_ERROR(
+          sc.servicer_spec.validate().withContext(m.where() + ": servicer.mockup"));
     }
   }
 
@@ -796,13 +892,18 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
     CDFF_RETURN_IF_ERROR(optBool(l, "eclipses", sc.eclipses));
     if (l.has("sun")) {
       const Field s = l["sun"];
-      CDFF_RETURN_IF_ERROR(s.allowOnly({"preset", "azimuth_deg", "elevation_deg", "direction", "frame"}));
+      CDFF_RETURN_IF_ERROR(
+          s.allowOnly({"preset", "azimuth_deg", "elevation_deg", "direction", "frame"}));
       if (s.has("direction") && (s.has("preset") || s.has("azimuth_deg") || s.has("elevation_deg")))
-        return s["direction"].fail("either 'direction' or 'preset'/'azimuth_deg'/'elevation_deg', not both");
+        return s["direction"].fail(
+            "either 'direction' or 'preset'/'azimuth_deg'/'elevation_deg', not both");
       if (s.has("preset")) {
-        CDFF_RETURN_IF_ERROR(s["preset"].choice(sun_preset, {"front_lit", "side_lit", "back_lit", "near_fov"}));
-        const std::map<std::string, std::pair<double, double>> presets = {
-            {"front_lit", {25, 15}}, {"side_lit", {90, 10}}, {"back_lit", {130, 20}}, {"near_fov", {145, 0}}};
+        CDFF_RETURN_IF_ERROR(
+            s["preset"].choice(sun_preset, {"front_lit", "side_lit", "back_lit", "near_fov"}));
+        const std::map<std::string, std::pair<double, double>> presets = {{"front_lit", {25, 15}},
+                                                                          {"side_lit", {90, 10}},
+                                                                          {"back_lit", {130, 20}},
+                                                                          {"near_fov", {145, 0}}};
         azimuth = presets.at(sun_preset).first * kDeg;
         elevation = presets.at(sun_preset).second * kDeg;
       }
@@ -827,16 +928,24 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
     CDFF_RETURN_IF_ERROR(optBool(b, "earth", sc.earth));
   }
   if (sc.translation == TranslationKind::kFlyAround)
-    sc.start = sc.centre + sc.radius * (std::cos(sc.phase) * (sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized() +
-                                        std::sin(sc.phase) * sc.axis.cross((sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized()));
+    sc.start =
+        sc.centre +
+        sc.radius *
+            (std::cos(sc.phase) *
+                 (sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized() +
+             std::sin(sc.phase) *
+                 sc.axis.cross((sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized()));
   if (!sun_direction_given) {
     // Azimuth from "behind the servicer" (0, front-lit) towards its right; elevation towards up.
-    const Eigen::Vector3d f = (-sc.start).norm() > 1e-9 ? (-sc.start).normalized() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d f =
+        (-sc.start).norm() > 1e-9 ? (-sc.start).normalized() : Eigen::Vector3d::UnitY();
     Eigen::Vector3d u = sc.up - sc.up.dot(f) * f;
     if (u.norm() < 1e-6) u = Eigen::Vector3d::UnitZ() - f.z() * f;
     u.normalize();
     const Eigen::Vector3d r = f.cross(u);
-    sc.sun.direction = (std::cos(elevation) * (std::cos(azimuth) * -f + std::sin(azimuth) * r) + std::sin(elevation) * u).normalized();
+    sc.sun.direction = (std::cos(elevation) * (std::cos(azimuth) * -f + std::sin(azimuth) * r) +
+                        std::sin(elevation) * u)
+                           .normalized();
   }
 
   // Sensors: the default suite, then the scenario's changes and additions.
@@ -855,20 +964,25 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
         if (s.name == name) existing = &s;
       if (!existing) {
         if (!f.has("type"))
-          return invalidParameter("{}: sensors.{}: a new sensor needs a 'type' (one of {{camera, lidar, tof, imu, radar}})",
-                                  f.where(), name);
+          return invalidParameter(
+              "{}: sensors.{}: a new sensor needs a 'type' (one of {{camera, lidar, tof, imu, "
+              "radar}})",
+              f.where(), name);
         bool valid_name = !name.empty();
-        for (char c : name) valid_name = valid_name && (std::isalnum(static_cast<unsigned char>(c)) || c == '_');
-        if (!valid_name) return Field(it->first, "sensors." + name, &context).fail("a sensor name of letters, digits and '_'");
+        for (char c : name)
+          valid_name = valid_name && (std::isalnum(static_cast<unsigned char>(c)) || c == '_');
+        if (!valid_name)
+          return Field(it->first, "sensors." + name, &context)
+              .fail("a sensor name of letters, digits and '_'");
         std::string type;
         CDFF_RETURN_IF_ERROR(f["type"].choice(type, {"camera", "lidar", "tof", "imu", "radar"}));
         SensorConfig s;
         s.name = name;
-        s.type = type == "camera" ? SensorType::kCamera
+        s.type = type == "camera"  ? SensorType::kCamera
                  : type == "lidar" ? SensorType::kLidar
-                 : type == "tof" ? SensorType::kTof
-                 : type == "imu" ? SensorType::kImu
-                                 : SensorType::kRadar;
+                 : type == "tof"   ? SensorType::kTof
+                 : type == "imu"   ? SensorType::kImu
+                                   : SensorType::kRadar;
         // New sensors start from the defaults of their type.
         for (const SensorConfig& d : defaultSensors())
           if (d.type == s.type) {
@@ -885,7 +999,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
         std::string type;
         CDFF_RETURN_IF_ERROR(f["type"].string(type));
         if (type != toString(existing->type))
-          return f["type"].fail(fmt::format("'{}' (the built-in sensor '{}' is a {})", toString(existing->type), name,
+          return f["type"].fail(fmt::format("'{}' (the built-in sensor '{}' is a {})",
+                                            toString(existing->type), name,
                                             toString(existing->type)));
       }
       CDFF_RETURN_IF_ERROR(readSensor(f, *existing, shadow_map_size));
@@ -897,44 +1012,63 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
     if (!all.node().IsSequence()) return all.fail("a list of faults");
     for (std::size_t i = 0; i < all.node().size(); ++i) {
       const Field f(all.node()[i], "faults." + std::to_string(i), &context);
-      CDFF_RETURN_IF_ERROR(f.allowOnly({"type", "sensor", "start", "end", "time", "probability", "rate", "gain", "veil",
-                                        "delay", "fraction", "mode", "gyro", "gyro_deg_s", "accel"}));
+      CDFF_RETURN_IF_ERROR(
+          f.allowOnly({"type", "sensor", "start", "end", "time", "probability", "rate", "gain",
+                       "veil", "delay", "fraction", "mode", "gyro", "gyro_deg_s", "accel"}));
       FaultConfig fault;
       std::string type;
       if (!f.has("type")) return f.fail("a fault with a 'type'");
-      CDFF_RETURN_IF_ERROR(f["type"].choice(type, {"camera_failure", "glare", "lidar_dropout", "lidar_spurious",
-                                                   "imu_bias_jump", "dropped_frames", "late_frames", "occlusion"}));
-      const std::map<std::string, FaultType> types = {
-          {"camera_failure", FaultType::kCameraFailure}, {"glare", FaultType::kGlare},
-          {"lidar_dropout", FaultType::kLidarDropout},   {"lidar_spurious", FaultType::kLidarSpurious},
-          {"imu_bias_jump", FaultType::kImuBiasJump},    {"dropped_frames", FaultType::kDroppedFrames},
-          {"late_frames", FaultType::kLateFrames},       {"occlusion", FaultType::kOcclusion}};
+      CDFF_RETURN_IF_ERROR(
+          f["type"].choice(type, {"camera_failure", "glare", "lidar_dropout", "lidar_spurious",
+                                  "imu_bias_jump", "dropped_frames", "late_frames", "occlusion"}));
+      const std::map<std::string, FaultType> types = {{"camera_failure", FaultType::kCameraFailure},
+                                                      {"glare", FaultType::kGlare},
+                                                      {"lidar_dropout", FaultType::kLidarDropout},
+                                                      {"lidar_spurious", FaultType::kLidarSpurious},
+                                                      {"imu_bias_jump", FaultType::kImuBiasJump},
+                                                      {"dropped_frames", FaultType::kDroppedFrames},
+                                                      {"late_frames", FaultType::kLateFrames},
+                                                      {"occlusion", FaultType::kOcclusion}};
       fault.type = types.at(type);
       if (!f.has("sensor")) return f.fail("a fault with a 'sensor' (a sensor name, or '*')");
       CDFF_RETURN_IF_ERROR(f["sensor"].string(fault.sensor));
       // Which sensor types the fault can hit.
       std::vector<SensorType> allowed;
       switch (fault.type) {
-        case FaultType::kCameraFailure: case FaultType::kGlare: case FaultType::kOcclusion:
+        case FaultType::kCameraFailure:
+        case FaultType::kGlare:
+        case FaultType::kOcclusion:
           allowed = {SensorType::kCamera};
           break;
-        case FaultType::kLidarDropout: allowed = {SensorType::kLidar, SensorType::kTof}; break;
-        case FaultType::kLidarSpurious: allowed = {SensorType::kLidar}; break;
-        case FaultType::kImuBiasJump: allowed = {SensorType::kImu}; break;
-        default: allowed = {SensorType::kCamera, SensorType::kLidar, SensorType::kTof, SensorType::kImu, SensorType::kRadar};
+        case FaultType::kLidarDropout:
+          allowed = {SensorType::kLidar, SensorType::kTof};
+          break;
+        case FaultType::kLidarSpurious:
+          allowed = {SensorType::kLidar};
+          break;
+        case FaultType::kImuBiasJump:
+          allowed = {SensorType::kImu};
+          break;
+        default:
+          allowed = {SensorType::kCamera, SensorType::kLidar, SensorType::kTof, SensorType::kImu,
+                     SensorType::kRadar};
       }
       if (fault.sensor != "*") {
         const SensorConfig* target = sc.sensor(fault.sensor);
         std::vector<std::string> names;
         for (const SensorConfig& s : sc.sensors)
-          if (std::find(allowed.begin(), allowed.end(), s.type) != allowed.end()) names.push_back(s.name);
+          if (std::find(allowed.begin(), allowed.end(), s.type) != allowed.end())
+            names.push_back(s.name);
         if (!target || std::find(allowed.begin(), allowed.end(), target->type) == allowed.end())
-          return f["sensor"].fail(fmt::format("a sensor a {} fault applies to: one of {{{}}} or '*'", type, fmt::join(names, ", ")));
+          return f["sensor"].fail(
+              fmt::format("a sensor a {} fault applies to: one of {{{}}} or '*'", type,
+                          fmt::join(names, ", ")));
       }
       CDFF_RETURN_IF_ERROR(optNumber(f, "start", fault.start, 0, 1e9, "s"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "time", fault.start, 0, 1e9, "s"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "end", fault.end, 0, 1e9, "s"));
-      if (f.has("end") && fault.end <= fault.start) return f["end"].fail(fmt::format("a time after start ({} s)", fault.start));
+      if (f.has("end") && fault.end <= fault.start)
+        return f["end"].fail(fmt::format("a time after start ({} s)", fault.start));
       CDFF_RETURN_IF_ERROR(optNumber(f, "probability", fault.probability, 0, 1));
       CDFF_RETURN_IF_ERROR(optNumber(f, "rate", fault.rate, 0, 1e6, "returns per scan"));
       CDFF_RETURN_IF_ERROR(optNumber(f, "gain", fault.gain, 0, 1e6));
@@ -949,7 +1083,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
       CDFF_RETURN_IF_ERROR(optVec3(f, "gyro", fault.gyro));
       CDFF_RETURN_IF_ERROR(optVec3(f, "gyro_deg_s", fault.gyro, kDeg));
       CDFF_RETURN_IF_ERROR(optVec3(f, "accel", fault.accel));
-      if (fault.type == FaultType::kLidarSpurious && !f.has("rate")) return f.fail("a lidar_spurious fault with a 'rate' (returns per scan)");
+      if (fault.type == FaultType::kLidarSpurious && !f.has("rate"))
+        return f.fail("a lidar_spurious fault with a 'rate' (returns per scan)");
       sc.faults.push_back(fault);
     }
   }
@@ -967,7 +1102,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
   return sc;
 }
 
-Result<Scenario> loadScenario(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+Result<Scenario> loadScenario(const std::filesystem::path& file,
+                              const std::vector<std::string>& overrides) {
   std::ifstream in(file);
   if (!in) return notFound("scenario file '{}' cannot be read", file.string());
   std::stringstream ss;
@@ -1003,22 +1139,25 @@ std::vector<ScenarioInfo> listScenarios(const std::filesystem::path& directory) 
     }
     out.push_back(info);
   }
-  std::sort(out.begin(), out.end(), [](const ScenarioInfo& a, const ScenarioInfo& b) { return a.name < b.name; });
+  std::sort(out.begin(), out.end(),
+            [](const ScenarioInfo& a, const ScenarioInfo& b) { return a.name < b.name; });
   return out;
 }
 
 Result<std::filesystem::path> resolveScenario(const std::string& name_or_path) {
   const std::filesystem::path p(name_or_path);
-  if (p.extension() == ".yaml" || p.extension() == ".yml" || name_or_path.find('/') != std::string::npos) {
-    if (!std::filesystem::exists(p)) return notFound("scenario file '{}' does not exist", name_or_path);
+  if (p.extension() == ".yaml" || p.extension() == ".yml" ||
+      name_or_path.find('/') != std::string::npos) {
+    if (!std::filesystem::exists(p))
+      return notFound("scenario file '{}' does not exist", name_or_path);
     return p;
   }
   const std::filesystem::path library = scenarioDirectory() / (name_or_path + ".yaml");
   if (std::filesystem::exists(library)) return library;
   std::vector<std::string> names;
   for (const ScenarioInfo& s : listScenarios()) names.push_back(s.name);
-  return notFound("unknown scenario '{}'; expected a YAML file or one of {{{}}} (in {})", name_or_path,
-                  fmt::join(names, ", "), scenarioDirectory().string());
+  return notFound("unknown scenario '{}'; expected a YAML file or one of {{{}}} (in {})",
+                  name_or_path, fmt::join(names, ", "), scenarioDirectory().string());
 }
 
 }  // namespace cdff::egse

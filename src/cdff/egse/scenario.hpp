@@ -32,7 +32,7 @@ enum class SensorType { kCamera, kLidar, kTof, kImu, kRadar };
 const char* toString(SensorType type);
 
 struct SensorConfig {
-  std::string name;      // the key in `sensors:` (camera_left, lidar, ...)
+  std::string name;  // the key in `sensors:` (camera_left, lidar, ...)
   SensorType type = SensorType::kCamera;
   bool enabled = true;
   double rate = 10.0;    // Hz
@@ -63,15 +63,15 @@ enum class FaultType {
   kImuBiasJump,
   kDroppedFrames,
   kLateFrames,
-  kOcclusion,      // part of the target hidden (25/50/75 % in the seed)
+  kOcclusion,  // part of the target hidden (25/50/75 % in the seed)
 };
 const char* toString(FaultType type);
 
 struct FaultConfig {
   FaultType type = FaultType::kCameraFailure;
-  std::string sensor;    // a sensor name, or "*" for every sensor the fault applies to
-  double start = 0.0;    // s
-  double end = 1e300;    // s
+  std::string sensor;        // a sensor name, or "*" for every sensor the fault applies to
+  double start = 0.0;        // s
+  double end = 1e300;        // s
   double probability = 1.0;  // dropped/late frames, LIDAR dropouts
   double rate = 0.0;         // spurious returns per scan
   double gain = 20.0;        // glare: multiplies the stray light
@@ -107,7 +107,7 @@ struct Scenario {
   TargetAttitudeKind target_attitude = TargetAttitudeKind::kLvlh;
   Eigen::Quaterniond target_initial = Eigen::Quaterniond::Identity();  // lvlh_R_target at t = 0
   Eigen::Vector3d target_rate = Eigen::Vector3d::Zero();  // rad/s, body axes (tumbling)
-  std::optional<Eigen::Vector3d> target_inertia;           // kg m^2 (tumbling)
+  std::optional<Eigen::Vector3d> target_inertia;          // kg m^2 (tumbling)
 
   // Servicer
   TranslationKind translation = TranslationKind::kHold;
@@ -119,7 +119,7 @@ struct Scenario {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero(), axis = Eigen::Vector3d::UnitZ(),
                   reference = -Eigen::Vector3d::UnitY();
   double radius = 10.0, radial_rate = 0.0, angular_rate = 0.0, phase = 0.0;  // fly-around
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();                         // cw
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();                        // cw
   ServicerAttitudeKind servicer_attitude = ServicerAttitudeKind::kTargetPointing;
   Eigen::Vector3d up = Eigen::Vector3d::UnitX();  // target pointing: body z towards this (lvlh)
   double yaw_offset = 0.0, pitch_offset = 0.0;    // rad
@@ -129,14 +129,14 @@ struct Scenario {
 
   // Lighting and background
   Sun sun;
-  bool eclipses = true;   // the Earth's shadow (with an orbit)
+  bool eclipses = true;  // the Earth's shadow (with an orbit)
   bool stars = true;
   double star_gain = 1.0;
-  bool earth = true;      // drawn when the orbit is enabled
+  bool earth = true;  // drawn when the orbit is enabled
 
   std::vector<SensorConfig> sensors;
   std::vector<FaultConfig> faults;
-  double truth_rate = 50.0;   // Hz
+  double truth_rate = 50.0;  // Hz
   bool truth_camera_depth = false;
   RendererBackend renderer = RendererBackend::kCpu;
 
@@ -151,7 +151,8 @@ struct Scenario {
 std::vector<SensorConfig> defaultSensors();
 
 /// Reads a scenario file, applying `overrides` ("dotted.key=value").
-Result<Scenario> loadScenario(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
+Result<Scenario> loadScenario(const std::filesystem::path& file,
+                              const std::vector<std::string>& overrides = {});
 /// Parses YAML text (`source` names it in errors).
 Result<Scenario> parseScenario(const std::string& yaml, const std::string& source,
                                const std::vector<std::string>& overrides = {},
@@ -167,7 +168,8 @@ struct ScenarioInfo {
 };
 /// Every scenario of the library, sorted by name (files that fail to load are listed with
 /// their error as description).
-std::vector<ScenarioInfo> listScenarios(const std::filesystem::path& directory = scenarioDirectory());
+std::vector<ScenarioInfo> listScenarios(
+    const std::filesystem::path& directory = scenarioDirectory());
 /// A library name ("mid_range_approach") or a path to a YAML file.
 Result<std::filesystem::path> resolveScenario(const std::string& name_or_path);
 

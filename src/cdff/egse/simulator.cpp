@@ -31,22 +31,27 @@ Simulator::~Simulator() = default;
 
 namespace {
 
-Timestamp micros(double t) { return fromSeconds(t); }
+Timestamp micros(double t) {
+  return fromSeconds(t);
+}
 
-Transform toTransform(const Eigen::Isometry3d& T, const std::string& parent, const std::string& child, Timestamp stamp) {
+Transform toTransform(const Eigen::Isometry3d& T, const std::string& parent,
+                      const std::string& child, Timestamp stamp) {
   return Transform::fromIsometry(T, parent, child, stamp);
 }
 
 }  // namespace
 
-Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario, std::optional<std::uint64_t> seed,
+Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
+                                                     std::optional<std::uint64_t> seed,
                                                      std::optional<double> duration) {
   std::unique_ptr<Simulator> sim(new Simulator());
   sim->scenario_ = scenario;
   const Scenario& sc = sim->scenario_;
   sim->seed_ = seed.value_or(sc.seed);
   sim->duration_ = duration.value_or(sc.duration);
-  if (!(sim->duration_ > 0)) return invalidParameter("duration = {} s; expected > 0", sim->duration_);
+  if (!(sim->duration_ > 0))
+    return invalidParameter("duration = {} s; expected > 0", sim->duration_);
 
   // Models.
   if (sc.procedural_target) {
@@ -71,9 +76,12 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario, s
   const Orbit& orbit = sc.orbit;
   std::unique_ptr<Translation> translation;
   switch (sc.translation) {
-    case TranslationKind::kHold: translation = holdTranslation(sc.start); break;
+    case TranslationKind::kHold:
+      translation = holdTranslation(sc.start);
+      break;
     case TranslationKind::kLine:
-      translation = lineTranslation(sc.start, sc.end, sc.start_time, sc.end_time < 0 ? sim->duration_ : sc.end_time, sc.smooth);
+      translation = lineTranslation(sc.start, sc.end, sc.start_time,
+                                    sc.end_time < 0 ? sim->duration_ : sc.end_time, sc.smooth);
       break;
     case TranslationKind::kWaypoints: {
       auto spline = splineTranslation(sc.waypoint_times, sc.waypoints);
@@ -82,24 +90,37 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario, s
       break;
     }
     case TranslationKind::kFlyAround:
-      translation = flyAroundTranslation(sc.centre, sc.axis, sc.reference, sc.radius, sc.radial_rate, sc.angular_rate, sc.phase);
+      translation = flyAroundTranslation(sc.centre, sc.axis, sc.reference, sc.radius,
+                                         sc.radial_rate, sc.angular_rate, sc.phase);
       break;
-    case TranslationKind::kCw: translation = cwTranslation(orbit, sc.start, sc.velocity); break;
+    case TranslationKind::kCw:
+      translation = cwTranslation(orbit, sc.start, sc.velocity);
+      break;
   }
   std::unique_ptr<Attitude> servicer_attitude;
   switch (sc.servicer_attitude) {
     case ServicerAttitudeKind::kTargetPointing:
-      servicer_attitude = pointingAttitude(orbit, translation.get(), nullptr, sc.up, sc.yaw_offset, sc.pitch_offset);
+      servicer_attitude = pointingAttitude(orbit, translation.get(), nullptr, sc.up, sc.yaw_offset,
+                                           sc.pitch_offset);
       break;
-    case ServicerAttitudeKind::kLvlh: servicer_attitude = lvlhFixedAttitude(orbit, sc.servicer_orientation); break;
-    case ServicerAttitudeKind::kInertial: servicer_attitude = inertialAttitude(orbit, sc.servicer_orientation); break;
+    case ServicerAttitudeKind::kLvlh:
+      servicer_attitude = lvlhFixedAttitude(orbit, sc.servicer_orientation);
+      break;
+    case ServicerAttitudeKind::kInertial:
+      servicer_attitude = inertialAttitude(orbit, sc.servicer_orientation);
+      break;
   }
   std::unique_ptr<Attitude> target_attitude;
   switch (sc.target_attitude) {
-    case TargetAttitudeKind::kLvlh: target_attitude = lvlhFixedAttitude(orbit, sc.target_initial); break;
-    case TargetAttitudeKind::kInertial: target_attitude = inertialAttitude(orbit, sc.target_initial); break;
+    case TargetAttitudeKind::kLvlh:
+      target_attitude = lvlhFixedAttitude(orbit, sc.target_initial);
+      break;
+    case TargetAttitudeKind::kInertial:
+      target_attitude = inertialAttitude(orbit, sc.target_initial);
+      break;
     case TargetAttitudeKind::kTumbling:
-      target_attitude = tumblingAttitude(orbit, sc.target_initial, sc.target_rate, sc.target_inertia, sim->duration_ + 2.0);
+      target_attitude = tumblingAttitude(orbit, sc.target_initial, sc.target_rate,
+                                         sc.target_inertia, sim->duration_ + 2.0);
       break;
   }
   sim->world_ = std::make_unique<World>(orbit, std::move(translation), std::move(servicer_attitude),
@@ -176,13 +197,16 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario, s
   return sim;
 }
 
-std::string Simulator::rendererDescription() const { return renderer_ ? renderer_->description() : "none"; }
+std::string Simulator::rendererDescription() const {
+  return renderer_ ? renderer_->description() : "none";
+}
 
 Eigen::Isometry3d Simulator::sensorTtarget(const SensorConfig& sensor, double t) const {
   return sensor.servicerTframe().inverse() * world_->servicerTtarget(t);
 }
 
-RigidBodyState Simulator::truthState(const std::string& frame, const Eigen::Isometry3d& frame_T_servicer, double t) const {
+RigidBodyState Simulator::truthState(const std::string& frame,
+                                     const Eigen::Isometry3d& frame_T_servicer, double t) const {
   RigidBodyState s;
   s.pose = toTransform(frame_T_servicer * world_->servicerTtarget(t), frame, "target", micros(t));
   const Twist twist = world_->targetTwistInServicer(t);
@@ -221,13 +245,15 @@ Status Simulator::begin(SimulationSink& sink) {
   std::vector<std::string> sensors;
   for (const auto& s : sensors_) {
     frames.push_back("servicer -> " + s->config->frame());
-    sensors.push_back(fmt::format("{} ({}, {} Hz)", s->config->name, toString(s->config->type), s->config->rate));
+    sensors.push_back(
+        fmt::format("{} ({}, {} Hz)", s->config->name, toString(s->config->type), s->config->rate));
   }
   m.values["frames"] = fmt::format("{}", fmt::join(frames, "; "));
   m.values["sensors"] = fmt::format("{}", fmt::join(sensors, "; "));
   m.values["target_model"] = target_.name;
   m.values["target_triangles"] = std::to_string(target_.mesh.triangleCount());
-  m.values["orbit"] = sc.orbit.enabled ? fmt::format("circular, altitude {} m, n = {} rad/s", sc.orbit.altitude, sc.orbit.meanMotion())
+  m.values["orbit"] = sc.orbit.enabled ? fmt::format("circular, altitude {} m, n = {} rad/s",
+                                                     sc.orbit.altitude, sc.orbit.meanMotion())
                                        : "none (free space)";
   CDFF_RETURN_IF_ERROR(sink.begin(m));
   // Static transforms: every sensor's mounting.
@@ -270,7 +296,8 @@ Result<bool> Simulator::step(SimulationSink& sink, double until) {
       }
       if (!fault_ended_[f] && fault.end <= next) {
         fault_ended_[f] = true;
-        queue("/truth/faults", micros(fault.end), FaultEvent{micros(fault.end), fault.sensor, toString(fault.type), "end"});
+        queue("/truth/faults", micros(fault.end),
+              FaultEvent{micros(fault.end), fault.sensor, toString(fault.type), "end"});
       }
     }
     CDFF_RETURN_IF_ERROR(flush(sink, micros(next) - 1));
@@ -320,7 +347,8 @@ Status Simulator::processTruth(double t) {
   return Status::ok();
 }
 
-Status Simulator::renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders, const CameraSensor& camera) {
+Status Simulator::renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders,
+                               const CameraSensor& camera) {
   const SensorConfig& c = *sensor.config;
   const int samples = c.camera.motion_blur_samples;
   for (int i = 0; i < samples; ++i) {
@@ -330,12 +358,16 @@ Status Simulator::renderCamera(SensorState& sensor, double t, std::vector<Render
     const Eigen::Isometry3d lvlh_T_camera = servicer.lvlh_T_body * sensor.servicer_T_frame;
     const Eigen::Isometry3d camera_T_lvlh = lvlh_T_camera.inverse();
     RenderScene scene;
-    scene.objects.push_back({target_handle_, camera_T_lvlh * world_->target(ts).lvlh_T_body, 1, true});
-    if (servicer_handle_ >= 0) scene.objects.push_back({servicer_handle_, sensor.frame_T_servicer, 2, true});
+    scene.objects.push_back(
+        {target_handle_, camera_T_lvlh * world_->target(ts).lvlh_T_body, 1, true});
+    if (servicer_handle_ >= 0)
+      scene.objects.push_back({servicer_handle_, sensor.frame_T_servicer, 2, true});
     scene.sun_direction = camera_T_lvlh.linear() * world_->sunDirection(ts);
-    scene.sun_irradiance = scenario_.eclipses && world_->inEclipse(ts) ? 0.0 : world_->sun().irradiance;
+    scene.sun_irradiance =
+        scenario_.eclipses && world_->inEclipse(ts) ? 0.0 : world_->sun().irradiance;
     scene.shadow_map_size = c.camera.shadow_map_size;
-    CDFF_RETURN_IF_ERROR(renderer_->render(scene, camera.renderCamera(), renders[i]).withContext(c.name));
+    CDFF_RETURN_IF_ERROR(
+        renderer_->render(scene, camera.renderCamera(), renders[i]).withContext(c.name));
   }
   return Status::ok();
 }
@@ -350,12 +382,16 @@ Status Simulator::process(SensorState& sensor, double t) {
   for (const FaultConfig& f : scenario_.faults) {
     if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
     if (f.type == FaultType::kDroppedFrames && fault_rng.uniform() < f.probability) {
-      queue("/truth/faults", stamp, FaultEvent{stamp, c.name, "dropped_frame", fmt::format("measurement {} dropped", sensor.index)});
+      queue("/truth/faults", stamp,
+            FaultEvent{stamp, c.name, "dropped_frame",
+                       fmt::format("measurement {} dropped", sensor.index)});
       return Status::ok();
     }
     if (f.type == FaultType::kLateFrames && fault_rng.uniform() < f.probability) {
       delay += micros(f.delay);
-      queue("/truth/faults", stamp + delay, FaultEvent{stamp, c.name, "late_frame", fmt::format("measurement {} delayed by {} s", sensor.index, f.delay)});
+      queue("/truth/faults", stamp + delay,
+            FaultEvent{stamp, c.name, "late_frame",
+                       fmt::format("measurement {} delayed by {} s", sensor.index, f.delay)});
     }
   }
   const Timestamp available = stamp + latency + delay;
@@ -385,7 +421,8 @@ Status Simulator::process(SensorState& sensor, double t) {
       view.camera_position = lvlh_T_camera.translation();
       view.eci_R_lvlh = scenario_.orbit.eciRotationLvlh(t);
       view.sun_direction = world_->sunDirection(t);
-      view.sun_irradiance = scenario_.eclipses && world_->inEclipse(t) ? 0.0 : world_->sun().irradiance;
+      view.sun_irradiance =
+          scenario_.eclipses && world_->inEclipse(t) ? 0.0 : world_->sun().irradiance;
       view.earth = scenario_.orbit.enabled && scenario_.earth;
       view.earth_centre = scenario_.orbit.earthCentreLvlh();
       view.stars = scenario_.stars && c.camera.stars;
@@ -403,10 +440,14 @@ Status Simulator::process(SensorState& sensor, double t) {
         queue("/truth/" + c.name + "/depth", stamp, frame->depth);
       }
       if (faults.occlusion > 0)
-        queue("/truth/faults", stamp, FaultEvent{stamp, c.name, "occlusion",
-                                                 fmt::format("{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
-                                                             faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
-      queue("/truth/" + c.name + "/target_pose", stamp, truthState(c.frame(), sensor.frame_T_servicer, t));
+        queue("/truth/faults", stamp,
+              FaultEvent{
+                  stamp, c.name, "occlusion",
+                  fmt::format(
+                      "{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
+                      faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
       return Status::ok();
     }
     case SensorType::kLidar: {
@@ -417,33 +458,40 @@ Status Simulator::process(SensorState& sensor, double t) {
         if (f.type == FaultType::kLidarSpurious) faults.extra_spurious += f.rate;
       }
       const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
-      const RelativePose pose = [this, frame_T_servicer](double s) { return frame_T_servicer * world_->servicerTtarget(s); };
+      const RelativePose pose = [this, frame_T_servicer](double s) {
+        return frame_T_servicer * world_->servicerTtarget(s);
+      };
       auto cloud = sensor.lidar->scan(*caster_, target_, pose, t, faults, rng);
       if (!cloud) return cloud.status().withContext(c.name);
       cloud->stamp = stamp;
       cloud->frame_id = c.frame();
       // A scan is complete (and published) one revolution after it started.
-      queue(prefix + "/points", available + micros(sensor.lidar->period()), std::move(cloud).value());
-      queue("/truth/" + c.name + "/target_pose", stamp, truthState(c.frame(), sensor.frame_T_servicer, t));
+      queue(prefix + "/points", available + micros(sensor.lidar->period()),
+            std::move(cloud).value());
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
       return Status::ok();
     }
     case SensorType::kTof: {
       double dropout = 0;
       for (const FaultConfig& f : scenario_.faults)
-        if (f.appliesTo(c.name) && f.activeAt(t) && f.type == FaultType::kLidarDropout) dropout += f.probability;
+        if (f.appliesTo(c.name) && f.activeAt(t) && f.type == FaultType::kLidarDropout)
+          dropout += f.probability;
       auto depth = sensor.tof->capture(*caster_, target_, sensorTtarget(c, t), dropout, rng);
       if (!depth) return depth.status().withContext(c.name);
       depth->image.stamp = stamp;
       depth->image.frame_id = c.frame();
       queue(prefix + "/depth", available, std::move(depth).value());
       queue(prefix + "/camera_info", available, CameraInfo{stamp, c.frame(), c.tof.model});
-      queue("/truth/" + c.name + "/target_pose", stamp, truthState(c.frame(), sensor.frame_T_servicer, t));
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
       return Status::ok();
     }
     case SensorType::kImu: {
       std::vector<ImuBiasJump> jumps;
       for (const FaultConfig& f : scenario_.faults)
-        if (f.appliesTo(c.name) && f.type == FaultType::kImuBiasJump) jumps.push_back({f.start, f.gyro, f.accel});
+        if (f.appliesTo(c.name) && f.type == FaultType::kImuBiasJump)
+          jumps.push_back({f.start, f.gyro, f.accel});
       auto sample = sensor.imu->sample(*world_, t, jumps);
       if (!sample) return sample.status();
       sample->stamp = stamp;
@@ -453,7 +501,9 @@ Status Simulator::process(SensorState& sensor, double t) {
     }
     case SensorType::kRadar: {
       const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
-      const RelativePose pose = [this, frame_T_servicer](double s) { return frame_T_servicer * world_->servicerTtarget(s); };
+      const RelativePose pose = [this, frame_T_servicer](double s) {
+        return frame_T_servicer * world_->servicerTtarget(s);
+      };
       auto m = measureRadar(c.radar, *caster_, pose, t, rng);
       if (!m) return m.status().withContext(c.name);
       m->stamp = stamp;

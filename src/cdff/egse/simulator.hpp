@@ -67,10 +67,12 @@ class Simulator {
   struct SensorState;
   Status process(SensorState& sensor, double t);
   Status processTruth(double t);
-  Status renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders, const CameraSensor& camera);
+  Status renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders,
+                      const CameraSensor& camera);
   void queue(std::string channel, Timestamp log_time, SimPayload payload);
   Status flush(SimulationSink& sink, Timestamp up_to);
-  RigidBodyState truthState(const std::string& frame, const Eigen::Isometry3d& frame_T_servicer, double t) const;
+  RigidBodyState truthState(const std::string& frame, const Eigen::Isometry3d& frame_T_servicer,
+                            double t) const;
 
   Scenario scenario_;
   std::uint64_t seed_ = 1;

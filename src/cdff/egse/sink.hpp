@@ -34,8 +34,8 @@ struct FaultEvent {
   std::string detail;  // human-readable: what happened, with values
 };
 
-using SimPayload = std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement, CameraInfo,
-                                Transform, RigidBodyState, FaultEvent>;
+using SimPayload = std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement,
+                                CameraInfo, Transform, RigidBodyState, FaultEvent>;
 
 struct SimMessage {
   std::string channel;
@@ -49,8 +49,8 @@ struct SimulationMetadata {
   std::string scenario_file;  // where it came from
   std::string scenario_yaml;  // the effective scenario, overrides applied (reproducible)
   std::uint64_t seed = 0;
-  double duration = 0;        // s
-  std::string renderer;       // which backend ran, and on what
+  double duration = 0;                        // s
+  std::string renderer;                       // which backend ran, and on what
   std::map<std::string, std::string> values;  // frames, sensors, versions
 };
 

@@ -50,7 +50,8 @@ class Line final : public Translation {
 
 class Spline final : public Translation {
  public:
-  Spline(std::vector<double> t, std::vector<Eigen::Vector3d> p) : t_(std::move(t)), p_(std::move(p)) {
+  Spline(std::vector<double> t, std::vector<Eigen::Vector3d> p)
+      : t_(std::move(t)), p_(std::move(p)) {
     // Natural cubic spline: second derivatives M with M_0 = M_n = 0 (tridiagonal solve).
     const std::size_t n = t_.size();
     m_.assign(n, Eigen::Vector3d::Zero());
@@ -182,7 +183,8 @@ class LvlhFixed final : public Attitude {
 
 class Inertial final : public Attitude {
  public:
-  Inertial(const Orbit& orbit, const Eigen::Quaterniond& q0) : orbit_(orbit), q0_(q0.normalized()) {}
+  Inertial(const Orbit& orbit, const Eigen::Quaterniond& q0)
+      : orbit_(orbit), q0_(q0.normalized()) {}
   AttitudeState at(double t) const override {
     AttitudeState st;
     // eci_R_body = eci_R_lvlh(0) * q0 = q0; lvlh_R_body(t) = eci_R_lvlh(t)^T * q0.
@@ -202,7 +204,8 @@ class Tumbling final : public Attitude {
       : orbit_(orbit), inertia_(inertia) {
     // eci_R_body on a fixed grid, RK4 in (q, omega).
     State s{q0.normalized(), w0};
-    const std::size_t steps = static_cast<std::size_t>(std::ceil(std::max(horizon, 0.0) / kStep)) + 2;
+    const std::size_t steps =
+        static_cast<std::size_t>(std::ceil(std::max(horizon, 0.0) / kStep)) + 2;
     grid_.reserve(steps + 1);
     grid_.push_back(s);
     for (std::size_t i = 0; i < steps; ++i) {
@@ -213,7 +216,8 @@ class Tumbling final : public Attitude {
   AttitudeState at(double t) const override {
     // From the nearest grid state at or before t (the first one for t < 0, integrating
     // backwards), in RK4 steps of at most kStep.
-    const std::size_t i = t <= 0 ? 0 : std::min(static_cast<std::size_t>(t / kStep), grid_.size() - 1);
+    const std::size_t i =
+        t <= 0 ? 0 : std::min(static_cast<std::size_t>(t / kStep), grid_.size() - 1);
     State s = grid_[i];
     double remaining = t - kStep * static_cast<double>(i);
     while (std::abs(remaining) > 0) {
@@ -272,8 +276,8 @@ class Tumbling final : public Attitude {
 
 class Pointing final : public Attitude {
  public:
-  Pointing(const Orbit& orbit, const Translation* self, const Translation* aim, const Eigen::Vector3d& up,
-           double yaw, double pitch)
+  Pointing(const Orbit& orbit, const Translation* self, const Translation* aim,
+           const Eigen::Vector3d& up, double yaw, double pitch)
       : orbit_(orbit), self_(self), aim_(aim), up_(up.normalized()), yaw_(yaw), pitch_(pitch) {}
   AttitudeState at(double t) const override {
     return differentiate(orbit_, t, [this](double s) { return orientation(s); });
@@ -287,7 +291,8 @@ class Pointing final : public Attitude {
     if (x.norm() < 1e-9) x = Eigen::Vector3d::UnitY();
     x.normalize();
     Eigen::Vector3d up = up_;
-    if (std::abs(x.dot(up)) > 0.999) up = std::abs(x.z()) < 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
+    if (std::abs(x.dot(up)) > 0.999)
+      up = std::abs(x.z()) < 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitY();
     const Eigen::Vector3d y = up.cross(x).normalized();
     const Eigen::Vector3d z = x.cross(y);
     Eigen::Matrix3d R;
@@ -312,25 +317,29 @@ std::unique_ptr<Translation> holdTranslation(const Eigen::Vector3d& position) {
   return std::make_unique<Hold>(position);
 }
 
-std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start, const Eigen::Vector3d& end,
-                                             double t0, double t1, bool smooth) {
+std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start,
+                                             const Eigen::Vector3d& end, double t0, double t1,
+                                             bool smooth) {
   return std::make_unique<Line>(start, end, t0, t1, smooth);
 }
 
 Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>& times,
                                                        const std::vector<Eigen::Vector3d>& points) {
   if (times.size() != points.size() || times.size() < 2)
-    return invalidParameter("waypoints: {} times and {} points; expected the same number, at least 2",
-                            times.size(), points.size());
+    return invalidParameter(
+        "waypoints: {} times and {} points; expected the same number, at least 2", times.size(),
+        points.size());
   for (std::size_t i = 1; i < times.size(); ++i)
     if (!(times[i] > times[i - 1]))
-      return invalidParameter("waypoints: time {} = {} s is not after time {} = {} s; expected "
-                              "strictly increasing times",
-                              i, times[i], i - 1, times[i - 1]);
+      return invalidParameter(
+          "waypoints: time {} = {} s is not after time {} = {} s; expected "
+          "strictly increasing times",
+          i, times[i], i - 1, times[i - 1]);
   return std::unique_ptr<Translation>(std::make_unique<Spline>(times, points));
 }
 
-std::unique_ptr<Translation> flyAroundTranslation(const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
+std::unique_ptr<Translation> flyAroundTranslation(const Eigen::Vector3d& centre,
+                                                  const Eigen::Vector3d& axis,
                                                   const Eigen::Vector3d& reference, double radius,
                                                   double radial_rate, double rate, double phase) {
   return std::make_unique<FlyAround>(centre, axis, reference, radius, radial_rate, rate, phase);
@@ -351,7 +360,8 @@ std::unique_ptr<Attitude> inertialAttitude(const Orbit& orbit, const Eigen::Quat
 
 std::unique_ptr<Attitude> tumblingAttitude(const Orbit& orbit, const Eigen::Quaterniond& q0,
                                            const Eigen::Vector3d& omega0,
-                                           const std::optional<Eigen::Vector3d>& inertia, double horizon) {
+                                           const std::optional<Eigen::Vector3d>& inertia,
+                                           double horizon) {
   return std::make_unique<Tumbling>(orbit, q0, omega0, inertia, horizon);
 }
 

@@ -36,8 +36,9 @@ std::unique_ptr<Translation> holdTranslation(const Eigen::Vector3d& position);
 /// A straight line from `start` to `end` between t0 and t1, resting before and after.
 /// `smooth`: minimum-jerk profile (zero velocity and acceleration at both ends); otherwise
 /// constant velocity (infinite acceleration at the ends: avoid with an IMU).
-std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start, const Eigen::Vector3d& end,
-                                             double t0, double t1, bool smooth);
+std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start,
+                                             const Eigen::Vector3d& end, double t0, double t1,
+                                             bool smooth);
 /// A natural cubic spline through (times[i], points[i]) (C2: continuous acceleration), resting
 /// at the first and last point outside the time span. Times strictly increasing, >= 2 points.
 Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>& times,
@@ -45,7 +46,8 @@ Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>
 /// A circle (or spiral) about `centre`: radius(t) = radius + radial_rate * t in the plane
 /// normal to `axis`, at `rate` rad/s from `phase` (rad, measured from `reference`, a direction
 /// in the plane).
-std::unique_ptr<Translation> flyAroundTranslation(const Eigen::Vector3d& centre, const Eigen::Vector3d& axis,
+std::unique_ptr<Translation> flyAroundTranslation(const Eigen::Vector3d& centre,
+                                                  const Eigen::Vector3d& axis,
                                                   const Eigen::Vector3d& reference, double radius,
                                                   double radial_rate, double rate, double phase);
 /// Free drift under CW dynamics from (r0, v0) at t = 0.
@@ -67,16 +69,20 @@ class Attitude {
 };
 
 /// Fixed in lvlh (rotating with the orbit).
-std::unique_ptr<Attitude> lvlhFixedAttitude(const Orbit& orbit, const Eigen::Quaterniond& lvlh_R_body);
+std::unique_ptr<Attitude> lvlhFixedAttitude(const Orbit& orbit,
+                                            const Eigen::Quaterniond& lvlh_R_body);
 /// Fixed in eci (lvlh_R_body at t = 0 given).
-std::unique_ptr<Attitude> inertialAttitude(const Orbit& orbit, const Eigen::Quaterniond& lvlh_R_body0);
+std::unique_ptr<Attitude> inertialAttitude(const Orbit& orbit,
+                                           const Eigen::Quaterniond& lvlh_R_body0);
 /// Torque-free rotation from lvlh_R_body0 with body angular velocity omega0 (relative to eci,
 /// body axes). With `inertia` (principal moments, kg m^2) it follows Euler's equations (so an
 /// asymmetric body nutates); without, the body rate stays constant. Integrated with RK4 on a
 /// fixed 5 ms grid (deterministic), to `horizon` seconds.
-std::unique_ptr<Attitude> tumblingAttitude(const Orbit& orbit, const Eigen::Quaterniond& lvlh_R_body0,
+std::unique_ptr<Attitude> tumblingAttitude(const Orbit& orbit,
+                                           const Eigen::Quaterniond& lvlh_R_body0,
                                            const Eigen::Vector3d& omega0,
-                                           const std::optional<Eigen::Vector3d>& inertia, double horizon);
+                                           const std::optional<Eigen::Vector3d>& inertia,
+                                           double horizon);
 /// Body +x towards the point `aim` (another body's origin, given by `aim_at`), body +z as close
 /// as possible to `up` (lvlh); optional yaw/pitch offsets (rad) of the boresight.
 std::unique_ptr<Attitude> pointingAttitude(const Orbit& orbit, const Translation* self,

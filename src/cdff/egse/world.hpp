@@ -26,7 +26,7 @@ struct BodyState {
 
 struct Sun {
   Eigen::Vector3d direction = Eigen::Vector3d(0, -1, 0);  // unit, towards the sun
-  bool inertial = false;   // direction fixed in eci (else fixed in lvlh, e.g. for a lighting study)
+  bool inertial = false;  // direction fixed in eci (else fixed in lvlh, e.g. for a lighting study)
   double irradiance = 1.0;  // relative to the solar constant at 1 AU
 };
 
