@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   int exit_code = 0;
   cdff::app::addDfnCommands(app, exit_code);
   cdff::app::addDemoCommand(app, exit_code);
+  cdff::app::addDfpcCommands(app, exit_code);
 #ifdef CDFF_HAVE_LOG_COMMAND
   cdff::app::addLogCommands(app, exit_code);
 #endif

@@ -10,14 +10,24 @@ packages=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libceres-dev libvisp-dev
   liboctomap-dev libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
-  libzstd-dev liblz4-dev
+  libzstd-dev liblz4-dev zlib1g-dev
   # real data to validate on (ViSP tracking sequences with ground truth)
   visp-images-data
   # tests, benchmarks, bindings
   libgtest-dev libgmock-dev libbenchmark-dev pybind11-dev python3-dev python3-yaml
 )
 
+# Only for `make fuzz` (scripts/install-deps.sh fuzz): clang with libFuzzer and its sanitizers.
+if [ "${1:-}" = "fuzz" ]; then
+  packages+=(clang libclang-rt-14-dev)
+fi
+
 missing=()
+# The MCAP interoperability test runs the official TypeScript MCAP reader under Node.js: install
+# Debian's nodejs and npm only when no node is on the PATH (a newer one may be installed).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  missing+=(nodejs npm)
+fi
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
     missing+=("$p")

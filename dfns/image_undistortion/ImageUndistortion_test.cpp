@@ -240,6 +240,11 @@ struct Case {
   bool fisheye;
 };
 
+// Readable test names in CTest's list (gtest prints unknown parameters as raw bytes).
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.dfi << (c.fisheye ? " equidistant " : " radial-tangential ") << c.parameters;
+}
+
 class ImageUndistortionTest : public ::testing::TestWithParam<Case> {};
 
 TEST_P(ImageUndistortionTest, DotsReturnToTheirPinholePositions) {

@@ -266,6 +266,11 @@ struct Case {
   double tolerance_px;  // on rows and disparities
 };
 
+// Readable test names in CTest's list (gtest prints unknown parameters as raw bytes).
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << (c.fisheye ? "equidistant " : "radial-tangential ") << c.parameters;
+}
+
 // Nearest neighbour: each centroid may be off by 0.5 px per axis (see the ImageUndistortion
 // test), two of them by 1 px.
 constexpr double kMaxNearestErrorPx = 1.0;

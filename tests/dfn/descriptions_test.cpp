@@ -117,5 +117,34 @@ TEST(Descriptions, EveryDfnAreaHasAUnitTest) {
   }
 }
 
+TEST(Descriptions, EveryPortTypeNameResolvesToTheRunningPortsType) {
+  // The DFPC layer checks connections and reads recordings by type name (findPortType); the name
+  // must give the very type the generated ports hold.
+  std::set<std::string_view> names;
+  for (const PortType& t : allPortTypes()) {
+    EXPECT_TRUE(names.insert(t.name).second) << "port type name " << t.name << " is used twice";
+    ASSERT_NE(findPortType(t.name), nullptr) << t.name;
+    EXPECT_EQ(*findPortType(t.name), t);
+  }
+  EXPECT_EQ(findPortType("Imgae"), nullptr);
+  EXPECT_EQ(PortType().name, "none");
+  for (const DfnDescription* d : Registry::instance().descriptions()) {
+    for (const auto& impl : d->implementations) {
+      auto node = Registry::instance().create(d->name, impl.name);
+      ASSERT_TRUE(node.isOk()) << node.status().toString();
+      for (const InputPortBase* in : node.value()->inputs()) {
+        const PortType* t = findPortType(in->type().name);
+        ASSERT_NE(t, nullptr) << d->name << " input " << in->name();
+        EXPECT_EQ(*t, in->type()) << d->name << " input " << in->name();
+      }
+      for (const OutputPortBase* out : node.value()->outputs()) {
+        const PortType* t = findPortType(out->type().name);
+        ASSERT_NE(t, nullptr) << d->name << " output " << out->name();
+        EXPECT_EQ(*t, out->type()) << d->name << " output " << out->name();
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace cdff::dfn

@@ -2,6 +2,19 @@
 
 namespace cdff::dfn {
 
+const std::vector<PortType>& allPortTypes() {
+#define CDFF_PORT_TYPE_ENTRY(Type, Name) PortType::of<Type>(),
+  static const std::vector<PortType> types{CDFF_FOR_EACH_PORT_TYPE(CDFF_PORT_TYPE_ENTRY)};
+#undef CDFF_PORT_TYPE_ENTRY
+  return types;
+}
+
+const PortType* findPortType(std::string_view name) {
+  for (const PortType& type : allPortTypes())
+    if (type.name == name) return &type;
+  return nullptr;
+}
+
 Status PortBase::setAny(std::shared_ptr<const void> value, const PortType& type) {
   if (!(type == type_))
     return invalidInput("port '{}' has type {}; got a value of type {}", name_, type_.name,

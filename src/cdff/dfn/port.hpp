@@ -25,33 +25,39 @@ struct PortTypeName;
     static constexpr std::string_view value = Name; \
   }
 
-CDFF_PORT_TYPE(::cdff::Image, "Image");
-CDFF_PORT_TYPE(::cdff::StereoImagePair, "StereoImagePair");
-CDFF_PORT_TYPE(::cdff::DepthMap, "DepthMap");
-CDFF_PORT_TYPE(::cdff::CameraModel, "CameraModel");
-CDFF_PORT_TYPE(::cdff::PointCloud, "PointCloud");
-CDFF_PORT_TYPE(::cdff::Transform, "Transform");
-CDFF_PORT_TYPE(::cdff::PoseWithCovariance, "PoseWithCovariance");
-CDFF_PORT_TYPE(::cdff::RigidBodyState, "RigidBodyState");
-CDFF_PORT_TYPE(::cdff::ImuSample, "ImuSample");
-CDFF_PORT_TYPE(::cdff::Wrench, "Wrench");
-CDFF_PORT_TYPE(::cdff::JointState, "JointState");
-CDFF_PORT_TYPE(::cdff::Features2D, "Features2D");
-CDFF_PORT_TYPE(::cdff::Features3D, "Features3D");
-CDFF_PORT_TYPE(::cdff::Matches, "Matches");
-CDFF_PORT_TYPE(::cdff::Correspondences2D, "Correspondences2D");
-CDFF_PORT_TYPE(::cdff::Correspondences3D, "Correspondences3D");
-CDFF_PORT_TYPE(::cdff::Correspondences2D3D, "Correspondences2D3D");
-CDFF_PORT_TYPE(::cdff::TriangleMesh, "TriangleMesh");
-CDFF_PORT_TYPE(::cdff::Timestamp, "Timestamp");
-CDFF_PORT_TYPE(double, "Double");
-CDFF_PORT_TYPE(bool, "Bool");
-CDFF_PORT_TYPE(int, "Int");
-CDFF_PORT_TYPE(std::string, "String");
+// Every port type, once: the names above and the run-time table (findPortType) come from it.
+#define CDFF_FOR_EACH_PORT_TYPE(X)                      \
+  X(::cdff::Image, "Image")                             \
+  X(::cdff::StereoImagePair, "StereoImagePair")         \
+  X(::cdff::DepthMap, "DepthMap")                       \
+  X(::cdff::CameraModel, "CameraModel")                 \
+  X(::cdff::PointCloud, "PointCloud")                   \
+  X(::cdff::Transform, "Transform")                     \
+  X(::cdff::PoseWithCovariance, "PoseWithCovariance")   \
+  X(::cdff::RigidBodyState, "RigidBodyState")           \
+  X(::cdff::ImuSample, "ImuSample")                     \
+  X(::cdff::Wrench, "Wrench")                           \
+  X(::cdff::JointState, "JointState")                   \
+  X(::cdff::Features2D, "Features2D")                   \
+  X(::cdff::Features3D, "Features3D")                   \
+  X(::cdff::Matches, "Matches")                         \
+  X(::cdff::Correspondences2D, "Correspondences2D")     \
+  X(::cdff::Correspondences3D, "Correspondences3D")     \
+  X(::cdff::Correspondences2D3D, "Correspondences2D3D") \
+  X(::cdff::TriangleMesh, "TriangleMesh")               \
+  X(::cdff::Timestamp, "Timestamp")                     \
+  X(double, "Double")                                   \
+  X(bool, "Bool")                                       \
+  X(int, "Int")                                         \
+  X(std::string, "String")
+
+#define CDFF_DECLARE_PORT_TYPE_NAME(Type, Name) CDFF_PORT_TYPE(Type, Name);
+CDFF_FOR_EACH_PORT_TYPE(CDFF_DECLARE_PORT_TYPE_NAME)
+#undef CDFF_DECLARE_PORT_TYPE_NAME
 
 struct PortType {
-  std::type_index cpp_type;
-  std::string_view name;
+  std::type_index cpp_type = std::type_index(typeid(void));
+  std::string_view name = "none";  // the default: no type (an empty message, an unbound port)
 
   template <typename T>
   static PortType of() {
@@ -59,6 +65,11 @@ struct PortType {
   }
   bool operator==(const PortType& other) const { return cpp_type == other.cpp_type; }
 };
+
+/// The port type a description or a recording names ("PoseWithCovariance"); nullptr if none.
+const PortType* findPortType(std::string_view name);
+/// Every port type, in declaration order (for messages listing the accepted names).
+const std::vector<PortType>& allPortTypes();
 
 class PortBase {
  public:

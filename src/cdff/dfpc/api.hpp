@@ -1,0 +1,134 @@
+#pragma once
+// The external interface of CDFF (seed §7.3): what the autonomy (OG2) calls, and how sensor data
+// (OG4) comes in. Every function returns a Status or a Result and never throws: an invalid state
+// or request is an error value that says what was asked, in which state, and what is accepted.
+//
+//   setCDFFState(kInitialize | kIdle | kReset | kStop)   getCDFFState()
+//   getDFPCStatus(dfpc)                                   initDFPC(dfpc)   stopDFPC(dfpc)
+//   getTargetRelativePose(frame)   getTargetRelativeVelocity(frame)   getModelOfTarget()
+//   getDFPCPose(dfpc, hz, callback)   getDFPCStatus(dfpc, hz, callback)   (asynchronous)
+//   push(message)   (sensor data, when the input is live)
+//
+// The state machine (docs/external-api.md):
+//   uninitialised --initialize--> running   (DFPCs started; input consumed)
+//   running --idle--> idle --initialize--> running   (input paused, states kept)
+//   running | idle | stopped --reset--> same state   (DFPCs re-initialised, products cleared)
+//   running | idle --stop--> stopped --initialize--> running   (fresh DFPCs, products cleared)
+// Any other request is an error (kInvalidInput) naming the state and the accepted requests.
+//
+// Threads: the input is consumed on a thread of its own; subscriptions are called on another
+// (one callback at a time, at the requested rate of the configured clock). Every function may
+// be called from any thread, including from a callback.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cdff/dfpc/clock.hpp"
+#include "cdff/dfpc/data_product_manager.hpp"
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/stream.hpp"
+#include "cdff/types/types.hpp"
+
+namespace cdff::api {
+
+enum class CdffState { kUninitialised, kRunning, kIdle, kStopped };
+enum class StateRequest { kInitialize, kIdle, kReset, kStop };
+const char* toString(CdffState state);
+const char* toString(StateRequest request);
+
+struct Config {
+  std::vector<std::string> graph_files;  // DFPC graphs (YAML)
+  std::vector<dfpc::GraphSpec> graphs;   // DFPC graphs built in C++
+  /// A recording (or any stream) to consume; null: live input through push().
+  std::shared_ptr<dfpc::InputStream> input;
+  std::size_t live_capacity = 1024;  // live messages queued at most (oldest dropped beyond)
+  bool realtime = false;             // pace a given input on the clock
+  /// Subscriptions (and real-time pacing) run on this clock; the steady clock when null. A
+  /// SimulatedClock in manual mode makes them exact in tests.
+  std::shared_ptr<dfpc::Clock> clock;
+  dfpc::Sink* sink = nullptr;  // products, events, timings (e.g. a recording); may be null
+  /// Fixed transforms a_T_b (e.g. servicer_T_camera) with which poses and velocities are
+  /// re-expressed in a requested frame.
+  std::vector<Transform> static_transforms;
+};
+
+/// The velocity (twist) of the target relative to `frame`, expressed in `frame`, with its
+/// covariance ([dv, domega], m^2/s^2 and rad^2/s^2).
+struct VelocityWithCovariance {
+  Timestamp stamp = 0;
+  std::string frame;
+  std::string target_frame;
+  Twist twist;
+  Matrix6d covariance = Matrix6d::Zero();
+};
+
+/// The latest model of the target: a mesh or a point cloud (one of them is set).
+struct TargetModel {
+  std::string product;
+  Timestamp stamp = 0;
+  std::shared_ptr<const TriangleMesh> mesh;
+  std::shared_ptr<const PointCloud> cloud;
+};
+
+using SubscriptionId = std::uint64_t;
+/// `now` is the clock time of the call; the pose is an error until the DFPC has produced one.
+using PoseCallback = std::function<void(Timestamp now, const Result<PoseWithCovariance>& pose)>;
+using StatusCallback = std::function<void(Timestamp now, const Result<dfpc::DfpcStatus>& status)>;
+
+class Cdff {
+ public:
+  /// Loads and checks every graph, creates the DFPCs (initialised, not started) and checks that
+  /// a given input has their channels. The state is then uninitialised.
+  static Result<std::unique_ptr<Cdff>> create(Config config) noexcept;
+  ~Cdff();
+  Cdff(const Cdff&) = delete;
+  Cdff& operator=(const Cdff&) = delete;
+
+  Status setCDFFState(StateRequest request) noexcept;
+  CdffState getCDFFState() const noexcept;
+
+  Result<dfpc::DfpcStatus> getDFPCStatus(const std::string& dfpc) const noexcept;
+  /// (Re)initialises one DFPC and starts it (the CDFF must be running or idle).
+  Status initDFPC(const std::string& dfpc) noexcept;
+  Status stopDFPC(const std::string& dfpc) noexcept;
+
+  /// The latest target pose (outputs with role target_state or target_pose, the most recent
+  /// among the DFPCs) in `frame`: the product's own parent frame, or one reached through a
+  /// static transform.
+  Result<PoseWithCovariance> getTargetRelativePose(const std::string& frame) const noexcept;
+  /// The latest target velocity (role target_state) in `frame`.
+  Result<VelocityWithCovariance> getTargetRelativeVelocity(const std::string& frame) const noexcept;
+  /// The latest target model (role target_model).
+  Result<TargetModel> getModelOfTarget() const noexcept;
+
+  /// Calls `callback` at `frequency_hz` (clock time) with the DFPC's latest pose (its output with
+  /// a target role, else its first pose-typed output), in the product's frame.
+  Result<SubscriptionId> getDFPCPose(const std::string& dfpc, double frequency_hz,
+                                     PoseCallback callback) noexcept;
+  /// Calls `callback` at `frequency_hz` with the DFPC's status.
+  Result<SubscriptionId> getDFPCStatus(const std::string& dfpc, double frequency_hz,
+                                       StatusCallback callback) noexcept;
+  /// Ends a subscription; when it returns, its callback is not running and will not run again
+  /// (except when called from that callback itself).
+  Status cancelSubscription(SubscriptionId id) noexcept;
+
+  /// Live input: queues a sensor message (an error when the input is a given stream).
+  Status push(dfpc::Message message) noexcept;
+  /// Waits (up to timeout_s of steady time) until every pushed message has been processed, or a
+  /// given input has been consumed to its end.
+  Status flush(double timeout_s) noexcept;
+
+  /// The products (shared, thread-safe).
+  std::shared_ptr<const dfpc::DataProductManager> products() const noexcept;
+
+ private:
+  struct Impl;
+  explicit Cdff(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cdff::api

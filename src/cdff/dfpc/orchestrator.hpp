@@ -1,0 +1,152 @@
+#pragma once
+// The Orchestrator (seed §4.1, §7.2.2.2): owns the DFPCs of a run, drives their life cycle,
+// feeds them their input streams in timestamp order, publishes their products to the Data
+// Product Manager and the Sink, routes products to the DFPCs that consume them, and records
+// every event (faults and recoveries included) and every DFN call's timing in the Sink.
+//
+// Stream time is global: every message moves every running DFPC to its stamp (so that periodic
+// triggers and no-product watchdogs fire even for a DFPC whose own inputs have gone silent).
+// Thread-safe: one mutex serialises processing, life-cycle changes and status queries, so the
+// external API can query and control DFPCs while another thread feeds them.
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cdff/dfpc/clock.hpp"
+#include "cdff/dfpc/data_product_manager.hpp"
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/stream.hpp"
+
+namespace cdff::dfpc {
+
+struct OrchestratorOptions {
+  Sink* sink = nullptr;  // where products, events and timings go (none: they are not recorded)
+  std::shared_ptr<DataProductManager> products;  // shared with other users; created when null
+  Clock* execution_clock = nullptr;  // times DFN calls against budgets (null: DFN diagnostics)
+  bool record_timing = true;         // one TimingRecord per DFN call to the sink
+  /// Input channels copied to the sink unchanged, by prefix (e.g. "/truth/" for ground truth).
+  std::vector<std::string> passthrough_prefixes;
+};
+
+struct RunProgress {
+  std::uint64_t messages = 0;
+  Timestamp stamp = 0;
+  std::optional<std::pair<Timestamp, Timestamp>> range;  // when the input knows it
+  /// In [0, 1], or a negative value when the range is unknown.
+  double fraction() const;
+};
+
+struct RunOptions {
+  /// Pace the replay so that stream time advances like the clock (times `speed`).
+  bool realtime = false;
+  double speed = 1.0;
+  Clock* clock = nullptr;                            // pacing clock; the steady clock when null
+  std::function<void(const RunProgress&)> progress;  // after each message
+  const std::atomic<bool>* cancel = nullptr;         // stops the run when set
+};
+
+struct RunSummary {
+  std::uint64_t messages = 0;        // read from the input
+  std::uint64_t routed = 0;          // delivered to at least one DFPC input
+  std::uint64_t passed_through = 0;  // copied to the sink
+  std::uint64_t products = 0, events = 0, faults = 0, recoveries = 0;
+  std::optional<Timestamp> first, last;  // stamps of the first and last message
+  bool cancelled = false;
+};
+
+class Orchestrator final : private DfpcObserver {
+ public:
+  explicit Orchestrator(OrchestratorOptions options = {});
+  ~Orchestrator() override;
+  Orchestrator(const Orchestrator&) = delete;
+  Orchestrator& operator=(const Orchestrator&) = delete;
+
+  /// Takes a DFPC (initialised, not started). Names must be unique.
+  Status add(std::unique_ptr<Dfpc> dfpc);
+  /// Loads, checks and adds the graph of a YAML file.
+  Status addGraphFile(const std::string& path);
+
+  std::vector<std::string> dfpcNames() const;
+  bool contains(const std::string& dfpc) const;
+
+  // Life cycle of one DFPC (see Dfpc) or of all of them.
+  Status init(const std::string& dfpc);
+  Status start(const std::string& dfpc);
+  Status stop(const std::string& dfpc);
+  Status reset(const std::string& dfpc);
+  Status initAll();
+  Status startAll();
+  Status stopAll();  // stops the running ones
+  Status resetAll();
+
+  /// Every DFPC input (not optional) has its channel among `available`, with its type.
+  Status checkChannels(const std::vector<ChannelInfo>& available) const;
+
+  /// One message: moves stream time, copies it through when its channel is a passthrough, and
+  /// delivers it (and the products it leads to, to their consumers). An error when a message
+  /// does not fit the input it is routed to, or when the sink failed.
+  Status process(const Message& message);
+  /// End of the input: lets synchronised inputs resolve what they still hold.
+  Status finish();
+  /// Runs `input` to its end through process() and finish(), then flushes the sink.
+  Result<RunSummary> run(InputStream& input, const RunOptions& options = {});
+
+  Result<DfpcStatus> status(const std::string& dfpc) const;
+  std::vector<DfpcStatus> statuses() const;
+
+  DataProductManager& products() { return *products_; }
+  const std::shared_ptr<DataProductManager>& sharedProducts() const { return products_; }
+  /// The DPM name of a DFPC output: "<dfpc>/<output>".
+  static std::string productName(const std::string& dfpc, const std::string& output);
+  /// The DPM names of the outputs with a role ("target_state"...), in DFPC order; `dfpc`
+  /// restricts the search to one DFPC.
+  std::vector<std::string> productsWithRole(const std::string& role,
+                                            const std::string& dfpc = "") const;
+  /// The first output of `dfpc` whose type is one of `types` (by name), as a DPM name.
+  std::optional<std::string> productOfType(const std::string& dfpc,
+                                           const std::vector<std::string>& types) const;
+
+ private:
+  struct Route {
+    Dfpc* dfpc;
+    std::size_t input;
+  };
+  struct OutputBinding {
+    std::string product;        // DPM name
+    Message message;            // channel set once; stamp and value per product
+    std::vector<Route> routes;  // DFPC inputs that consume this channel
+  };
+  struct Entry {
+    std::unique_ptr<Dfpc> dfpc;
+    std::vector<OutputBinding> outputs;
+  };
+
+  void onProduct(const Dfpc& dfpc, std::size_t output, Timestamp stamp,
+                 const std::shared_ptr<const void>& value) override;
+  void onEvent(const Event& event) override;
+  void onTiming(const TimingRecord& timing) override;
+
+  Entry* find(const std::string& dfpc);
+  const Entry* find(const std::string& dfpc) const;
+  Status unknown(const std::string& dfpc) const;
+  void rebuildRoutes();
+  Status deliverLocked(const Message& message, bool external);
+  void recordSinkError(const Status& status);
+
+  OrchestratorOptions options_;
+  std::shared_ptr<DataProductManager> products_;
+  mutable std::mutex mutex_;
+  std::vector<Entry> entries_;
+  std::unordered_map<std::string, std::vector<Route>> routes_;  // channel -> DFPC inputs
+  std::vector<Message> internal_;  // products waiting to be routed within this step
+  Status sink_status_;
+  RunSummary counters_;
+};
+
+}  // namespace cdff::dfpc

@@ -1,0 +1,112 @@
+#include "cdff/dfpc/replay.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+namespace cdff::dfpc {
+
+Result<ChannelRemap> parseRemap(const std::string& text) {
+  const std::size_t eq = text.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == text.size())
+    return invalidParameter("remap '{}': expected INPUT=CHANNEL or DFPC.INPUT=CHANNEL", text);
+  return ChannelRemap{text.substr(0, eq), text.substr(eq + 1)};
+}
+
+namespace {
+
+Status applyRemaps(std::vector<GraphSpec>& graphs, const std::vector<ChannelRemap>& remaps) {
+  for (const ChannelRemap& r : remaps) {
+    const PortRef ref = PortRef::parse(r.input);
+    std::vector<DfpcInputSpec*> matches;
+    std::vector<std::string> known;
+    for (GraphSpec& g : graphs)
+      for (DfpcInputSpec& in : g.inputs) {
+        known.push_back(g.name + "." + in.name);
+        if (in.name == ref.port && (ref.instance.empty() || ref.instance == g.name))
+          matches.push_back(&in);
+      }
+    if (matches.empty())
+      return notFound("remap '{}={}': no DFPC input '{}'; expected one of {{{}}}", r.input,
+                      r.channel, r.input, fmt::join(known, ", "));
+    if (matches.size() > 1)
+      return invalidParameter(
+          "remap '{}={}': several DFPCs have an input '{}'; write "
+          "DFPC.INPUT",
+          r.input, r.channel, r.input);
+    matches.front()->channel = r.channel;
+  }
+  return Status::ok();
+}
+
+}  // namespace
+
+Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options) {
+  if (options.graph_files.empty()) return invalidParameter("no DFPC graph to run");
+  std::vector<GraphSpec> graphs;
+  for (const std::string& path : options.graph_files) {
+    Result<GraphSpec> spec = loadGraphFile(path);
+    if (!spec) return spec.status();
+    graphs.push_back(std::move(spec).value());
+  }
+  CDFF_RETURN_IF_ERROR(applyRemaps(graphs, options.remaps));
+  OrchestratorOptions o;
+  o.sink = &sink;
+  o.record_timing = options.record_timing;
+  o.passthrough_prefixes = options.passthrough_prefixes;
+  Orchestrator orchestrator(o);
+  for (GraphSpec& g : graphs) {
+    Result<std::unique_ptr<Dfpc>> dfpc = Dfpc::create(std::move(g));
+    if (!dfpc) return dfpc.status();
+    CDFF_RETURN_IF_ERROR(orchestrator.add(std::move(dfpc).value()));
+  }
+  CDFF_RETURN_IF_ERROR(orchestrator.startAll());
+  RunOptions run;
+  run.realtime = options.realtime;
+  run.speed = options.speed;
+  run.clock = options.clock;
+  run.progress = options.progress;
+  run.cancel = options.cancel;
+  Result<RunSummary> summary = orchestrator.run(input, run);
+  if (!summary) return summary.status();
+  return ReplayResult{std::move(summary).value(), orchestrator.statuses()};
+}
+
+// ---------------------------------------------------------------------------------------------
+
+ProgressBar::ProgressBar(std::FILE* out, bool enabled, double interval_s)
+    : out_(out), enabled_(enabled && out), interval_(fromSeconds(interval_s)) {}
+
+std::string ProgressBar::render(const RunProgress& p, int width) {
+  const double f = p.fraction();
+  std::string line;
+  if (f >= 0) {
+    const int filled = static_cast<int>(std::lround(f * width));
+    line = fmt::format("[{}{}] {:5.1f} %  ", std::string(filled, '#'),
+                       std::string(width - filled, '.'), 100.0 * f);
+  }
+  const double t = p.range ? toSeconds(p.stamp - p.range->first) : toSeconds(p.stamp);
+  line += fmt::format("t = {:.2f} s", t);
+  if (p.range) line += fmt::format(" of {:.2f} s", toSeconds(p.range->second - p.range->first));
+  line += fmt::format("  {} messages", p.messages);
+  return line;
+}
+
+void ProgressBar::update(const RunProgress& progress) {
+  if (!enabled_) return;
+  last_ = progress;
+  const Timestamp now = SteadyClock().now();
+  if (last_draw_ != 0 && now - last_draw_ < interval_) return;
+  last_draw_ = now;
+  std::fprintf(out_, "\r%s", render(progress).c_str());
+  std::fflush(out_);
+}
+
+void ProgressBar::finish() {
+  if (!enabled_ || !last_) return;
+  std::fprintf(out_, "\r%s\n", render(*last_).c_str());
+  std::fflush(out_);
+}
+
+}  // namespace cdff::dfpc

@@ -1,0 +1,78 @@
+#pragma once
+// Replaying recordings through DFPCs: everything `cdff run` does except reading and writing
+// files. The command opens its inputs as InputStreams (merged by timestamp) and its output as a
+// Sink, and calls replay(); the recording library provides both for MCAP.
+//
+//   std::vector<std::unique_ptr<InputStream>> inputs = ...;   // one per -i FILE
+//   MergedStream input(std::move(inputs));
+//   ReplayOptions options;                                   // --realtime, --speed, --map...
+//   options.graph_files = {"dfpcs/pose_filtering.yaml"};
+//   ProgressBar bar(stderr, isatty(2));
+//   options.progress = [&](const RunProgress& p) { bar.update(p); };
+//   Result<ReplayResult> result = replay(input, sink, options);
+//   bar.finish();
+
+#include <atomic>
+#include <cstdio>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cdff/dfpc/orchestrator.hpp"
+
+namespace cdff::dfpc {
+
+struct ChannelRemap {
+  std::string input;    // "dfpc.input", or "input" when only one DFPC has an input so named
+  std::string channel;  // the channel that feeds it instead of the graph's
+};
+
+/// Parses "dfpc.input=/channel" (or "input=/channel").
+Result<ChannelRemap> parseRemap(const std::string& text);
+
+struct ReplayOptions {
+  std::vector<std::string> graph_files;  // one DFPC per file; all run together
+  std::vector<ChannelRemap> remaps;
+  bool realtime = false;   // pace on the clock instead of as fast as possible
+  double speed = 1.0;      // with realtime: stream seconds per clock second
+  Clock* clock = nullptr;  // the pacing clock (steady when null)
+  /// Input channels copied to the output: the ground truth by default.
+  std::vector<std::string> passthrough_prefixes = {"/truth/"};
+  bool record_timing = true;
+  std::function<void(const RunProgress&)> progress;
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+struct ReplayResult {
+  RunSummary summary;
+  std::vector<DfpcStatus> dfpcs;  // at the end of the run
+};
+
+/// Loads the graphs, applies the remaps, checks the input's channels, runs the input to its end
+/// and flushes the sink. Errors: a graph that does not load (every problem, with file:line), a
+/// remap that names no input, a channel the input lacks, a message of the wrong type, a failed
+/// write.
+Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options);
+
+/// A one-line progress bar on a terminal ("[#####.....]  52.0 %  t = 12.30 s  4 517 messages"),
+/// redrawn at most every `interval_s` of steady time; nothing when disabled (not a terminal).
+class ProgressBar {
+ public:
+  ProgressBar(std::FILE* out, bool enabled, double interval_s = 0.1);
+  void update(const RunProgress& progress);
+  /// Draws the final state and ends the line.
+  void finish();
+  /// The line for a progress state (without the carriage return).
+  static std::string render(const RunProgress& progress, int width = 30);
+
+ private:
+  std::FILE* out_;
+  bool enabled_;
+  Timestamp interval_;
+  Timestamp last_draw_ = 0;
+  std::optional<RunProgress> last_;
+};
+
+}  // namespace cdff::dfpc

@@ -1,0 +1,300 @@
+#include "cdff/eval/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include <fmt/format.h>
+
+namespace cdff::eval {
+
+namespace {
+
+nlohmann::json number(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+nlohmann::json statisticsJson(const ErrorStatistics& s, double scale = 1.0) {
+  return {{"rmse", number(s.rmse * scale)},
+          {"p95", number(s.p95 * scale)},
+          {"max", number(s.max * scale)},
+          {"count", s.count}};
+}
+
+std::string escapeHtml(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+std::string formatValue(double value, const char* format = "{:.4g}") {
+  return std::isfinite(value) ? fmt::format(fmt::runtime(format), value) : "—";
+}
+
+// A "nice" step (1, 2 or 5 times a power of ten) giving about `count` ticks over `span`.
+double niceStep(double span, int count) {
+  const double raw = span / count;
+  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (raw <= m * magnitude) return m * magnitude;
+  return 10.0 * magnitude;
+}
+
+struct Series {
+  std::vector<double> x, y;
+};
+
+// One scatter-and-line plot as inline SVG: axes with ticks, the data, and an optional
+// horizontal threshold line (the requirement) drawn dashed.
+std::string svgPlot(const std::string& title, const std::string& x_label,
+                    const std::string& y_label, const Series& data, double threshold = NAN,
+                    bool connect = true) {
+  constexpr double kWidth = 560, kHeight = 260, kLeft = 62, kRight = 14, kTop = 26, kBottom = 40;
+  const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
+  std::string svg = fmt::format(
+      "<svg xmlns='http://www.w3.org/2000/svg' width='{0}' height='{1}' viewBox='0 0 {0} {1}' "
+      "class='plot'><text x='{2}' y='16' class='title'>{3}</text>",
+      kWidth, kHeight, kLeft, escapeHtml(title));
+  if (data.x.empty()) return svg + "<text x='200' y='130'>no data</text></svg>";
+
+  auto [x_min_it, x_max_it] = std::minmax_element(data.x.begin(), data.x.end());
+  double x_min = *x_min_it, x_max = *x_max_it;
+  double y_max = *std::max_element(data.y.begin(), data.y.end());
+  if (std::isfinite(threshold) && threshold < 4 * y_max) y_max = std::max(y_max, threshold);
+  if (x_max <= x_min) x_max = x_min + 1;
+  if (y_max <= 0) y_max = 1;
+  const double y_step = niceStep(y_max, 5), x_step = niceStep(x_max - x_min, 6);
+  y_max = std::ceil(y_max / y_step) * y_step;
+  const auto px = [&](double x) { return kLeft + (x - x_min) / (x_max - x_min) * plot_w; };
+  const auto py = [&](double y) { return kTop + plot_h - std::min(y, y_max) / y_max * plot_h; };
+
+  svg += fmt::format("<rect x='{}' y='{}' width='{}' height='{}' class='frame'/>", kLeft, kTop,
+                     plot_w, plot_h);
+  for (double y = 0; y <= y_max + 1e-12 * y_max; y += y_step)
+    svg += fmt::format(
+        "<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' class='grid'/>"
+        "<text x='{3}' y='{4:.1f}' class='tick' text-anchor='end'>{5:g}</text>",
+        kLeft, kLeft + plot_w, py(y), kLeft - 4, py(y) + 4, y);
+  for (double x = std::ceil(x_min / x_step) * x_step; x <= x_max + 1e-9; x += x_step)
+    svg += fmt::format("<text x='{:.1f}' y='{}' class='tick' text-anchor='middle'>{:g}</text>",
+                       px(x), kTop + plot_h + 14, x);
+  svg += fmt::format(
+      "<text x='{}' y='{}' class='label' text-anchor='middle'>{}</text>"
+      "<text x='14' y='{}' class='label' text-anchor='middle' transform='rotate(-90 14 {})'>{}"
+      "</text>",
+      kLeft + plot_w / 2, kHeight - 6, escapeHtml(x_label), kTop + plot_h / 2, kTop + plot_h / 2,
+      escapeHtml(y_label));
+  if (std::isfinite(threshold) && threshold <= y_max)
+    svg += fmt::format(
+        "<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' class='threshold'/>"
+        "<text x='{1}' y='{3:.1f}' class='tick' text-anchor='end'>requirement {4:g}</text>",
+        kLeft, kLeft + plot_w, py(threshold), py(threshold) - 3, threshold);
+  if (connect) {
+    svg += "<polyline class='data' points='";
+    for (std::size_t i = 0; i < data.x.size(); ++i)
+      svg += fmt::format("{:.1f},{:.1f} ", px(data.x[i]), py(data.y[i]));
+    svg += "'/>";
+  }
+  for (std::size_t i = 0; i < data.x.size(); ++i)
+    svg += fmt::format("<circle cx='{:.1f}' cy='{:.1f}' r='1.6' class='point'/>", px(data.x[i]),
+                       py(data.y[i]));
+  return svg + "</svg>";
+}
+
+double thresholdFor(const std::string& quantity, double range_m) {
+  for (const RequirementSpec& spec : poseRequirements()) {
+    const bool matches =
+        (quantity == "position_error_m" &&
+         spec.quantity == RequirementSpec::Quantity::kPositionError) ||
+        (quantity == "angle_error_deg" && spec.quantity == RequirementSpec::Quantity::kAngleError);
+    if (matches && range_m >= spec.min_range_m && range_m < spec.max_range_m) return spec.threshold;
+  }
+  return NAN;
+}
+
+}  // namespace
+
+bool EvaluationReport::allPass() const {
+  return std::none_of(requirements.begin(), requirements.end(),
+                      [](const RequirementVerdict& v) { return v.verdict == Verdict::kFail; });
+}
+
+nlohmann::json toJson(const EvaluationReport& report) {
+  nlohmann::json products = nlohmann::json::array();
+  for (const PoseEvaluation& p : report.products) {
+    products.push_back({
+        {"channel", p.channel},
+        {"truth_channel", p.truth_channel},
+        {"transform", p.parent_frame + "_T_" + p.child_frame},
+        {"frames", p.frames},
+        {"valid_frames", p.valid_frames},
+        {"matched_frames", p.matched_frames},
+        {"tracked_fraction", number(p.tracked_fraction)},
+        {"position_error_m", statisticsJson(p.position_error_m)},
+        {"position_error_pct_range", statisticsJson(p.position_error_pct_range)},
+        {"angle_error_deg", statisticsJson(p.angle_error_deg)},
+        {"latency_ms", statisticsJson(p.latency_s, 1e3)},
+        {"rate_hz", number(p.rate_hz)},
+        {"min_rate_hz", number(p.min_rate_hz)},
+        {"range_m", {{"min", number(p.min_range_m)}, {"max", number(p.max_range_m)}}},
+    });
+  }
+  nlohmann::json requirements = nlohmann::json::array();
+  for (const RequirementVerdict& v : report.requirements) {
+    requirements.push_back({
+        {"id", v.id},
+        {"title", v.title},
+        {"channel", v.channel},
+        {"quantity", v.quantity},
+        {"statistic", v.statistic},
+        {"comparison", v.comparison},
+        {"verdict", toString(v.verdict)},
+        {"measured",
+         v.verdict == Verdict::kNotApplicable ? nlohmann::json(nullptr) : number(v.measured)},
+        {"threshold", v.threshold},
+        {"frames", v.frames},
+        {"note", v.note},
+    });
+  }
+  return {{"input", report.input},
+          {"verdict_statistic", report.statistic},
+          {"all_pass", report.allPass()},
+          {"products", products},
+          {"requirements", requirements}};
+}
+
+std::string toText(const EvaluationReport& report) {
+  std::string text;
+  for (const PoseEvaluation& p : report.products) {
+    text += fmt::format("{}  (truth {}, {}_T_{})\n", p.channel, p.truth_channel, p.parent_frame,
+                        p.child_frame);
+    text += fmt::format(
+        "  frames {}  valid {}  matched {}  tracked {:.1f} %  rate {} Hz (worst {} Hz)  range "
+        "{}-{} m\n",
+        p.frames, p.valid_frames, p.matched_frames, 100.0 * p.tracked_fraction,
+        formatValue(p.rate_hz, "{:.3g}"), formatValue(p.min_rate_hz, "{:.3g}"),
+        formatValue(p.min_range_m, "{:.3g}"), formatValue(p.max_range_m, "{:.3g}"));
+    text += "                      rmse        p95        max\n";
+    const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
+      text += fmt::format("  {:<18}{:>8}   {:>8}   {:>8}\n", name, formatValue(s.rmse * scale),
+                          formatValue(s.p95 * scale), formatValue(s.max * scale));
+    };
+    row("position [mm]", p.position_error_m, 1e3);
+    row("position [% range]", p.position_error_pct_range, 1.0);
+    row("angle [deg]", p.angle_error_deg, 1.0);
+    if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
+  }
+  for (const RequirementVerdict& v : report.requirements)
+    text += fmt::format(
+        "  {:<13}{:<17}{:<15} {} {} {:g}  {}\n", v.id, v.quantity, toString(v.verdict),
+        v.verdict == Verdict::kNotApplicable ? std::string("—")
+                                             : fmt::format("{} {:.4g}", v.statistic, v.measured),
+        v.comparison, v.threshold, v.note);
+  return text;
+}
+
+std::string toHtml(const EvaluationReport& report) {
+  std::string html = R"(<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>CDFF evaluation</title>
+<style>
+body { font-family: system-ui, sans-serif; margin: 2em; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0 1.5em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+.pass { background: #d9f2d9; } .fail { background: #f8d0d0; } .not_applicable { color: #888; }
+.plot { margin: 0.3em 1em 0.3em 0; } .plot .title { font-weight: bold; font-size: 13px; }
+.plot .frame { fill: none; stroke: #444; } .plot .grid { stroke: #eee; }
+.plot .tick, .plot .label { font-size: 11px; fill: #444; }
+.plot .data { fill: none; stroke: #1f77b4; stroke-width: 1; }
+.plot .point { fill: #1f77b4; } .plot .threshold { stroke: #d62728; stroke-dasharray: 5 4; }
+</style></head><body>
+)";
+  html += fmt::format(
+      "<h1>CDFF evaluation</h1><p>Input: <code>{}</code>. Verdicts use the {} of "
+      "the errors in each requirement's range band.</p>\n",
+      escapeHtml(report.input), escapeHtml(report.statistic));
+  html +=
+      "<h2>Requirements (seed §7.1)</h2><table><tr><th>id</th><th>channel</th><th>quantity"
+      "</th><th>measured</th><th>threshold</th><th>frames</th><th>verdict</th><th>note</th>"
+      "</tr>\n";
+  for (const RequirementVerdict& v : report.requirements)
+    html += fmt::format(
+        "<tr class='{}'><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} {:g}</td><td>{}</td>"
+        "<td>{}</td><td>{}</td></tr>\n",
+        toString(v.verdict), escapeHtml(v.id), escapeHtml(v.channel), escapeHtml(v.quantity),
+        v.verdict == Verdict::kNotApplicable ? "—"
+                                             : fmt::format("{} {:.4g}", v.statistic, v.measured),
+        v.comparison, v.threshold, v.frames, toString(v.verdict), escapeHtml(v.note));
+  html += "</table>\n";
+
+  for (const PoseEvaluation& p : report.products) {
+    html += fmt::format(
+        "<h2>{}</h2><p>Truth: <code>{}</code> ({}_T_{}). {} frames, {} valid, "
+        "{} matched with truth; tracked {:.1f} %; rate {} Hz (worst {} Hz).</p>\n",
+        escapeHtml(p.channel), escapeHtml(p.truth_channel), escapeHtml(p.parent_frame),
+        escapeHtml(p.child_frame), p.frames, p.valid_frames, p.matched_frames,
+        100.0 * p.tracked_fraction, formatValue(p.rate_hz, "{:.3g}"),
+        formatValue(p.min_rate_hz, "{:.3g}"));
+    html += "<table><tr><th>error</th><th>RMSE</th><th>p95</th><th>max</th></tr>\n";
+    const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
+      html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", name,
+                          formatValue(s.rmse * scale), formatValue(s.p95 * scale),
+                          formatValue(s.max * scale));
+    };
+    row("position [mm]", p.position_error_m, 1e3);
+    row("position [% of range]", p.position_error_pct_range, 1.0);
+    row("angle [deg]", p.angle_error_deg, 1.0);
+    if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
+    html += "</table>\n";
+
+    Series position, angle, percent_by_range;
+    const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
+    for (const MatchedError& e : p.errors) {
+      const double t = toSeconds(e.stamp - t0);
+      position.x.push_back(t);
+      position.y.push_back(e.position_error_m);
+      angle.x.push_back(t);
+      angle.y.push_back(e.angle_error_deg);
+      if (e.range_m > 0) {
+        percent_by_range.x.push_back(e.range_m);
+        percent_by_range.y.push_back(100.0 * e.position_error_m / e.range_m);
+      }
+    }
+    // The requirement line only when one threshold holds over the whole plotted span.
+    const double range_lo = p.min_range_m, range_hi = p.max_range_m;
+    const auto oneThreshold = [&](const std::string& quantity) {
+      const double a = thresholdFor(quantity, range_lo);
+      const double b = thresholdFor(quantity, range_hi);
+      return a == b ? a : NAN;
+    };
+    html += "<div>";
+    html += svgPlot("Position error over time", "time since first estimate [s]",
+                    "position error [m]", position, oneThreshold("position_error_m"));
+    html += svgPlot("Angle error over time", "time since first estimate [s]", "angle error [deg]",
+                    angle, oneThreshold("angle_error_deg"));
+    html += svgPlot("Position error over range", "true range [m]", "position error [% of range]",
+                    percent_by_range, NAN, false);
+    html += "</div>\n";
+  }
+  html += "</body></html>\n";
+  return html;
+}
+
+}  // namespace cdff::eval

@@ -1,0 +1,391 @@
+// Recorder (typed writing) and Replay (merged, typed reading).
+#include <algorithm>
+#include <limits>
+
+#include <nlohmann/json.hpp>
+
+#include "cdff/io/recorder.hpp"
+#include "cdff/io/replay.hpp"
+
+namespace cdff::io {
+
+// ---- Recorder ------------------------------------------------------------------------------
+
+Recorder::Recorder() = default;
+Recorder::~Recorder() {
+  if (isOpen()) (void)close();
+}
+
+Status Recorder::open(const std::string& path, const McapWriterOptions& options) {
+  std::lock_guard lock(mutex_);
+  channels_.clear();
+  schemas_.clear();
+  return writer_.open(path, options);
+}
+
+bool Recorder::isOpen() const {
+  std::lock_guard lock(mutex_);
+  return writer_.isOpen();
+}
+
+Status Recorder::writeEncoded(const std::string& channel, std::string_view cdff_type,
+                              Timestamp stamp) {
+  if (stamp < 0)
+    return invalidInput("channel '{}': stamp {} us is negative; MCAP times are unsigned", channel,
+                        stamp);
+  auto it = channels_.find(channel);
+  if (it == channels_.end()) {
+    const TypeFormat* format = formatOf(cdff_type);
+    if (!format) return {StatusCode::kInternal, fmt::format("no format for type '{}'", cdff_type)};
+    std::uint16_t schema_id = 0;
+    if (auto s = schemas_.find(format->cdff_type); s != schemas_.end()) {
+      schema_id = s->second;
+    } else {
+      auto id = writer_.addSchema(std::string(format->schema_name),
+                                  std::string(format->schema_encoding), format->schema_data);
+      CDFF_RETURN_IF_ERROR(id.status());
+      schema_id = *id;
+      schemas_[format->cdff_type] = schema_id;
+    }
+    auto id = writer_.addChannel(channel, std::string(format->message_encoding), schema_id,
+                                 {{std::string(kTypeMetadataKey), std::string(format->cdff_type)}});
+    CDFF_RETURN_IF_ERROR(id.status());
+    it = channels_.emplace(channel, ChannelEntry{*id, format->cdff_type}).first;
+  } else if (it->second.cdff_type != cdff_type) {
+    return invalidInput("channel '{}' records {} values; cannot write a {} to it", channel,
+                        it->second.cdff_type, cdff_type);
+  }
+  const std::vector<Bytes> parts = scratch_.parts();
+  const std::uint64_t t = toMcapTime(stamp);
+  return writer_.write(it->second.id, t, t, parts);
+}
+
+template <typename T, typename Encode>
+Status Recorder::record(const std::string& channel, Timestamp stamp, Encode&& encode_value) {
+  std::lock_guard lock(mutex_);
+  if (!writer_.isOpen())
+    return invalidInput("recorder is not open; cannot write channel '{}'", channel);
+  CDFF_RETURN_IF_ERROR(encode_value(scratch_).withContext(fmt::format("channel '{}'", channel)));
+  const Status s = writeEncoded(channel, TypeName<T>::value, stamp);
+  scratch_.clear();  // drop the references to the caller's buffers
+  return s;
+}
+
+#define CDFF_RECORD_STAMPED(Type, stamp_expr)                                               \
+  Status Recorder::write(const std::string& channel, const Type& value) {                   \
+    return record<Type>(channel, stamp_expr, [&](Encoded& e) { return encode(value, e); }); \
+  }
+CDFF_RECORD_STAMPED(Image, value.stamp)
+CDFF_RECORD_STAMPED(DepthMap, value.image.stamp)
+CDFF_RECORD_STAMPED(StereoImagePair, value.left.stamp)
+CDFF_RECORD_STAMPED(CompressedImage, value.stamp)
+CDFF_RECORD_STAMPED(PointCloud, value.stamp)
+CDFF_RECORD_STAMPED(Transform, value.stamp)
+CDFF_RECORD_STAMPED(PoseWithCovariance, value.pose.stamp)
+CDFF_RECORD_STAMPED(RigidBodyState, value.pose.stamp)
+CDFF_RECORD_STAMPED(PoseArray, value.stamp)
+CDFF_RECORD_STAMPED(TriangleMesh, value.stamp)
+CDFF_RECORD_STAMPED(Features2D, value.stamp)
+CDFF_RECORD_STAMPED(Features3D, value.stamp)
+CDFF_RECORD_STAMPED(ImuSample, value.stamp)
+CDFF_RECORD_STAMPED(Wrench, value.stamp)
+CDFF_RECORD_STAMPED(JointState, value.stamp)
+#undef CDFF_RECORD_STAMPED
+
+Status Recorder::write(const std::string& channel, const CameraModel& value, Timestamp stamp,
+                       const std::string& frame_id) {
+  return record<CameraModel>(channel, stamp,
+                             [&](Encoded& e) { return encode(value, stamp, frame_id, e); });
+}
+
+#define CDFF_RECORD_WITH_STAMP(Type)                                                          \
+  Status Recorder::write(const std::string& channel, const Type& value, Timestamp stamp) {    \
+    return record<Type>(channel, stamp, [&](Encoded& e) { return encode(value, stamp, e); }); \
+  }
+CDFF_RECORD_WITH_STAMP(Matches)
+CDFF_RECORD_WITH_STAMP(Correspondences2D)
+CDFF_RECORD_WITH_STAMP(Correspondences3D)
+CDFF_RECORD_WITH_STAMP(Correspondences2D3D)
+#undef CDFF_RECORD_WITH_STAMP
+
+template <typename T>
+Status Recorder::writeScalar(const std::string& channel, const T& value, Timestamp stamp) {
+  return record<T>(channel, stamp, [&](Encoded& e) { return encodeScalar(value, stamp, e); });
+}
+template Status Recorder::writeScalar(const std::string&, const double&, Timestamp);
+template Status Recorder::writeScalar(const std::string&, const bool&, Timestamp);
+template Status Recorder::writeScalar(const std::string&, const int&, Timestamp);
+template Status Recorder::writeScalar(const std::string&, const std::int64_t&, Timestamp);
+template Status Recorder::writeScalar(const std::string&, const std::string&, Timestamp);
+
+Status Recorder::writeJson(const std::string& channel, Timestamp stamp,
+                           const nlohmann::json& value) {
+  return record<nlohmann::json>(channel, stamp,
+                                [&](Encoded& e) { return encode(value, stamp, e); });
+}
+
+Status Recorder::writeEvent(Timestamp stamp, const std::string& level, const std::string& source,
+                            const std::string& message, const std::string& channel) {
+  if (level != "info" && level != "warning" && level != "error")
+    return invalidInput("event level '{}' is not one of info, warning, error", level);
+  return writeJson(channel, stamp,
+                   nlohmann::json{{"level", level}, {"source", source}, {"message", message}});
+}
+
+Status Recorder::writeAttachment(const std::string& name, const std::string& media_type,
+                                 Timestamp stamp, Bytes data) {
+  std::lock_guard lock(mutex_);
+  if (stamp < 0) return invalidInput("attachment '{}': stamp {} us is negative", name, stamp);
+  return writer_.writeAttachment(name, media_type, toMcapTime(stamp), data);
+}
+
+Status Recorder::writeMetadata(const std::string& name,
+                               const std::map<std::string, std::string>& values) {
+  std::lock_guard lock(mutex_);
+  return writer_.writeMetadata(name, values);
+}
+
+Status Recorder::flush() {
+  std::lock_guard lock(mutex_);
+  return writer_.flush();
+}
+
+Status Recorder::close() {
+  std::lock_guard lock(mutex_);
+  return writer_.close();
+}
+
+Statistics Recorder::statistics() const {
+  std::lock_guard lock(mutex_);
+  return writer_.statistics();
+}
+
+// ---- Replay --------------------------------------------------------------------------------
+
+std::string_view ReplayMessage::schemaName() const {
+  return view_.schema ? std::string_view(view_.schema->name) : std::string_view{};
+}
+
+std::string ReplayMessage::context() const {
+  return fmt::format("'{}' channel '{}' message at {} ns", path_ ? *path_ : std::string(),
+                     channel(), view_.log_time);
+}
+
+Status ReplayMessage::checkDecodableAs(std::string_view type) const {
+  if (type == cdff_type_) return Status::ok();
+  const TypeFormat* format = formatOf(type);
+  if (format && view_.schema && format->schema_name == view_.schema->name &&
+      format->message_encoding == view_.channel->message_encoding)
+    return Status::ok();  // the same schema (e.g. a RigidBodyState read as PoseWithCovariance)
+  return invalidInput("{}: the channel holds {} ({}); cannot decode it as {}", context(),
+                      cdff_type_.empty() ? "a non-CDFF type" : std::string(cdff_type_),
+                      view_.schema ? view_.schema->name : view_.channel->message_encoding, type);
+}
+
+Result<AnyValue> ReplayMessage::decode() const {
+  if (cdff_type_.empty())
+    return notFound("{}: schema '{}' ({}) is not a CDFF type; only its raw bytes are available",
+                    context(), schemaName(), messageEncoding());
+  auto value = decodeAny(cdff_type_, view_.data, view_.owner);
+  if (!value) return value.status().withContext(context());
+  return value;
+}
+
+struct Replay::Impl {
+  std::vector<std::string> paths;
+  std::vector<std::unique_ptr<McapReader>> readers;
+  std::vector<MessageIterator> iterators;
+  std::vector<bool> has_current;
+  std::vector<std::size_t> heap;  // file indices, min-heap on the current message
+  std::vector<ReplayChannel> channels;
+  std::vector<std::map<std::uint16_t, std::string_view>> cdff_types;  // per file, by channel id
+  ReplayMessage current;
+  std::vector<std::string> open_damages;
+  Timestamp start = 0, end = 0;
+  bool started = false;
+
+  bool later(std::size_t a, std::size_t b) const {
+    const std::uint64_t ta = iterators[a].message().log_time;
+    const std::uint64_t tb = iterators[b].message().log_time;
+    if (ta != tb) return ta > tb;
+    return a > b;
+  }
+  void push(std::size_t file) {
+    heap.push_back(file);
+    std::push_heap(heap.begin(), heap.end(),
+                   [&](std::size_t a, std::size_t b) { return later(a, b); });
+  }
+};
+
+Replay::Replay() = default;
+Replay::~Replay() = default;
+
+Status Replay::open(const std::vector<std::string>& paths, const ReplayOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  if (paths.empty()) return invalidInput("replay: no file given");
+  if (options.start && options.end && *options.start > *options.end)
+    return invalidInput("replay: start {} us is after end {} us", *options.start, *options.end);
+  impl->paths = paths;
+  for (const std::string& path : paths) {
+    auto reader = std::make_unique<McapReader>();
+    CDFF_RETURN_IF_ERROR(reader->open(path, options.reader));
+    for (const Damage& d : reader->recovery().damages)
+      impl->open_damages.push_back(fmt::format("'{}': {}", path, d.toString()));
+    impl->readers.push_back(std::move(reader));
+  }
+  // Channels, matched by topic across files.
+  for (std::size_t f = 0; f < impl->readers.size(); ++f) {
+    const McapReader& r = *impl->readers[f];
+    auto& types = impl->cdff_types.emplace_back();
+    for (const auto& entry : r.channels()) {
+      const std::uint16_t id = entry.first;
+      const Channel& ch = entry.second;  // named: lambdas below capture it (clang 14)
+      const Schema* schema = r.schemaOf(ch);
+      const std::string_view type = cdffTypeOf(ch, schema);
+      types[id] = type;
+      const std::string schema_name = schema ? schema->name : std::string();
+      auto it = std::find_if(impl->channels.begin(), impl->channels.end(),
+                             [&](const ReplayChannel& c) { return c.topic == ch.topic; });
+      if (it == impl->channels.end()) {
+        impl->channels.push_back(
+            {ch.topic, std::string(type), schema_name, ch.message_encoding, 0, {}});
+        it = impl->channels.end() - 1;
+      } else if (it->schema_name != schema_name || it->message_encoding != ch.message_encoding) {
+        return invalidInput("channel '{}' is {} ({}) in '{}' but {} ({}) in '{}'", ch.topic,
+                            it->schema_name, it->message_encoding, paths[it->files.front()],
+                            schema_name, ch.message_encoding, paths[f]);
+      }
+      if (auto c = r.statistics().channel_message_counts.find(id);
+          c != r.statistics().channel_message_counts.end())
+        it->message_count += c->second;
+      it->files.push_back(f);
+    }
+  }
+  for (const std::string& topic : options.channels) {
+    if (std::none_of(impl->channels.begin(), impl->channels.end(),
+                     [&](const ReplayChannel& c) { return c.topic == topic; })) {
+      std::string known;
+      for (const ReplayChannel& c : impl->channels) known += (known.empty() ? "" : ", ") + c.topic;
+      std::string files;
+      for (const std::string& p : paths) files += (files.empty() ? "'" : ", '") + p + "'";
+      return notFound("no channel '{}' in {}; channels are: {}", topic, files,
+                      known.empty() ? "(none)" : known);
+    }
+  }
+  // Time range of the selection, from the statistics.
+  bool any = false;
+  std::uint64_t lo = std::numeric_limits<std::uint64_t>::max(), hi = 0;
+  for (const auto& r : impl->readers) {
+    const Statistics& s = r->statistics();
+    if (s.message_count == 0) continue;
+    lo = std::min(lo, s.message_start_time);
+    hi = std::max(hi, s.message_end_time);
+    any = true;
+  }
+  impl->start = any ? fromMcapTime(lo) : 0;
+  impl->end = any ? fromMcapTime(hi) : 0;
+  if (options.start) impl->start = std::max(impl->start, *options.start);
+  if (options.end) impl->end = std::min(impl->end, *options.end);
+
+  for (std::size_t f = 0; f < impl->readers.size(); ++f) {
+    const McapReader& r = *impl->readers[f];
+    ReadOptions ro;
+    if (options.start) ro.start_time = toMcapTime(std::max<Timestamp>(*options.start, 0));
+    if (options.end) {
+      if (*options.end < 0) {
+        ro.end_time = 0;
+        ro.start_time = 1;  // an empty range
+      } else {
+        ro.end_time = toMcapTime(*options.end) + 999;  // the whole last microsecond
+      }
+    }
+    if (!options.channels.empty()) {
+      for (const auto& [id, ch] : r.channels())
+        if (std::find(options.channels.begin(), options.channels.end(), ch.topic) !=
+            options.channels.end())
+          ro.channels.push_back(id);
+      if (ro.channels.empty()) {
+        ro.start_time = 1;  // nothing wanted in this file
+        ro.end_time = 0;
+      }
+    }
+    impl->iterators.push_back(r.messages(ro));
+  }
+  impl_ = std::move(impl);
+  return Status::ok();
+}
+
+const std::vector<ReplayChannel>& Replay::channels() const {
+  static const std::vector<ReplayChannel> kNone;
+  return impl_ ? impl_->channels : kNone;
+}
+
+const ReplayChannel* Replay::channel(std::string_view topic) const {
+  for (const ReplayChannel& c : channels())
+    if (c.topic == topic) return &c;
+  return nullptr;
+}
+
+Timestamp Replay::startTime() const {
+  return impl_ ? impl_->start : 0;
+}
+Timestamp Replay::endTime() const {
+  return impl_ ? impl_->end : 0;
+}
+
+bool Replay::next() {
+  if (!impl_) return false;
+  Impl& m = *impl_;
+  auto later = [&](std::size_t a, std::size_t b) { return m.later(a, b); };
+  if (!m.started) {
+    m.started = true;
+    for (std::size_t f = 0; f < m.iterators.size(); ++f)
+      if (m.iterators[f].next()) m.push(f);
+  } else if (!m.heap.empty()) {
+    // Advance the file whose message was delivered last.
+    std::pop_heap(m.heap.begin(), m.heap.end(), later);
+    const std::size_t f = m.heap.back();
+    m.heap.pop_back();
+    if (m.iterators[f].next()) m.push(f);
+  }
+  if (m.heap.empty()) return false;
+  const std::size_t f = m.heap.front();
+  const MessageView& view = m.iterators[f].message();
+  m.current.view_ = view;
+  m.current.file_ = f;
+  m.current.path_ = &m.paths[f];
+  auto t = m.cdff_types[f].find(view.channel->id);
+  m.current.cdff_type_ = t == m.cdff_types[f].end() ? std::string_view{} : t->second;
+  return true;
+}
+
+const ReplayMessage& Replay::message() const {
+  return impl_->current;
+}
+
+std::vector<std::string> Replay::damages() const {
+  std::vector<std::string> all;
+  if (!impl_) return all;
+  all = impl_->open_damages;
+  for (std::size_t f = 0; f < impl_->iterators.size(); ++f)
+    for (const Damage& d : impl_->iterators[f].damages())
+      all.push_back(fmt::format("'{}': {}", impl_->paths[f], d.toString()));
+  return all;
+}
+
+Status Replay::status() const {
+  const auto all = damages();
+  if (all.empty()) return Status::ok();
+  return {StatusCode::kCorruptData, all.size() == 1 ? all.front()
+                                                    : fmt::format("{} (and {} more damaged places)",
+                                                                  all.front(), all.size() - 1)};
+}
+
+std::size_t Replay::fileCount() const {
+  return impl_ ? impl_->readers.size() : 0;
+}
+const McapReader& Replay::reader(std::size_t file) const {
+  return *impl_->readers.at(file);
+}
+
+}  // namespace cdff::io

@@ -1,0 +1,113 @@
+#pragma once
+// Replaying recordings: one or several MCAP files merged in log-time order, with each message's
+// channel, time, schema and a decode to the CDFF type that the DFN layer's ports carry.
+//
+//   cdff::io::Replay replay;
+//   CDFF_RETURN_IF_ERROR(replay.open({"sensors.mcap", "truth.mcap"}, {.channels = {...}}));
+//   while (replay.next()) {
+//     const auto& m = replay.message();
+//     auto value = m.decode();                 // Result<AnyValue>: shared_ptr<const void> + type
+//     if (value) port.setAny(value->value, {value->type, value->type_name});
+//   }
+//   CDFF_RETURN_IF_ERROR(replay.status());     // damage met on the way (file, byte offset)
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cdff/io/codec.hpp"
+#include "cdff/io/mcap.hpp"
+#include "cdff/io/recorder.hpp"
+
+namespace cdff::io {
+
+struct ReplayOptions {
+  std::optional<Timestamp> start;     // us, inclusive; none: from the beginning
+  std::optional<Timestamp> end;       // us, inclusive; none: to the end
+  std::vector<std::string> channels;  // topics; empty: every channel
+  McapReaderOptions reader;
+};
+
+/// A channel as seen across the replayed files (matched by topic).
+struct ReplayChannel {
+  std::string topic;
+  std::string cdff_type;  // "" when not a CDFF type (e.g. a ROS 2 message)
+  std::string schema_name;
+  std::string message_encoding;
+  std::uint64_t message_count = 0;
+  std::vector<std::size_t> files;  // indices of the files that have it
+};
+
+class ReplayMessage {
+ public:
+  const std::string& channel() const { return view_.channel->topic; }
+  Timestamp logTime() const { return fromMcapTime(view_.log_time); }
+  std::uint64_t logTimeNs() const { return view_.log_time; }
+  std::uint64_t publishTimeNs() const { return view_.publish_time; }
+  std::uint32_t sequence() const { return view_.sequence; }
+  std::string_view schemaName() const;
+  std::string_view cdffType() const { return cdff_type_; }
+  const std::string& messageEncoding() const { return view_.channel->message_encoding; }
+  Bytes data() const { return view_.data; }
+  std::size_t fileIndex() const { return file_; }
+  const MessageView& view() const { return view_; }
+
+  /// The value as its CDFF type (cdffType()); large arrays share the chunk's memory.
+  Result<AnyValue> decode() const;
+  /// The value as T; fails when the channel's schema does not hold T.
+  template <typename T>
+  Result<std::shared_ptr<const T>> decode() const {
+    CDFF_RETURN_IF_ERROR(checkDecodableAs(TypeName<T>::value));
+    auto value = std::make_shared<T>();
+    CDFF_RETURN_IF_ERROR(io::decode(view_.data, view_.owner, *value).withContext(context()));
+    return std::shared_ptr<const T>(std::move(value));
+  }
+
+ private:
+  friend class Replay;
+  Status checkDecodableAs(std::string_view type) const;
+  std::string context() const;
+
+  MessageView view_;
+  std::string_view cdff_type_;
+  std::size_t file_ = 0;
+  const std::string* path_ = nullptr;
+};
+
+class Replay {
+ public:
+  Replay();
+  ~Replay();
+  Replay(const Replay&) = delete;
+  Replay& operator=(const Replay&) = delete;
+
+  /// Opens the files and prepares a merged iteration. Fails when a file cannot be read at all,
+  /// when a requested channel is in none of them (the message lists the channels), or when two
+  /// files disagree on a channel's schema.
+  Status open(const std::vector<std::string>& paths, const ReplayOptions& options = {});
+
+  const std::vector<ReplayChannel>& channels() const;
+  const ReplayChannel* channel(std::string_view topic) const;
+  /// Time range of the selected messages (us), from the files' statistics.
+  Timestamp startTime() const;
+  Timestamp endTime() const;
+
+  /// Advances to the next message in log-time order (ties: file order, then file position).
+  bool next();
+  const ReplayMessage& message() const;
+
+  /// Ok, or the first damage met: in a file's recovery report at open, or during iteration.
+  Status status() const;
+  /// Every damage so far, as "path: byte offset N: what".
+  std::vector<std::string> damages() const;
+
+  std::size_t fileCount() const;
+  const McapReader& reader(std::size_t file) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cdff::io
