@@ -2,7 +2,7 @@
 #include <optional>
 
 #include "ModelPointCloud.gen.hpp"
-#include "cdff/types/mesh_io.hpp"
+#include "cdff/egse/model_io.hpp"
 
 namespace cdff::dfn {
 
@@ -28,19 +28,24 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
         model_ = std::make_shared<const PointCloud>(std::move(model).value());
       } else if (!params_.mesh_file.empty()) {
         if (!file_mesh_) {
-          Result<TriangleMesh> mesh = loadMesh(params_.mesh_file, params_.frame_id, params_.scale);
-          if (!mesh)
-            return Status(mesh.status().code(),
-                          "parameter 'mesh_file': " + mesh.status().message());
-          file_mesh_ = std::move(mesh).value();
+          // The simulator's loader, so that the tracker reads a mesh file exactly as the
+          // simulator that rendered the target did.
+          egse::MeshLoadOptions options;
+          options.scale = params_.scale;
+          Result<egse::TargetModel> loaded = egse::loadModel(params_.mesh_file, options);
+          if (!loaded)
+            return Status(loaded.status().code(),
+                          "parameter 'mesh_file': " + loaded.status().message());
+          file_mesh_ = std::move(loaded->mesh);
+          file_mesh_->frame_id = params_.frame_id;
         }
         Result<PointCloud> model = sample(*file_mesh_, "mesh_file");
         if (!model) return model.status();
         model_ = std::make_shared<const PointCloud>(std::move(model).value());
       } else {
         return invalidInput(
-            "no mesh: expected a 'mesh' input or the parameter 'mesh_file' naming a .obj or "
-            ".ply file");
+            "no mesh: expected a 'mesh' input or the parameter 'mesh_file' naming a .obj, .ply, "
+            ".stl, .gltf or .glb file");
       }
     }
     out.model.set(model_);

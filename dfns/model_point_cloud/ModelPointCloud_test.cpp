@@ -12,7 +12,7 @@
 
 #include "ModelPointCloud.gen.hpp"
 #include "cdff/dfn/registry.hpp"
-#include "cdff/types/mesh_io.hpp"
+#include "cdff/egse/model_io.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
@@ -138,8 +138,9 @@ TEST_F(MeshFiles, ObjAndPlyFilesLoadAsTheSameCube) {
   binary.append(4, '\0');
   const std::string bin = write("cube_bin.PLY", binary);
   for (const std::string& path : {obj, ascii, bin}) {
-    Result<TriangleMesh> mesh = loadMesh(path, "target");
-    ASSERT_OK(mesh.status());
+    Result<egse::TargetModel> loaded = egse::loadModel(path);
+    ASSERT_OK(loaded.status());
+    const TriangleMesh* mesh = &loaded->mesh;
     EXPECT_EQ(mesh->triangleCount(), 12u) << path;
     EXPECT_NEAR(mesh->surfaceArea(), 6.0, 1e-6) << path;
     std::size_t points = 0;
@@ -170,12 +171,12 @@ TEST_F(MeshFiles, MissingAndMalformedFilesAreReported) {
             "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
             "property float y\nproperty float z\nend_header\n\x01\x02");
   sampler = make(fmt::format("{{mesh_file: '{}'}}", truncated));
-  testing::expectRejected(*sampler, "the file ends inside element 'vertex' 0 of 3",
+  testing::expectRejected(*sampler, "short.ply: byte 115: the file ends inside vertex 0",
                           StatusCode::kCorruptData);
 
-  const std::string stl = write("model.stl", "solid x\n");
-  sampler = make(fmt::format("{{mesh_file: '{}'}}", stl));
-  testing::expectRejected(*sampler, "expected .obj or .ply");
+  const std::string unknown = write("model.dae", "<COLLADA/>\n");
+  sampler = make(fmt::format("{{mesh_file: '{}'}}", unknown));
+  testing::expectRejected(*sampler, "expected .obj, .ply, .stl, .gltf or .glb");
 }
 
 TEST(ModelPointCloudMeshSampler, BadInputsAndParametersAreReported) {
