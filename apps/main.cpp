@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   cdff::app::addDemoCommand(app, exit_code);
   cdff::app::addDfpcCommands(app, exit_code);
 #ifdef CDFF_HAVE_LOG_COMMAND
+  cdff::app::addInitialStateCommand(app, exit_code);
   cdff::app::addLogCommands(app, exit_code);
 #endif
   cdff::app::addSimCommand(app, exit_code);
