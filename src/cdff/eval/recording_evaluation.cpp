@@ -147,12 +147,14 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
         continue;
       }
       truth_channel = candidates.front();
+      // Several: the documented preference, or the first by name and the user is told.
       if (candidates.size() > 1) {
         if (std::find(candidates.begin(), candidates.end(), "/truth/target_pose") !=
             candidates.end())
           truth_channel = "/truth/target_pose";
-        note(fmt::format("{}: {} truth channels hold {}; measured against {}", channel,
-                         candidates.size(), framesOf(product), truth_channel));
+        else
+          note(fmt::format("{}: {} truth channels hold {}; measured against {} (--pair chooses)",
+                           channel, candidates.size(), framesOf(product), truth_channel));
       }
     }
 
