@@ -11,6 +11,8 @@ void addDemoCommand(CLI::App& root, int& exit_code);
 void addLogCommands(CLI::App& root, int& exit_code);
 void addSimCommand(CLI::App& root, int& exit_code);
 void addDfpcCommands(CLI::App& root, int& exit_code);
+void addRunCommand(CLI::App& root, int& exit_code);
+void addEvalCommand(CLI::App& root, int& exit_code);
 void addInitialStateCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app
