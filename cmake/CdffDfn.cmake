@@ -5,6 +5,10 @@
 # the DFIs and generated code into the object library `cdff_dfn_<area>` (object files, so that
 # every DFI's self-registration is linked in), and the tests into one GoogleTest executable per
 # folder that links only its own area. `cdff_dfns` (dfns/CMakeLists.txt) gathers every area.
+# An area that needs more than the common libraries adds an `area.cmake` beside its YAML: it is
+# included last, with `${lib}` (the area's target), `${dir}` (the folder) and `${area}` set (the
+# test target is `test_dfn_${area}` when it exists), e.g.
+# `target_link_libraries(${lib} PUBLIC cdff_tracking)`.
 set(CDFF_DFN_CODEGEN ${PROJECT_SOURCE_DIR}/scripts/dfn_codegen.py)
 set(CDFF_DFN_GEN_DIR ${PROJECT_BINARY_DIR}/generated/dfns)
 
@@ -42,5 +46,8 @@ function(cdff_add_dfn_area dir)
     add_executable(test_dfn_${area} ${tests})
     target_link_libraries(test_dfn_${area} PRIVATE ${lib} cdff_test_support GTest::gtest_main)
     gtest_discover_tests(test_dfn_${area} DISCOVERY_TIMEOUT 60 PROPERTIES LABELS dfn)
+  endif()
+  if(EXISTS ${dir}/area.cmake)
+    include(${dir}/area.cmake)
   endif()
 endfunction()

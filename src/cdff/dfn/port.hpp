@@ -45,6 +45,9 @@ struct PortTypeName;
   X(::cdff::Correspondences3D, "Correspondences3D")     \
   X(::cdff::Correspondences2D3D, "Correspondences2D3D") \
   X(::cdff::TriangleMesh, "TriangleMesh")               \
+  X(::cdff::PolygonModel, "PolygonModel")               \
+  X(::cdff::ModelContours, "ModelContours")             \
+  X(::cdff::ContourSamples, "ContourSamples")           \
   X(::cdff::Timestamp, "Timestamp")                     \
   X(double, "Double")                                   \
   X(bool, "Bool")                                       \

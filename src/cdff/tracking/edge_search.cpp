@@ -1,0 +1,135 @@
+#include "cdff/tracking/edge_search.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cdff::tracking {
+
+namespace {
+
+class Bilinear {
+ public:
+  explicit Bilinear(const Image& image)
+      : data_(image.pixels.data()),
+        stride_(image.stride_bytes),
+        max_x_(image.width - 1.001),
+        max_y_(image.height - 1.001) {}
+
+  bool inside(double x, double y) const { return x >= 0 && y >= 0 && x <= max_x_ && y <= max_y_; }
+  // Only valid when inside(x, y).
+  float operator()(double x, double y) const {
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+    const std::uint8_t* r0 = data_ + static_cast<std::size_t>(y0) * stride_ + x0;
+    const std::uint8_t* r1 = r0 + stride_;
+    const float top = r0[0] + fx * (r0[1] - r0[0]);
+    const float bottom = r1[0] + fx * (r1[1] - r1[0]);
+    return top + fy * (bottom - top);
+  }
+
+ private:
+  const std::uint8_t* data_;
+  std::size_t stride_;
+  double max_x_, max_y_;
+};
+
+}  // namespace
+
+Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& samples,
+                                   const EdgeSearchOptions& options) {
+  CDFF_RETURN_IF_ERROR(image.validate("image", {PixelFormat::kGray8}));
+  CDFF_RETURN_IF_ERROR(samples.validate("samples"));
+  const CameraModel& camera = samples.contours->camera;
+  if (image.width != camera.width || image.height != camera.height)
+    return invalidInput(
+        "image is {}x{} but the contours were computed for a {}x{} camera; "
+        "expected the image of that camera",
+        image.width, image.height, camera.width, camera.height);
+  if (options.search_distance < 1 || options.half_width < 0 || options.max_candidates < 1)
+    return invalidParameter(
+        "edge search needs search_distance >= 1, half_width >= 0 and "
+        "max_candidates >= 1; got {}, {} and {}",
+        options.search_distance, options.half_width, options.max_candidates);
+
+  ContourSamples out;
+  out.contours = samples.contours;
+  out.samples = samples.samples;
+  out.matched = true;
+  out.candidates.reserve(samples.samples.size() * 2);
+
+  const Bilinear at(image);
+  const int D = options.search_distance;
+  const int h = options.half_width;
+  const int rows = 2 * D + 5;  // offsets -(D+2) .. D+2
+  const int lines = 2 * h + 1;
+  const float tan_max = static_cast<float>(std::tan(std::min(options.angular_threshold, 1.5607)));
+  std::vector<float> grey(static_cast<std::size_t>(rows * lines));
+  std::vector<bool> valid(static_cast<std::size_t>(rows));
+  std::vector<float> gn(static_cast<std::size_t>(rows)), gt(static_cast<std::size_t>(rows));
+  std::vector<EdgeCandidate> found;
+
+  for (ContourSample& s : out.samples) {
+    s.first_candidate = static_cast<std::uint32_t>(out.candidates.size());
+    s.candidate_count = 0;
+    const Eigen::Vector2d n = s.normal, t(-s.normal.y(), s.normal.x());
+    for (int r = 0; r < rows; ++r) {
+      const int j = r - (D + 2);
+      bool ok = true;
+      for (int k = -h; k <= h && ok; ++k) {
+        const double x = s.pixel.x() + j * n.x() + k * t.x();
+        const double y = s.pixel.y() + j * n.y() + k * t.y();
+        if (!at.inside(x, y)) {
+          ok = false;
+          break;
+        }
+        grey[static_cast<std::size_t>(r * lines + k + h)] = at(x, y);
+      }
+      valid[static_cast<std::size_t>(r)] = ok;
+    }
+    // Derivatives along the normal (mean over the lines) and across it (outer lines).
+    const float norm_n = 1.0f / (2.0f * lines);
+    for (int r = 1; r + 1 < rows; ++r) {
+      if (!valid[r - 1] || !valid[r + 1] || !valid[r]) {
+        gn[r] = 0;
+        gt[r] = 0;
+        continue;
+      }
+      float sum = 0;
+      for (int k = 0; k < lines; ++k) sum += grey[(r + 1) * lines + k] - grey[(r - 1) * lines + k];
+      gn[r] = sum * norm_n;
+      if (h > 0) {
+        float across = 0;
+        for (int rr = r - 1; rr <= r + 1; ++rr)
+          across += grey[rr * lines + lines - 1] - grey[rr * lines];
+        gt[r] = across / (3.0f * 2.0f * h);
+      } else {
+        gt[r] = 0;
+      }
+    }
+    gn[0] = gn[rows - 1] = 0;
+    found.clear();
+    for (int r = 2; r + 2 < rows; ++r) {  // offsets -D .. D
+      const float a = std::abs(gn[r - 1]), b = std::abs(gn[r]), c = std::abs(gn[r + 1]);
+      if (b < options.min_gradient || b < a || b <= c) continue;
+      if (!valid[r]) continue;
+      if (std::abs(gt[r]) > tan_max * b) continue;  // not parallel to the contour
+      // Opposite signs around the peak mean two edges: keep the peak unrefined.
+      float delta = 0;
+      const float denom = a - 2 * b + c;
+      if (denom < 0 && gn[r - 1] * gn[r] >= 0 && gn[r + 1] * gn[r] >= 0)
+        delta = std::clamp(0.5f * (a - c) / denom, -0.5f, 0.5f);
+      found.push_back({static_cast<float>(r - (D + 2)) + delta, b});
+    }
+    if (found.empty()) continue;
+    const std::size_t keep = std::min<std::size_t>(found.size(), options.max_candidates);
+    std::partial_sort(
+        found.begin(), found.begin() + static_cast<std::ptrdiff_t>(keep), found.end(),
+        [](const EdgeCandidate& x, const EdgeCandidate& y) { return x.strength > y.strength; });
+    out.candidates.insert(out.candidates.end(), found.begin(),
+                          found.begin() + static_cast<std::ptrdiff_t>(keep));
+    s.candidate_count = static_cast<std::uint32_t>(keep);
+  }
+  return out;
+}
+
+}  // namespace cdff::tracking

@@ -1,0 +1,106 @@
+#pragma once
+// Robust pose estimation from contour matches in N calibrated cameras and, optionally, depth
+// points on the model's faces: iteratively re-weighted Gauss-Newton on the pose reference_T_model
+// with Tukey's biweight M-estimator.
+//
+// Edge residual: the signed distance in pixels from a matched image edge point to the projection
+// of the model edge it belongs to (the line through the projected segment ends, exact under
+// perspective: the plane through the camera centre and the 3D segment). Each iteration picks,
+// per sample, the candidate nearest to the current projection. Depth residual: the distance in
+// metres from a depth point to the plane of the face it was associated with. Each kind is
+// normalised by its own robust scale (1.4826 x the median absolute residual, floored), so both
+// contribute in one set of normal equations.
+//
+// Perturbations follow docs/conventions.md: t = t_hat + dt, R = exp(dtheta) R_hat in the
+// reference frame; the covariance is the inverse of the weighted information matrix, ordered
+// [dt, dtheta].
+
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "cdff/types/contours.hpp"
+#include "cdff/types/geometry.hpp"
+#include "cdff/types/image.hpp"
+#include "cdff/types/status.hpp"
+
+namespace cdff::tracking {
+
+/// One camera's matched samples; camera_T_reference and intrinsics come from samples->contours.
+struct EdgeView {
+  const ContourSamples* samples = nullptr;
+};
+
+/// Depth points (reference frame) with the face plane (model frame) each was associated with.
+struct DepthPoints {
+  std::vector<Eigen::Vector3d> points;  // reference frame, m
+  std::vector<Eigen::Vector4d> planes;  // model frame: (normal, offset), normal . x = offset
+};
+
+struct DepthAssociationOptions {
+  int step_x = 4, step_y = 4;  // px between the depth pixels used
+  double max_distance = 0.02;  // m: points farther from their face (at the prediction) are dropped
+  double min_depth = 0.0;      // m: depths outside (min, max] are no measurement
+  double max_depth = 1e9;      // m
+};
+
+/// Associates depth pixels with the faces seen from the depth camera at reference_T_model: each
+/// used pixel is cast through the faces (nearest hit wins) and kept when its measured depth is
+/// within max_distance of the hit. `faces` are the visible faces (model frame) for this camera,
+/// `depth_T_reference` the depth camera in the rig; the depth image carries its intrinsics.
+Result<DepthPoints> associateDepth(const DepthMap& depth,
+                                   const Eigen::Isometry3d& depth_T_reference,
+                                   std::span<const VisibleFace> faces,
+                                   const Eigen::Isometry3d& reference_T_model,
+                                   const DepthAssociationOptions& options);
+
+struct PoseSolverOptions {
+  int max_iterations = 30;
+  double convergence_translation = 1e-5;  // m: an update smaller than this in both ...
+  double convergence_rotation = 1e-5;     // rad: ... translation and rotation has converged
+  double divergence_translation = 0.1;    // m: moving farther from the initial pose diverges
+  double divergence_rotation = 0.35;      // rad
+  double tukey_constant = 4.6851;         // in robust standard deviations
+  double min_edge_sigma = 0.3;            // px: floor of the edge residuals' robust scale
+  double min_depth_sigma = 0.0005;        // m: floor of the depth residuals' robust scale
+  /// The depth points together weigh as much as depth_weight times the edge residuals (when
+  /// there are edges): dense depth errors are correlated, their count says little.
+  double depth_weight = 1.0;
+  double inlier_threshold = 2.0;  // px: a matched sample this close at the end is an inlier
+  int min_measurements = 12;      // fewer usable residuals: no estimate
+};
+
+struct ViewStatistics {
+  std::size_t samples = 0;  // contour samples
+  std::size_t matched = 0;  // samples with at least one candidate
+  std::size_t inliers = 0;  // matched samples within inlier_threshold at the end
+};
+
+struct PoseSolution {
+  Eigen::Isometry3d reference_T_model = Eigen::Isometry3d::Identity();
+  Matrix6d covariance = Matrix6d::Zero();  // [dt, dtheta], reference frame
+  int iterations = 0;
+  bool converged = false;
+  bool diverged = false;
+  std::vector<ViewStatistics> views;
+  std::size_t samples = 0, inliers = 0;  // over all views
+  std::size_t depth_points = 0, depth_inliers = 0;
+  double edge_rms = 0;   // px, over the inliers
+  double depth_rms = 0;  // m, over the depth inliers
+  double inlierRatio() const { return samples ? double(inliers) / double(samples) : 0.0; }
+};
+
+/// Refines `initial` (reference_T_model). Fails (kNumericalFailure) when there are fewer than
+/// min_measurements residuals or the normal equations are singular; divergence is reported in
+/// the solution, which then holds the last iterate.
+Result<PoseSolution> solvePose(const Eigen::Isometry3d& initial, std::span<const EdgeView> views,
+                               const DepthPoints* depth, const PoseSolverOptions& options);
+
+/// The sample's matched point of candidate `k` in pixels.
+inline Eigen::Vector2d candidatePixel(const ContourSample& s, const EdgeCandidate& c) {
+  return s.pixel + static_cast<double>(c.offset) * s.normal;
+}
+
+}  // namespace cdff::tracking
