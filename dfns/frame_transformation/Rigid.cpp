@@ -23,7 +23,7 @@ class FrameTransformationRigid final : public FrameTransformationRigidBase {
     if (!extrinsic_)
       return invalidInput(
           "no extrinsic with child frame '{}' yet (the last one received was {}_T_{}); expected "
-          "the calibration (e.g. /tf_static) before the first pose",
+          "the calibration (e.g. /chaser/tf/lidar) before the first pose",
           params_.frame, in.extrinsic->parent_frame, in.extrinsic->child_frame);
     const Transform map = params_.inverse ? extrinsic_->inverse() : *extrinsic_;
     if (pose) {

@@ -41,9 +41,10 @@ Result<SimulatedRun> simulate(const std::string& name, double duration,
         cloud && m.channel == "/chaser/lidar/points") {
       run.scans.push_back(*cloud);
       run.messages.push_back(dfpc::Message::of(m.channel, cloud->stamp, *cloud));
-    } else if (const auto* t = std::get_if<Transform>(&m.payload); t && m.channel == "/tf_static") {
+    } else if (const auto* t = std::get_if<Transform>(&m.payload);
+               t && m.channel.starts_with("/chaser/tf/")) {
       run.messages.push_back(dfpc::Message::of(m.channel, t->stamp, *t));
-    } else if (const auto* s = std::get_if<RigidBodyState>(&m.payload);
+    } else if (const auto* s = std::get_if<PoseWithCovariance>(&m.payload);
                s && m.channel == "/truth/target_pose") {
       run.truth.push_back(s->pose);
       run.messages.push_back(dfpc::Message::of(m.channel, s->pose.stamp, *s));
