@@ -81,7 +81,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     pose.pose = result->reference_T_model;  // the prediction when lost
     pose.covariance = result->covariance;
     out.pose.set(std::move(pose));
-    out.status.set(static_cast<int>(result->status));
+    mbt::publishStatus(out, result->status);
     out.inlier_ratio.set(result->inlier_ratio);
     out.feature_count.set(static_cast<int>(result->inliers + result->depth_points));
     return Status::ok();
