@@ -9,6 +9,7 @@ namespace cdff::app {
 void addDfnCommands(CLI::App& root, int& exit_code);
 void addDemoCommand(CLI::App& root, int& exit_code);
 void addLogCommands(CLI::App& root, int& exit_code);
+void addSimCommand(CLI::App& root, int& exit_code);
 void addDfpcCommands(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

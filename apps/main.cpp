@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
 #ifdef CDFF_HAVE_LOG_COMMAND
   cdff::app::addLogCommands(app, exit_code);
 #endif
+  cdff::app::addSimCommand(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {

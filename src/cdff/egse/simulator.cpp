@@ -1,0 +1,518 @@
+#include "cdff/egse/simulator.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include <fmt/ranges.h>
+#include <spdlog/spdlog.h>
+
+#include "cdff/egse/imu.hpp"
+#include "cdff/egse/model_io.hpp"
+#include "cdff/egse/procedural.hpp"
+#include "cdff/egse/range_sensors.hpp"
+
+namespace cdff::egse {
+
+struct Simulator::SensorState {
+  const SensorConfig* config = nullptr;
+  std::uint64_t index = 0;  // measurements so far
+  Eigen::Isometry3d servicer_T_frame = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d frame_T_servicer = Eigen::Isometry3d::Identity();
+  std::optional<CameraSensor> camera;
+  std::optional<LidarSensor> lidar;
+  std::optional<TofSensor> tof;
+  std::optional<ImuSensor> imu;
+  std::vector<RenderOutput> renders;
+
+  double nextTime() const { return config->phase + static_cast<double>(index) / config->rate; }
+};
+
+Simulator::~Simulator() = default;
+
+namespace {
+
+Timestamp micros(double t) {
+  return fromSeconds(t);
+}
+
+Transform toTransform(const Eigen::Isometry3d& T, const std::string& parent,
+                      const std::string& child, Timestamp stamp) {
+  return Transform::fromIsometry(T, parent, child, stamp);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
+                                                     std::optional<std::uint64_t> seed,
+                                                     std::optional<double> duration) {
+  std::unique_ptr<Simulator> sim(new Simulator());
+  sim->scenario_ = scenario;
+  const Scenario& sc = sim->scenario_;
+  sim->seed_ = seed.value_or(sc.seed);
+  sim->duration_ = duration.value_or(sc.duration);
+  if (!(sim->duration_ > 0))
+    return invalidParameter("duration = {} s; expected > 0", sim->duration_);
+
+  // Models.
+  if (sc.procedural_target) {
+    auto model = makeTargetSatellite(sc.target_spec);
+    if (!model) return model.status();
+    sim->target_ = std::move(model).value();
+  } else {
+    auto model = loadModel(sc.target_mesh, sc.mesh_options);
+    if (!model) return model.status();
+    Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
+    R.linear() = sc.mesh_rotation.toRotationMatrix();
+    sim->target_ = transformModel(*model, R);
+    sim->target_.mesh.frame_id = "target";
+  }
+  if (sc.servicer_mockup) {
+    auto mockup = makeServicerMockup(sc.servicer_spec);
+    if (!mockup) return mockup.status();
+    sim->servicer_model_ = std::move(mockup).value();
+  }
+
+  // World.
+  const Orbit& orbit = sc.orbit;
+  std::unique_ptr<Translation> translation;
+  switch (sc.translation) {
+    case TranslationKind::kHold:
+      translation = holdTranslation(sc.start);
+      break;
+    case TranslationKind::kLine:
+      translation = lineTranslation(sc.start, sc.end, sc.start_time,
+                                    sc.end_time < 0 ? sim->duration_ : sc.end_time, sc.smooth);
+      break;
+    case TranslationKind::kWaypoints: {
+      auto spline = splineTranslation(sc.waypoint_times, sc.waypoints);
+      if (!spline) return spline.status();
+      translation = std::move(spline).value();
+      break;
+    }
+    case TranslationKind::kFlyAround:
+      translation = flyAroundTranslation(sc.centre, sc.axis, sc.reference, sc.radius,
+                                         sc.radial_rate, sc.angular_rate, sc.phase);
+      break;
+    case TranslationKind::kCw:
+      translation = cwTranslation(orbit, sc.start, sc.velocity);
+      break;
+  }
+  std::unique_ptr<Attitude> servicer_attitude;
+  switch (sc.servicer_attitude) {
+    case ServicerAttitudeKind::kTargetPointing:
+      servicer_attitude = pointingAttitude(orbit, translation.get(), nullptr, sc.up, sc.yaw_offset,
+                                           sc.pitch_offset);
+      break;
+    case ServicerAttitudeKind::kLvlh:
+      servicer_attitude = lvlhFixedAttitude(orbit, sc.servicer_orientation);
+      break;
+    case ServicerAttitudeKind::kInertial:
+      servicer_attitude = inertialAttitude(orbit, sc.servicer_orientation);
+      break;
+  }
+  std::unique_ptr<Attitude> target_attitude;
+  switch (sc.target_attitude) {
+    case TargetAttitudeKind::kLvlh:
+      target_attitude = lvlhFixedAttitude(orbit, sc.target_initial);
+      break;
+    case TargetAttitudeKind::kInertial:
+      target_attitude = inertialAttitude(orbit, sc.target_initial);
+      break;
+    case TargetAttitudeKind::kTumbling:
+      target_attitude = tumblingAttitude(orbit, sc.target_initial, sc.target_rate,
+                                         sc.target_inertia, sim->duration_ + 2.0);
+      break;
+  }
+  sim->world_ = std::make_unique<World>(orbit, std::move(translation), std::move(servicer_attitude),
+                                        std::move(target_attitude), sc.sun);
+
+  // Sensors.
+  bool cameras = false, rays = false;
+  for (const SensorConfig& s : sc.sensors) {
+    if (!s.enabled) continue;
+    auto state = std::make_unique<SensorState>();
+    state->config = &s;
+    state->servicer_T_frame = s.servicerTframe();
+    state->frame_T_servicer = state->servicer_T_frame.inverse();
+    switch (s.type) {
+      case SensorType::kCamera: {
+        auto camera = CameraSensor::create(s.camera, s.name);
+        if (!camera) return camera.status();
+        state->camera = std::move(camera).value();
+        state->renders.resize(s.camera.motion_blur_samples);
+        cameras = true;
+        break;
+      }
+      case SensorType::kLidar: {
+        LidarSpec spec = s.lidar;
+        spec.rotation_rate = s.rate;
+        auto lidar = LidarSensor::create(spec, s.name);
+        if (!lidar) return lidar.status();
+        state->lidar = std::move(lidar).value();
+        rays = true;
+        break;
+      }
+      case SensorType::kTof: {
+        auto tof = TofSensor::create(s.tof, s.name);
+        if (!tof) return tof.status();
+        state->tof = std::move(tof).value();
+        rays = true;
+        break;
+      }
+      case SensorType::kImu: {
+        ImuSpec spec = s.imu;
+        spec.rate = s.rate;
+        auto imu = ImuSensor::create(spec, s.name, state->servicer_T_frame, sim->seed_);
+        if (!imu) return imu.status();
+        state->imu = std::move(imu).value();
+        break;
+      }
+      case SensorType::kRadar:
+        CDFF_RETURN_IF_ERROR(s.radar.validate(s.name));
+        rays = true;
+        break;
+    }
+    sim->sensors_.push_back(std::move(state));
+  }
+  if (rays) {
+    auto caster = RayCaster::create(sim->target_);
+    if (!caster) return caster.status();
+    sim->caster_ = std::move(caster).value();
+  }
+  if (cameras) {
+    auto renderer = createRenderer(sc.renderer);
+    if (!renderer) return renderer.status();
+    sim->renderer_ = std::move(renderer).value();
+    auto handle = sim->renderer_->addModel(sim->target_);
+    if (!handle) return handle.status();
+    sim->target_handle_ = *handle;
+    if (sim->servicer_model_) {
+      auto s = sim->renderer_->addModel(*sim->servicer_model_);
+      if (!s) return s.status();
+      sim->servicer_handle_ = *s;
+    }
+  }
+  sim->fault_started_.assign(sc.faults.size(), false);
+  sim->fault_ended_.assign(sc.faults.size(), false);
+  return sim;
+}
+
+std::string Simulator::rendererDescription() const {
+  return renderer_ ? renderer_->description() : "none";
+}
+
+Eigen::Isometry3d Simulator::sensorTtarget(const SensorConfig& sensor, double t) const {
+  return sensor.servicerTframe().inverse() * world_->servicerTtarget(t);
+}
+
+RigidBodyState Simulator::truthState(const std::string& frame,
+                                     const Eigen::Isometry3d& frame_T_servicer, double t) const {
+  RigidBodyState s;
+  s.pose = toTransform(frame_T_servicer * world_->servicerTtarget(t), frame, "target", micros(t));
+  const Twist twist = world_->targetTwistInServicer(t);
+  // A sensor is rigidly mounted: the relative velocity in its frame is the servicer's rotated.
+  s.twist.linear = frame_T_servicer.linear() * twist.linear;
+  s.twist.angular = frame_T_servicer.linear() * twist.angular;
+  return s;
+}
+
+void Simulator::queue(std::string channel, Timestamp log_time, SimPayload payload) {
+  SimMessage m;
+  m.channel = std::move(channel);
+  m.log_time = log_time;
+  m.payload = std::move(payload);
+  queue_.emplace(std::make_pair(log_time, sequence_++), std::move(m));
+}
+
+Status Simulator::flush(SimulationSink& sink, Timestamp up_to) {
+  while (!queue_.empty() && queue_.begin()->first.first <= up_to) {
+    CDFF_RETURN_IF_ERROR(sink.write(queue_.begin()->second));
+    queue_.erase(queue_.begin());
+  }
+  return Status::ok();
+}
+
+Status Simulator::begin(SimulationSink& sink) {
+  const Scenario& sc = scenario_;
+  SimulationMetadata m;
+  m.scenario = sc.name;
+  m.scenario_file = sc.file.string();
+  m.scenario_yaml = sc.yaml;
+  m.seed = seed_;
+  m.duration = duration_;
+  m.renderer = rendererDescription();
+  std::vector<std::string> frames = {"eci -> lvlh", "lvlh -> servicer", "lvlh -> target"};
+  std::vector<std::string> sensors;
+  for (const auto& s : sensors_) {
+    frames.push_back("servicer -> " + s->config->frame());
+    sensors.push_back(
+        fmt::format("{} ({}, {} Hz)", s->config->name, toString(s->config->type), s->config->rate));
+  }
+  m.values["frames"] = fmt::format("{}", fmt::join(frames, "; "));
+  m.values["sensors"] = fmt::format("{}", fmt::join(sensors, "; "));
+  m.values["target_model"] = target_.name;
+  m.values["target_triangles"] = std::to_string(target_.mesh.triangleCount());
+  m.values["orbit"] = sc.orbit.enabled ? fmt::format("circular, altitude {} m, n = {} rad/s",
+                                                     sc.orbit.altitude, sc.orbit.meanMotion())
+                                       : "none (free space)";
+  CDFF_RETURN_IF_ERROR(sink.begin(m));
+  // Static transforms: every sensor's mounting.
+  for (const auto& s : sensors_)
+    queue("/tf_static", 0, toTransform(s->servicer_T_frame, "servicer", s->config->frame(), 0));
+  time_ = 0;
+  done_ = false;
+  return Status::ok();
+}
+
+Result<bool> Simulator::step(SimulationSink& sink, double until) {
+  const double end = std::min(until, duration_);
+  while (!done_) {
+    // The next event: a sensor measurement or a truth record, earliest first (ties in sensor
+    // order, truth last).
+    double next = std::numeric_limits<double>::infinity();
+    SensorState* chosen = nullptr;
+    for (auto& s : sensors_) {
+      const double t = s->nextTime();
+      if (t < next) {
+        next = t;
+        chosen = s.get();
+      }
+    }
+    const double truth_time = static_cast<double>(truth_index_) / scenario_.truth_rate;
+    const bool truth = truth_time < next;
+    if (truth) next = truth_time;
+    if (next > duration_) {
+      done_ = true;
+      break;
+    }
+    if (next > end) break;
+    // Fault transitions, recorded as they happen.
+    for (std::size_t f = 0; f < scenario_.faults.size(); ++f) {
+      const FaultConfig& fault = scenario_.faults[f];
+      if (!fault_started_[f] && fault.start <= next) {
+        fault_started_[f] = true;
+        queue("/truth/faults", micros(fault.start),
+              FaultEvent{micros(fault.start), fault.sensor, toString(fault.type), "start"});
+      }
+      if (!fault_ended_[f] && fault.end <= next) {
+        fault_ended_[f] = true;
+        queue("/truth/faults", micros(fault.end),
+              FaultEvent{micros(fault.end), fault.sensor, toString(fault.type), "end"});
+      }
+    }
+    CDFF_RETURN_IF_ERROR(flush(sink, micros(next) - 1));
+    time_ = next;
+    if (truth) {
+      CDFF_RETURN_IF_ERROR(processTruth(next));
+      ++truth_index_;
+    } else {
+      CDFF_RETURN_IF_ERROR(process(*chosen, next));
+      ++chosen->index;
+    }
+  }
+  CDFF_RETURN_IF_ERROR(flush(sink, micros(std::min(end, time_))));
+  return !done_;
+}
+
+Status Simulator::finish(SimulationSink& sink) {
+  CDFF_RETURN_IF_ERROR(flush(sink, std::numeric_limits<Timestamp>::max()));
+  return sink.end();
+}
+
+Status Simulator::run(SimulationSink& sink, const ProgressCallback& progress) {
+  CDFF_RETURN_IF_ERROR(begin(sink));
+  const double slice = std::max(duration_ / 100.0, 1e-3);
+  for (double until = slice;; until += slice) {
+    auto more = step(sink, until);
+    if (!more) return more.status();
+    if (progress) progress(std::min(time_, duration_), duration_);
+    if (!*more) break;
+  }
+  return finish(sink);
+}
+
+Status Simulator::processTruth(double t) {
+  const Timestamp stamp = micros(t);
+  RigidBodyState truth = truthState("servicer", Eigen::Isometry3d::Identity(), t);
+  queue("/truth/target_pose", stamp, truth);
+  const BodyState servicer = world_->servicer(t), target = world_->target(t);
+  queue("/tf", stamp, toTransform(servicer.lvlh_T_body, "lvlh", "servicer", stamp));
+  queue("/tf", stamp, toTransform(target.lvlh_T_body, "lvlh", "target", stamp));
+  if (scenario_.orbit.enabled) {
+    Eigen::Isometry3d eci_T_lvlh = Eigen::Isometry3d::Identity();
+    eci_T_lvlh.linear() = scenario_.orbit.eciRotationLvlh(t);
+    eci_T_lvlh.translation() = scenario_.orbit.targetPositionEci(t);
+    queue("/tf", stamp, toTransform(eci_T_lvlh, "eci", "lvlh", stamp));
+  }
+  return Status::ok();
+}
+
+Status Simulator::renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders,
+                               const CameraSensor& camera) {
+  const SensorConfig& c = *sensor.config;
+  const int samples = c.camera.motion_blur_samples;
+  for (int i = 0; i < samples; ++i) {
+    // Samples spread over the exposure, centred on the image's time stamp.
+    const double ts = samples == 1 ? t : t + c.camera.exposure_time * ((i + 0.5) / samples - 0.5);
+    const BodyState servicer = world_->servicer(ts);
+    const Eigen::Isometry3d lvlh_T_camera = servicer.lvlh_T_body * sensor.servicer_T_frame;
+    const Eigen::Isometry3d camera_T_lvlh = lvlh_T_camera.inverse();
+    RenderScene scene;
+    scene.objects.push_back(
+        {target_handle_, camera_T_lvlh * world_->target(ts).lvlh_T_body, 1, true});
+    if (servicer_handle_ >= 0)
+      scene.objects.push_back({servicer_handle_, sensor.frame_T_servicer, 2, true});
+    scene.sun_direction = camera_T_lvlh.linear() * world_->sunDirection(ts);
+    scene.sun_irradiance =
+        scenario_.eclipses && world_->inEclipse(ts) ? 0.0 : world_->sun().irradiance;
+    scene.shadow_map_size = c.camera.shadow_map_size;
+    CDFF_RETURN_IF_ERROR(
+        renderer_->render(scene, camera.renderCamera(), renders[i]).withContext(c.name));
+  }
+  return Status::ok();
+}
+
+Status Simulator::process(SensorState& sensor, double t) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const Timestamp latency = micros(c.latency);
+  // Frame-level faults: dropped and late measurements (any sensor).
+  Rng fault_rng = Rng::stream(seed_, c.name + "/faults", sensor.index);
+  Timestamp delay = 0;
+  for (const FaultConfig& f : scenario_.faults) {
+    if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
+    if (f.type == FaultType::kDroppedFrames && fault_rng.uniform() < f.probability) {
+      queue("/truth/faults", stamp,
+            FaultEvent{stamp, c.name, "dropped_frame",
+                       fmt::format("measurement {} dropped", sensor.index)});
+      return Status::ok();
+    }
+    if (f.type == FaultType::kLateFrames && fault_rng.uniform() < f.probability) {
+      delay += micros(f.delay);
+      queue("/truth/faults", stamp + delay,
+            FaultEvent{stamp, c.name, "late_frame",
+                       fmt::format("measurement {} delayed by {} s", sensor.index, f.delay)});
+    }
+  }
+  const Timestamp available = stamp + latency + delay;
+  Rng rng = Rng::stream(seed_, c.name, sensor.index);
+  const std::string prefix = c.channelPrefix();
+  switch (c.type) {
+    case SensorType::kCamera: {
+      const CameraSensor& camera = *sensor.camera;
+      CameraFaults faults;
+      for (const FaultConfig& f : scenario_.faults) {
+        if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
+        if (f.type == FaultType::kCameraFailure) faults.dark = true;
+        if (f.type == FaultType::kGlare) {
+          faults.glare_gain *= f.gain;
+          faults.extra_glare += f.veil;
+        }
+        if (f.type == FaultType::kOcclusion) {
+          faults.occlusion = f.fraction;
+          faults.occlusion_mode = f.mode;
+        }
+      }
+      CDFF_RETURN_IF_ERROR(renderCamera(sensor, t, sensor.renders, camera));
+      const BodyState servicer = world_->servicer(t);
+      const Eigen::Isometry3d lvlh_T_camera = servicer.lvlh_T_body * sensor.servicer_T_frame;
+      BackgroundView view;
+      view.lvlh_R_camera = lvlh_T_camera.linear();
+      view.camera_position = lvlh_T_camera.translation();
+      view.eci_R_lvlh = scenario_.orbit.eciRotationLvlh(t);
+      view.sun_direction = world_->sunDirection(t);
+      view.sun_irradiance =
+          scenario_.eclipses && world_->inEclipse(t) ? 0.0 : world_->sun().irradiance;
+      view.earth = scenario_.orbit.enabled && scenario_.earth;
+      view.earth_centre = scenario_.orbit.earthCentreLvlh();
+      view.stars = scenario_.stars && c.camera.stars;
+      view.star_gain = scenario_.star_gain * c.camera.star_gain;
+      view.star_psf_sigma = std::max(0.5, c.camera.psf_sigma);
+      auto frame = camera.expose(sensor.renders, view, faults, rng);
+      if (!frame) return frame.status().withContext(c.name);
+      frame->image.stamp = stamp;
+      frame->image.frame_id = c.frame();
+      queue(prefix + "/image", available, frame->image);
+      queue(prefix + "/camera_info", available, CameraInfo{stamp, c.frame(), c.camera.model});
+      if (scenario_.truth_camera_depth) {
+        frame->depth.image.stamp = stamp;
+        frame->depth.image.frame_id = c.frame();
+        queue("/truth/" + c.name + "/depth", stamp, frame->depth);
+      }
+      if (faults.occlusion > 0)
+        queue("/truth/faults", stamp,
+              FaultEvent{
+                  stamp, c.name, "occlusion",
+                  fmt::format(
+                      "{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
+                      faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
+      return Status::ok();
+    }
+    case SensorType::kLidar: {
+      LidarFaults faults;
+      for (const FaultConfig& f : scenario_.faults) {
+        if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
+        if (f.type == FaultType::kLidarDropout) faults.extra_dropout += f.probability;
+        if (f.type == FaultType::kLidarSpurious) faults.extra_spurious += f.rate;
+      }
+      const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
+      const RelativePose pose = [this, frame_T_servicer](double s) {
+        return frame_T_servicer * world_->servicerTtarget(s);
+      };
+      auto cloud = sensor.lidar->scan(*caster_, target_, pose, t, faults, rng);
+      if (!cloud) return cloud.status().withContext(c.name);
+      cloud->stamp = stamp;
+      cloud->frame_id = c.frame();
+      // A scan is complete (and published) one revolution after it started.
+      queue(prefix + "/points", available + micros(sensor.lidar->period()),
+            std::move(cloud).value());
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
+      return Status::ok();
+    }
+    case SensorType::kTof: {
+      double dropout = 0;
+      for (const FaultConfig& f : scenario_.faults)
+        if (f.appliesTo(c.name) && f.activeAt(t) && f.type == FaultType::kLidarDropout)
+          dropout += f.probability;
+      auto depth = sensor.tof->capture(*caster_, target_, sensorTtarget(c, t), dropout, rng);
+      if (!depth) return depth.status().withContext(c.name);
+      depth->image.stamp = stamp;
+      depth->image.frame_id = c.frame();
+      queue(prefix + "/depth", available, std::move(depth).value());
+      queue(prefix + "/camera_info", available, CameraInfo{stamp, c.frame(), c.tof.model});
+      queue("/truth/" + c.name + "/target_pose", stamp,
+            truthState(c.frame(), sensor.frame_T_servicer, t));
+      return Status::ok();
+    }
+    case SensorType::kImu: {
+      std::vector<ImuBiasJump> jumps;
+      for (const FaultConfig& f : scenario_.faults)
+        if (f.appliesTo(c.name) && f.type == FaultType::kImuBiasJump)
+          jumps.push_back({f.start, f.gyro, f.accel});
+      auto sample = sensor.imu->sample(*world_, t, jumps);
+      if (!sample) return sample.status();
+      sample->stamp = stamp;
+      sample->frame_id = c.frame();
+      queue(prefix, available, std::move(sample).value());
+      return Status::ok();
+    }
+    case SensorType::kRadar: {
+      const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
+      const RelativePose pose = [this, frame_T_servicer](double s) {
+        return frame_T_servicer * world_->servicerTtarget(s);
+      };
+      auto m = measureRadar(c.radar, *caster_, pose, t, rng);
+      if (!m) return m.status().withContext(c.name);
+      m->stamp = stamp;
+      m->frame_id = c.frame();
+      queue(prefix + "/range", available, std::move(m).value());
+      return Status::ok();
+    }
+  }
+  return Status::ok();
+}
+
+}  // namespace cdff::egse

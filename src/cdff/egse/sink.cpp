@@ -1,0 +1,98 @@
+#include "cdff/egse/sink.hpp"
+
+namespace cdff::egse {
+
+std::size_t MemorySink::count(const std::string& channel) const {
+  std::size_t n = 0;
+  for (const SimMessage& m : messages_) n += m.channel == channel;
+  return n;
+}
+
+void DigestSink::add(const void* data, std::size_t size) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    hash_ ^= bytes[i];
+    hash_ *= 0x100000001b3ULL;
+  }
+}
+
+void DigestSink::add(const std::string& s) {
+  const std::uint64_t n = s.size();
+  add(&n, sizeof(n));
+  add(s.data(), s.size());
+}
+
+Status DigestSink::begin(const SimulationMetadata& m) {
+  add(m.scenario);
+  add(m.scenario_yaml);
+  add(&m.seed, sizeof(m.seed));
+  add(m.renderer);
+  return Status::ok();
+}
+
+Status DigestSink::write(const SimMessage& message) {
+  ++count_;
+  add(message.channel);
+  add(&message.log_time, sizeof(message.log_time));
+  auto add_transform = [&](const Transform& t) {
+    add(&t.stamp, sizeof(t.stamp));
+    add(t.parent_frame);
+    add(t.child_frame);
+    add(t.translation.data(), 3 * sizeof(double));
+    add(t.rotation.coeffs().data(), 4 * sizeof(double));
+  };
+  auto add_image = [&](const Image& i) {
+    add(&i.stamp, sizeof(i.stamp));
+    add(i.frame_id);
+    add(&i.width, sizeof(i.width));
+    add(&i.height, sizeof(i.height));
+    add(i.pixels.data(), i.pixels.size());
+  };
+  std::visit(
+      [&](const auto& v) {
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, Image>) {
+          add_image(v);
+        } else if constexpr (std::is_same_v<T, DepthMap>) {
+          add_image(v.image);
+        } else if constexpr (std::is_same_v<T, PointCloud>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.frame_id);
+          add(v.points.data(), v.points.size() * sizeof(Point4f));
+          add(v.intensity.data(), v.intensity.size() * sizeof(float));
+          add(v.ring.data(), v.ring.size() * sizeof(std::uint16_t));
+          add(v.time_offset_us.data(), v.time_offset_us.size() * sizeof(std::int32_t));
+        } else if constexpr (std::is_same_v<T, ImuSample>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.angular_velocity.data(), 3 * sizeof(double));
+          add(v.linear_acceleration.data(), 3 * sizeof(double));
+        } else if constexpr (std::is_same_v<T, RangeMeasurement>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(&v.valid, sizeof(v.valid));
+          add(&v.range, sizeof(v.range));
+          add(&v.range_rate, sizeof(v.range_rate));
+          add(v.direction.data(), 3 * sizeof(double));
+        } else if constexpr (std::is_same_v<T, CameraInfo>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.frame_id);
+          const double k[4] = {v.model.fx, v.model.fy, v.model.cx, v.model.cy};
+          add(k, sizeof(k));
+          add(v.model.distortion.data(), v.model.distortion.size() * sizeof(double));
+        } else if constexpr (std::is_same_v<T, Transform>) {
+          add_transform(v);
+        } else if constexpr (std::is_same_v<T, RigidBodyState>) {
+          add_transform(v.pose);
+          add(v.twist.linear.data(), 3 * sizeof(double));
+          add(v.twist.angular.data(), 3 * sizeof(double));
+        } else if constexpr (std::is_same_v<T, FaultEvent>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.sensor);
+          add(v.fault);
+          add(v.detail);
+        }
+      },
+      message.payload);
+  return Status::ok();
+}
+
+}  // namespace cdff::egse

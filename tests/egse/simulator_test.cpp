@@ -1,0 +1,274 @@
+// Whole runs: every stream is there in order, the truth is consistent, runs are deterministic,
+// and the configured faults show in the data.
+#include <cmath>
+#include <map>
+
+#include <gtest/gtest.h>
+
+#include "cdff/egse/simulator.hpp"
+#include "support/synthetic.hpp"
+
+namespace cdff::egse {
+namespace {
+
+// Small cameras keep the tests fast; everything else is the library scenario.
+std::vector<std::string> smallCameras(std::vector<std::string> extra = {}) {
+  for (const char* camera : {"camera_left", "camera_right"}) {
+    extra.push_back(fmt::format("sensors.{}.width=320", camera));
+    extra.push_back(fmt::format("sensors.{}.height=240", camera));
+    extra.push_back(fmt::format("sensors.{}.fx=300", camera));
+    extra.push_back(fmt::format("sensors.{}.fy=300", camera));
+  }
+  return extra;
+}
+
+Scenario library(const std::string& name, const std::vector<std::string>& overrides) {
+  auto path = resolveScenario(name);
+  EXPECT_TRUE(path.isOk()) << path.status().toString();
+  auto scenario = loadScenario(*path, overrides);
+  EXPECT_TRUE(scenario.isOk()) << scenario.status().toString();
+  return std::move(scenario).value();
+}
+
+double meanPixel(const Image& image) {
+  double sum = 0;
+  for (std::uint8_t v : image.pixels.span()) sum += v;
+  return sum / image.pixels.size();
+}
+
+int maxPixel(const Image& image) {
+  int best = 0;
+  for (std::uint8_t v : image.pixels.span()) best = std::max<int>(best, v);
+  return best;
+}
+
+TEST(Simulator, ShortRunHasEveryStreamInLogTimeOrder) {
+  const Scenario scenario =
+      library("mid_range_approach", smallCameras({"sensors.radar.enabled=true"}));
+  auto sim = Simulator::create(scenario, 3, 1.0);
+  ASSERT_OK(sim.status());
+  MemorySink sink;
+  std::vector<double> progress;
+  ASSERT_OK((*sim)->run(sink, [&](double t, double) { progress.push_back(t); }));
+  EXPECT_EQ(sink.metadata().seed, 3u);
+  EXPECT_EQ(sink.metadata().renderer.rfind("cpu:", 0), 0u) << sink.metadata().renderer;
+  EXPECT_NE(sink.metadata().scenario_yaml.find("radar"), std::string::npos);
+  // 1 s: cameras, LIDAR and ToF at 10 Hz (t = 0 .. 0.9 and 1.0), IMU at 120 Hz, truth at 50 Hz.
+  EXPECT_EQ(sink.count("/chaser/camera/left/image"), 11u);
+  EXPECT_EQ(sink.count("/chaser/camera/right/image"), 11u);
+  EXPECT_EQ(sink.count("/chaser/camera/left/camera_info"), 11u);
+  EXPECT_EQ(sink.count("/chaser/lidar/points"), 11u);
+  EXPECT_EQ(sink.count("/chaser/tof/depth"), 11u);
+  EXPECT_EQ(sink.count("/chaser/imu"), 121u);
+  EXPECT_EQ(sink.count("/chaser/radar/range"), 2u);
+  EXPECT_EQ(sink.count("/truth/target_pose"), 51u);
+  EXPECT_EQ(sink.count("/truth/camera_left/target_pose"), 11u);
+  EXPECT_EQ(sink.count("/tf_static"), 6u);
+  Timestamp last = -1;
+  for (const SimMessage& m : sink.messages()) {
+    EXPECT_GE(m.log_time, last) << m.channel;
+    last = m.log_time;
+  }
+  ASSERT_FALSE(progress.empty());
+  EXPECT_DOUBLE_EQ(progress.back(), 1.0);
+  // The images are what the camera model says: size, format, frame and calibration.
+  const auto images = sink.on<Image>("/chaser/camera/left/image");
+  EXPECT_EQ(images[3].width, 320);
+  EXPECT_EQ(images[3].format, PixelFormat::kGray8);
+  EXPECT_EQ(images[3].frame_id, "camera_left_optical");
+  EXPECT_EQ(images[3].stamp, 300000);
+  ASSERT_TRUE(images[3].camera.has_value());
+  EXPECT_EQ(images[3].camera->fx, 300.0);
+  EXPECT_GT(maxPixel(images[3]), 60) << "the target is in view and lit";
+  const auto clouds = sink.on<PointCloud>("/chaser/lidar/points");
+  EXPECT_GT(clouds[0].size(), 20u)
+      << "a VLP-16's beams are 2 degrees apart: at 17 m a few dozen hit";
+  EXPECT_EQ(clouds[0].frame_id, "lidar");
+  ASSERT_OK(clouds[0].validate());
+  const auto ranges = sink.on<RangeMeasurement>("/chaser/radar/range");
+  ASSERT_TRUE(ranges[0].valid);
+  EXPECT_NEAR(ranges[0].range, 17.0 - 0.45 - 0.72, 1.0);
+}
+
+TEST(Simulator, TruthTransformsAreConsistent) {
+  const Scenario scenario = library("tumbling_target", smallCameras());
+  auto sim = Simulator::create(scenario, 1, 0.5);
+  ASSERT_OK(sim.status());
+  MemorySink sink;
+  ASSERT_OK((*sim)->run(sink));
+  std::map<Timestamp, RigidBodyState> servicer_truth;
+  for (const auto& s : sink.on<RigidBodyState>("/truth/target_pose"))
+    servicer_truth[s.pose.stamp] = s;
+  std::map<std::string, Transform> mounts;
+  for (const auto& t : sink.on<Transform>("/tf_static")) mounts[t.child_frame] = t;
+  ASSERT_TRUE(mounts.count("camera_left_optical"));
+  std::size_t checked = 0;
+  for (const auto& s : sink.on<RigidBodyState>("/truth/camera_left/target_pose")) {
+    auto it = servicer_truth.find(s.pose.stamp);
+    if (it == servicer_truth.end()) continue;
+    // camera_T_target = (servicer_T_camera)^-1 servicer_T_target.
+    const Eigen::Isometry3d expected =
+        mounts["camera_left_optical"].isometry().inverse() * it->second.pose.isometry();
+    EXPECT_LT((s.pose.isometry().matrix() - expected.matrix()).norm(), 1e-9);
+    EXPECT_EQ(s.pose.parent_frame, "camera_left_optical");
+    EXPECT_EQ(s.pose.child_frame, "target");
+    // The twist rotates with the mounting.
+    EXPECT_LT((s.twist.angular -
+               mounts["camera_left_optical"].rotation.conjugate() * it->second.twist.angular)
+                  .norm(),
+              1e-9);
+    ++checked;
+  }
+  EXPECT_GE(checked, 5u);
+  // /tf: lvlh_T_servicer^-1 lvlh_T_target = servicer_T_target; the tumbling target turns at 5
+  // deg/s.
+  std::map<Timestamp, std::map<std::string, Transform>> tf;
+  for (const auto& t : sink.on<Transform>("/tf")) tf[t.stamp][t.child_frame] = t;
+  for (const auto& [stamp, frames] : tf) {
+    const Eigen::Isometry3d s_T_t =
+        frames.at("servicer").isometry().inverse() * frames.at("target").isometry();
+    EXPECT_LT((s_T_t.matrix() - servicer_truth.at(stamp).pose.isometry().matrix()).norm(), 1e-9);
+    EXPECT_TRUE(frames.count("lvlh")) << "eci_T_lvlh with an orbit";
+  }
+  const double rate = servicer_truth.begin()->second.twist.angular.norm() * 180 / M_PI;
+  EXPECT_GT(rate, 4.5);  // the target's 5 deg/s, give or take the servicer's own turning
+  EXPECT_LT(rate, 5.5);
+}
+
+TEST(Simulator, SameSeedGivesIdenticalOutputAndAnotherSeedDoesNot) {
+  const Scenario scenario = library("sensor_faults", smallCameras());
+  std::uint64_t digests[3];
+  const std::uint64_t seeds[3] = {11, 11, 12};
+  for (int i = 0; i < 3; ++i) {
+    auto sim = Simulator::create(scenario, seeds[i], 0.6);
+    ASSERT_OK(sim.status());
+    DigestSink sink;
+    ASSERT_OK((*sim)->run(sink));
+    EXPECT_GT(sink.messages(), 100u);
+    digests[i] = sink.digest();
+  }
+  EXPECT_EQ(digests[0], digests[1]);
+  EXPECT_NE(digests[0], digests[2]);
+}
+
+TEST(Simulator, FaultsShowInTheData) {
+  // The fault scenario, with its windows moved close together to keep the run short.
+  const Scenario scenario = library(
+      "sensor_faults",
+      smallCameras(
+          {"sensors.tof.enabled=false", "faults.0.start=0.5",
+           "faults.0.end=1.5",                               // camera_right dark
+           "faults.1.start=1.5",        "faults.1.end=2.0",  // camera_left glare
+           "faults.2.start=2.0",        "faults.2.end=2.5",  // occlusion 25 %
+           "faults.3.start=2.5",        "faults.3.end=3.0",  // 50 %
+           "faults.4.start=3.0",        "faults.4.end=3.5",  // 75 % (shadow)
+           "faults.5.start=3.5",        "faults.5.end=6.5",  // dropped frames, 30 %
+           "faults.6.start=6.5",        "faults.6.end=9.5",  // late frames, 50 %, 0.25 s
+           "faults.7.start=0.0",        "faults.7.end=1.0",  // LIDAR dropouts, 50 %
+           "faults.8.start=1.0",        "faults.8.end=2.0",  // LIDAR spurious returns, 300 per scan
+           "faults.9.time=5.0",                              // IMU bias jump
+           "sensors.imu.noise=false"}));                     // (seen exactly without the noise)
+  auto sim = Simulator::create(scenario, 5, 10.0);
+  ASSERT_OK(sim.status());
+  MemorySink sink;
+  ASSERT_OK((*sim)->run(sink));
+  auto in = [](Timestamp stamp, double a, double b) {
+    return stamp >= fromSeconds(a) && stamp < fromSeconds(b);
+  };
+
+  // Camera failure: the right camera is dark (read noise only) while the left one is not.
+  const auto right = sink.on<Image>("/chaser/camera/right/image");
+  for (const Image& image : right) {
+    if (in(image.stamp, 0.5, 1.5)) {
+      EXPECT_LE(maxPixel(image), 2);
+    } else if (image.stamp < fromSeconds(2.0)) {
+      EXPECT_GT(maxPixel(image), 20);
+    }
+  }
+  // Glare brightens the left image.
+  const auto left = sink.on<Image>("/chaser/camera/left/image");
+  double glare = 0, clear = 0;
+  for (const Image& image : left) {
+    if (in(image.stamp, 1.5, 2.0)) glare = std::max(glare, meanPixel(image));
+    if (in(image.stamp, 0.5, 1.5)) clear = std::max(clear, meanPixel(image));
+  }
+  EXPECT_GT(glare, clear + 20.0);
+  // Occlusion: the recorded fractions are the seed's 25 / 50 / 75 %.
+  std::vector<double> fractions;
+  for (const FaultEvent& e : sink.on<FaultEvent>("/truth/faults"))
+    if (e.fault == "occlusion" && e.sensor == "camera_left")
+      fractions.push_back(std::stod(e.detail));
+  ASSERT_EQ(fractions.size(), 15u);
+  for (std::size_t i = 0; i < fractions.size(); ++i)
+    EXPECT_NEAR(fractions[i], 0.25 * (1 + i / 5), 0.01);
+  // Dropped frames: about 30 % of the 30 frames in the window are missing.
+  std::size_t kept = 0;
+  for (const Image& image : left) kept += in(image.stamp, 3.5, 6.5);
+  EXPECT_GE(kept, 12u);
+  EXPECT_LE(kept, 28u);
+  // Late frames: some arrive 0.25 s after their stamp, out of order with the other streams.
+  std::size_t late = 0;
+  for (const SimMessage& m : sink.messages())
+    if (m.channel == "/chaser/camera/left/image") {
+      const Timestamp stamp = std::get<Image>(m.payload).stamp;
+      if (m.log_time - stamp == 250000)
+        ++late;
+      else
+        EXPECT_EQ(m.log_time, stamp);
+    }
+  EXPECT_GE(late, 7u);
+  EXPECT_LE(late, 23u);
+  // LIDAR: half the points dropped, then spurious returns added.
+  const auto clouds = sink.on<PointCloud>("/chaser/lidar/points");
+  double dropout = 0, normal = 0, spurious = 0;
+  int nd = 0, nn = 0, ns = 0;
+  for (const PointCloud& c : clouds) {
+    if (in(c.stamp, 0.0, 1.0))
+      dropout += c.size(), ++nd;
+    else if (in(c.stamp, 1.0, 2.0))
+      spurious += c.size(), ++ns;
+    else if (in(c.stamp, 2.0, 3.0))
+      normal += c.size(), ++nn;
+  }
+  EXPECT_NEAR(dropout / nd / (normal / nn), 0.5, 0.1);
+  EXPECT_NEAR(spurious / ns - normal / nn, 300.0, 60.0);
+  // IMU bias jump at 5 s: from one sample to the next the gyro jumps by [0.5, 0, -0.3] deg/s and
+  // the accelerometer by [0, 0.05, 0] m/s^2 (in the IMU frame); the motion itself changes the
+  // readings by far less in 1/120 s.
+  const auto imu = sink.on<ImuSample>("/chaser/imu");
+  for (std::size_t i = 1; i < imu.size(); ++i) {
+    const Eigen::Vector3d dw = (imu[i].angular_velocity - imu[i - 1].angular_velocity) * 180 / M_PI;
+    const Eigen::Vector3d da = imu[i].linear_acceleration - imu[i - 1].linear_acceleration;
+    if (imu[i - 1].stamp < fromSeconds(5.0) && imu[i].stamp >= fromSeconds(5.0)) {
+      EXPECT_LT((dw - Eigen::Vector3d(0.5, 0, -0.3)).norm(), 1e-3);
+      EXPECT_LT((da - Eigen::Vector3d(0, 0.05, 0)).norm(), 1e-3);
+    } else {
+      EXPECT_LT(dw.norm(), 1e-3);
+    }
+  }
+}
+
+TEST(Simulator, TheTargetLeavesTheFieldOfView) {
+  const Scenario scenario =
+      library("leaving_field_of_view",
+              smallCameras({"truth.camera_depth=true", "sensors.lidar.enabled=false",
+                            "sensors.tof.enabled=false", "sensors.camera_right.enabled=false"}));
+  auto sim = Simulator::create(scenario, 1);
+  ASSERT_OK(sim.status());
+  MemorySink sink;
+  ASSERT_OK((*sim)->run(sink));
+  auto coverage = [](const DepthMap& d) {
+    const float* z = reinterpret_cast<const float*>(d.image.pixels.data());
+    std::size_t n = 0;
+    for (int i = 0; i < d.image.width * d.image.height; ++i) n += z[i] > 0;
+    return static_cast<double>(n) / (d.image.width * d.image.height);
+  };
+  const auto depth = sink.on<DepthMap>("/truth/camera_left/depth");
+  ASSERT_EQ(depth.size(), 451u);
+  EXPECT_GT(coverage(depth[0]), 0.01);     // in view at the start
+  EXPECT_GT(coverage(depth[200]), 0.01);   // crossing
+  EXPECT_EQ(coverage(depth.back()), 0.0);  // gone at the end
+}
+
+}  // namespace
+}  // namespace cdff::egse
