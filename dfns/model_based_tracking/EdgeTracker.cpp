@@ -1,5 +1,9 @@
 #include "cdff/tracking/edge_tracker.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <span>
+
 #include "ModelBasedTracking.gen.hpp"
 #include "tracking_common.hpp"
 
@@ -39,6 +43,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     o.depth.max_distance = p.depth_max_distance;
     o.refinement_passes = p.refinement_passes;
     o.refinement_search_distance = p.refinement_search_distance;
+    acquisition_sigmas_ = p.acquisition_sigmas;
+    acquisition_max_search_ = p.acquisition_max_search_distance;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -70,10 +76,21 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (in.depth.hasValue())
       CDFF_RETURN_IF_ERROR(in.depth->validate().withContext("input 'depth'"));
 
+    const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
+    Transform start = predicted.pose;
+    Result<bool> acquired = acquire(cameras->frames, depth, predicted, start);
+    if (!acquired) return acquired.status();
     Result<tracking::TrackingResult> result =
-        tracker_.track(cameras->frames, in.depth.hasValue() ? in.depth.get() : nullptr,
-                       depth_T_camera_, predicted.pose, options_);
+        tracker_.track(cameras->frames, depth, depth_T_camera_, start, options_);
     if (!result) return result.status();
+    if (!*acquired) {
+      result->status = TrackingStatus::kLost;
+      result->reason = "acquisition from the initial pose failed: " + acquisition_failure_;
+      result->reference_T_model = predicted.pose;
+      result->covariance = tracking::noInformationCovariance();
+    } else if (result->status == TrackingStatus::kLost) {
+      result->reference_T_model = predicted.pose;
+    }
     if (result->status != TrackingStatus::kTracking)
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
 
@@ -88,6 +105,65 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   }
 
  private:
+  // How far, in pixels, the prediction's uncertainty moves the model's image in the reference
+  // camera: acquisition_sigmas standard deviations of the lateral position, of the range (which
+  // scales the image about its centre) and of the attitude (which swings the model's extent).
+  double predictionSpreadPx(const tracking::CameraFrame& frame,
+                            const PoseWithCovariance& predicted) const {
+    if (acquisition_sigmas_ <= 0 || !tracker_.hasModel()) return 0;
+    const Matrix6d& c = predicted.covariance;
+    if (!c.allFinite() || c.diagonal().maxCoeff() <= 0 || c.diagonal().maxCoeff() >= 1e5) return 0;
+    const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * predicted.pose.isometry();
+    const double z = (c_T_m * tracker_.model().centre).z();
+    if (z <= options_.visibility.near_clipping) return 0;
+    const double r = tracker_.model().radius;
+    const Eigen::Matrix3d p = c.topLeftCorner<3, 3>();
+    const double lateral = std::sqrt(std::max(0.0, p(0, 0) + p(1, 1)));
+    const double range = std::sqrt(std::max(0.0, p(2, 2)));
+    const double attitude = std::sqrt(std::max(0.0, c.bottomRightCorner<3, 3>().trace()));
+    const double f = std::max(frame.camera.fx, frame.camera.fy);
+    return acquisition_sigmas_ * f / z * (lateral + range * r / z + attitude * r);
+  }
+
+  // Coarse-to-fine passes from an uncertain prediction; `start` becomes their estimate. False
+  // (with acquisition_failure_ saying why) when a pass lost the track.
+  Result<bool> acquire(std::span<const tracking::CameraFrame> frames, const DepthMap* depth,
+                       const PoseWithCovariance& predicted, Transform& start) {
+    if (frames.empty()) return true;
+    std::size_t reference = 0;
+    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    const double spread = predictionSpreadPx(frames[reference], predicted);
+    int distance = std::min(acquisition_max_search_, static_cast<int>(std::ceil(spread)));
+    if (distance <= options_.search.search_distance) return true;
+    tracking::EdgeTrackerOptions coarse = options_;
+    coarse.refinement_passes = 0;
+    coarse.visibility_update_translation = coarse.visibility_update_rotation = 0;
+    // The passes may move as far as the prediction is uncertain.
+    const Matrix6d& c = predicted.covariance;
+    coarse.solver.divergence_translation =
+        std::max(options_.solver.divergence_translation,
+                 2 * acquisition_sigmas_ * std::sqrt(c.topLeftCorner<3, 3>().trace()));
+    coarse.solver.divergence_rotation =
+        std::max(options_.solver.divergence_rotation,
+                 2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
+    for (; distance > options_.search.search_distance; distance /= 2) {
+      coarse.search.search_distance = distance;
+      Result<tracking::TrackingResult> pass =
+          tracker_.track(frames, depth, depth_T_camera_, start, coarse);
+      if (!pass) return pass.status();
+      if (pass->status == TrackingStatus::kLost) {
+        acquisition_failure_ =
+            fmt::format("at a search distance of {} px: {}", distance, pass->reason);
+        return false;
+      }
+      start = pass->reference_T_model;
+    }
+    return true;
+  }
+
+  double acquisition_sigmas_ = 3;
+  int acquisition_max_search_ = 64;
+  std::string acquisition_failure_;
   tracking::EdgeTrackerOptions options_;
   Eigen::Isometry3d depth_T_camera_ = Eigen::Isometry3d::Identity();
   mbt::ModelSource models_;

@@ -118,7 +118,7 @@ inline Timestamp sensorStamp(const ModelBasedTracking::Inputs& in) {
     if (!in.stereo_images->right.empty() && in.stereo_images->right.stamp != 0)
       return in.stereo_images->right.stamp;
   }
-  if (in.depth.hasValue()) return in.depth->stamp;
+  if (in.depth.hasValue()) return in.depth->image.stamp;
   return 0;
 }
 
