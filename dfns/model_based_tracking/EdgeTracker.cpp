@@ -125,19 +125,55 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     return acquisition_sigmas_ * f / z * (lateral + range * r / z + attitude * r);
   }
 
-  // Coarse-to-fine passes from an uncertain prediction; `start` becomes their estimate. False
-  // (with acquisition_failure_ saying why) when a pass lost the track.
+  // Half the resolution by 2x2 averaging, with the camera model of the smaller image.
+  static Image halve(const Image& image) {
+    const int w = image.width / 2, h = image.height / 2;
+    std::vector<std::uint8_t> out(static_cast<std::size_t>(w) * h);
+    for (int y = 0; y < h; ++y) {
+      const std::uint8_t* r0 = image.row(2 * y);
+      const std::uint8_t* r1 = image.row(2 * y + 1);
+      for (int x = 0; x < w; ++x)
+        out[static_cast<std::size_t>(y) * w + x] = static_cast<std::uint8_t>(
+            (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1] + 2) / 4);
+    }
+    Image half = Image::fromBytes(std::move(out), w, h, PixelFormat::kGray8).value();
+    half.stamp = image.stamp;
+    half.frame_id = image.frame_id;
+    return half;
+  }
+  static CameraModel halve(const CameraModel& c) {
+    CameraModel h = c;
+    h.width = c.width / 2;
+    h.height = c.height / 2;
+    h.fx = c.fx / 2;
+    h.fy = c.fy / 2;
+    h.cx = (c.cx + 0.5) / 2 - 0.5;
+    h.cy = (c.cy + 0.5) / 2 - 0.5;
+    return h;
+  }
+
+  // Coarse-to-fine acquisition from an uncertain prediction: a pass on an image pyramid level
+  // where the prediction's spread fits the search distance, then one pass per finer level;
+  // `start` becomes their estimate. False (acquisition_failure_ says why) when a pass lost the
+  // track. The final pass at full resolution (the caller's) checks the inlier ratio.
   Result<bool> acquire(std::span<const tracking::CameraFrame> frames, const DepthMap* depth,
                        const PoseWithCovariance& predicted, Transform& start) {
     if (frames.empty()) return true;
     std::size_t reference = 0;
     while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
     const double spread = predictionSpreadPx(frames[reference], predicted);
-    int distance = std::min(acquisition_max_search_, static_cast<int>(std::ceil(spread)));
-    if (distance <= options_.search.search_distance) return true;
+    const int search = options_.search.search_distance;
+    if (spread <= search) return true;
+    int levels = 0;  // pyramid levels below full resolution
+    while (levels < 3 && spread / (1 << levels) > acquisition_max_search_) ++levels;
+    while (levels < 3 && spread / (1 << levels) > 2 * search &&
+           (frames[reference].camera.width >> (levels + 1)) >= 160)
+      ++levels;
     tracking::EdgeTrackerOptions coarse = options_;
     coarse.refinement_passes = 0;
     coarse.visibility_update_translation = coarse.visibility_update_rotation = 0;
+    coarse.min_inlier_ratio = 0;
+    coarse.degraded_inlier_ratio = 0;
     // The passes may move as far as the prediction is uncertain.
     const Matrix6d& c = predicted.covariance;
     coarse.solver.divergence_translation =
@@ -146,14 +182,30 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     coarse.solver.divergence_rotation =
         std::max(options_.solver.divergence_rotation,
                  2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
-    for (; distance > options_.search.search_distance; distance /= 2) {
-      coarse.search.search_distance = distance;
+    // The pyramid of every camera's image.
+    std::vector<std::vector<Image>> pyramid(frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (!frames[i].image) continue;
+      pyramid[i].push_back(*frames[i].image);
+      for (int l = 1; l <= levels; ++l) pyramid[i].push_back(halve(pyramid[i].back()));
+    }
+    for (int level = levels; level >= 0; --level) {
+      std::vector<tracking::CameraFrame> scaled(frames.begin(), frames.end());
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        for (int l = 0; l < level; ++l) scaled[i].camera = halve(scaled[i].camera);
+        if (frames[i].image) scaled[i].image = &pyramid[i][static_cast<std::size_t>(level)];
+      }
+      const double level_spread = spread / (1 << level);
+      coarse.search.search_distance = level == levels
+                                          ? std::clamp(static_cast<int>(std::ceil(level_spread)),
+                                                       search, acquisition_max_search_)
+                                          : search;
       Result<tracking::TrackingResult> pass =
-          tracker_.track(frames, depth, depth_T_camera_, start, coarse);
+          tracker_.track(scaled, level == 0 ? depth : nullptr, depth_T_camera_, start, coarse);
       if (!pass) return pass.status();
       if (pass->status == TrackingStatus::kLost) {
-        acquisition_failure_ =
-            fmt::format("at a search distance of {} px: {}", distance, pass->reason);
+        acquisition_failure_ = fmt::format("at pyramid level {} (search distance {} px): {}", level,
+                                           coarse.search.search_distance, pass->reason);
         return false;
       }
       start = pass->reference_T_model;

@@ -280,6 +280,10 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
         (e.position_error_m > 0.1 * e.range_m || e.angle_error_deg > 10))
       ++r.unreported_divergence;
   }
+  for (const dfpc::Event& e : products.events(dfpc::EventType::kDfnWarning))
+    if (r.warnings.size() < 20)
+      r.warnings.push_back(
+          fmt::format("{:.1f} s {}: {}", toSeconds(e.stamp), e.instance, e.message));
   std::map<Timestamp, double> cpu;
   for (const dfpc::MemorySink::Timing& t : products.timings()) {
     if (t.status != StatusCode::kOk) ++r.dfn_errors;

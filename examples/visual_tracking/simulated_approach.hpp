@@ -56,6 +56,7 @@ struct ApproachResult {
   std::size_t dfn_errors = 0;
   std::size_t late_frames = 0;  // published after a newer frame: dropped
   std::string renderer;
+  std::vector<std::string> warnings;  // the DFNs' warnings (why frames were lost), first 20
 };
 
 /// Runs the scenario (cameras only) through the DFPC.

@@ -3,7 +3,7 @@
 // against the simulator's ground truth. What `make demo` runs for visual tracking:
 //
 //   visual_tracking_demo [--scenario close_range_approach] [--rate 2] [--duration 60]
-//                        [--dfi both|EdgeTracker|VispMbt] [--stereo] [--seed 7]
+//                        [--dfi both|EdgeTracker|VispMbt] [--stereo] [--seed 7] [--verbose]
 //
 // Prints one table row per chain; exits with 1 on a bad argument or a failed run, and with 2 when
 // a chain diverged without reporting LOST.
@@ -19,6 +19,7 @@
 int main(int argc, char** argv) {
   cdff::visual_demo::ApproachOptions options;
   std::string dfi = "both";
+  bool verbose = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -47,6 +48,8 @@ int main(int argc, char** argv) {
       options.seed = static_cast<std::uint64_t>(number(value()));
     else if (a == "--stereo")
       options.stereo = true;
+    else if (a == "--verbose")
+      verbose = true;
     else if (a == "--dfi") {
       dfi = value();
       if (dfi != "both" && dfi != "EdgeTracker" && dfi != "VispMbt") {
@@ -59,7 +62,7 @@ int main(int argc, char** argv) {
       fmt::print(
           stderr,
           "visual_tracking_demo: unknown argument '{}'; expected --scenario NAME, --rate HZ, "
-          "--duration S, --dfi both|EdgeTracker|VispMbt, --stereo, --seed N\n",
+          "--duration S, --dfi both|EdgeTracker|VispMbt, --stereo, --seed N, --verbose\n",
           a);
       return 1;
     }
@@ -84,6 +87,8 @@ int main(int argc, char** argv) {
       return 1;
     }
     fmt::print("{}\n", cdff::visual_demo::summaryLine(chain, *r));
+    if (verbose)
+      for (const std::string& w : r->warnings) fmt::print("  {}\n", w);
     std::fflush(stdout);
     if (r->unreported_divergence > 0) rc = 2;
   }
