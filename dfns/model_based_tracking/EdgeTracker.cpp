@@ -125,6 +125,17 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     return acquisition_sigmas_ * f / z * (lateral + range * r / z + attitude * r);
   }
 
+  static constexpr double kMinModelPx = 96;
+
+  // The diameter of the model's bounding sphere in the image, at the prediction.
+  double modelSizePx(const tracking::CameraFrame& frame,
+                     const PoseWithCovariance& predicted) const {
+    const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * predicted.pose.isometry();
+    const double z = (c_T_m * tracker_.model().centre).z();
+    if (z <= options_.visibility.near_clipping) return 0;
+    return 2 * tracker_.model().radius * std::max(frame.camera.fx, frame.camera.fy) / z;
+  }
+
   // Half the resolution by 2x2 averaging, with the camera model of the smaller image.
   static Image halve(const Image& image) {
     const int w = image.width / 2, h = image.height / 2;
@@ -164,11 +175,12 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     const double spread = predictionSpreadPx(frames[reference], predicted);
     const int search = options_.search.search_distance;
     if (spread <= search) return true;
-    int levels = 0;  // pyramid levels below full resolution
-    while (levels < 3 && spread / (1 << levels) > acquisition_max_search_) ++levels;
-    while (levels < 3 && spread / (1 << levels) > 2 * search &&
-           (frames[reference].camera.width >> (levels + 1)) >= 160)
-      ++levels;
+    // Pyramid levels below full resolution: as many as the spread needs, while the model's image
+    // at the level stays large enough to fix the pose (kMinModelPx across).
+    const double model_px = modelSizePx(frames[reference], predicted);
+    const auto fits = [&](int level) { return model_px / (1 << level) >= kMinModelPx; };
+    int levels = 0;
+    while (levels < 3 && spread / (1 << levels) > 2 * search && fits(levels + 1)) ++levels;
     tracking::EdgeTrackerOptions coarse = options_;
     coarse.refinement_passes = 0;
     coarse.visibility_update_translation = coarse.visibility_update_rotation = 0;

@@ -4,9 +4,11 @@
 //
 //   visual_tracking_demo [--scenario close_range_approach] [--rate 2] [--duration 60]
 //                        [--dfi both|EdgeTracker|VispMbt] [--stereo] [--seed 7] [--verbose]
+//                        [--tracker '{yaml: parameters}'] [--initial-error 5 5]
 //
 // Prints one table row per chain; exits with 1 on a bad argument or a failed run, and with 2 when
 // a chain diverged without reporting LOST.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -48,7 +50,12 @@ int main(int argc, char** argv) {
       options.seed = static_cast<std::uint64_t>(number(value()));
     else if (a == "--stereo")
       options.stereo = true;
-    else if (a == "--verbose")
+    else if (a == "--tracker")
+      options.dfi_parameters = value();
+    else if (a == "--initial-error") {
+      options.initial_range_fraction = number(value()) / 100;
+      options.initial_angle = number(value()) * M_PI / 180;
+    } else if (a == "--verbose")
       verbose = true;
     else if (a == "--dfi") {
       dfi = value();
@@ -62,7 +69,8 @@ int main(int argc, char** argv) {
       fmt::print(
           stderr,
           "visual_tracking_demo: unknown argument '{}'; expected --scenario NAME, --rate HZ, "
-          "--duration S, --dfi both|EdgeTracker|VispMbt, --stereo, --seed N, --verbose\n",
+          "--duration S, --dfi both|EdgeTracker|VispMbt, --stereo, --seed N, --tracker YAML, "
+          "--initial-error PERCENT DEG, --verbose\n",
           a);
       return 1;
     }
