@@ -11,5 +11,7 @@ void addDemoCommand(CLI::App& root, int& exit_code);
 void addLogCommands(CLI::App& root, int& exit_code);
 void addSimCommand(CLI::App& root, int& exit_code);
 void addDfpcCommands(CLI::App& root, int& exit_code);
+void addRunCommand(CLI::App& root, int& exit_code);
+void addEvalCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

@@ -54,10 +54,10 @@ int main(int argc, char** argv) {
   cdff::app::addDfnCommands(app, exit_code);
   cdff::app::addDemoCommand(app, exit_code);
   cdff::app::addDfpcCommands(app, exit_code);
-#ifdef CDFF_HAVE_LOG_COMMAND
   cdff::app::addLogCommands(app, exit_code);
-#endif
   cdff::app::addSimCommand(app, exit_code);
+  cdff::app::addRunCommand(app, exit_code);
+  cdff::app::addEvalCommand(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {

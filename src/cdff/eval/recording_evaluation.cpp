@@ -1,0 +1,203 @@
+#include "cdff/eval/recording_evaluation.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <set>
+
+#include "cdff/io/replay.hpp"
+
+namespace cdff::eval {
+
+namespace {
+
+bool isPoseType(std::string_view type) {
+  return type == "PoseWithCovariance" || type == "RigidBodyState" || type == "Transform";
+}
+
+Result<Transform> decodePose(const io::ReplayMessage& m) {
+  if (m.cdffType() == "Transform") {
+    Result<std::shared_ptr<const Transform>> t = m.decode<Transform>();
+    if (!t) return t.status();
+    return **t;
+  }
+  if (m.cdffType() == "PoseWithCovariance") {
+    Result<std::shared_ptr<const PoseWithCovariance>> p = m.decode<PoseWithCovariance>();
+    if (!p) return p.status();
+    return (*p)->pose;
+  }
+  Result<std::shared_ptr<const RigidBodyState>> s = m.decode<RigidBodyState>();
+  if (!s) return s.status();
+  return (*s)->pose;
+}
+
+bool isFinite(const Transform& t) {
+  return t.translation.allFinite() && t.rotation.coeffs().allFinite();
+}
+
+// "/cdff/<dfpc>/<output>" -> "<dfpc>", "" when the channel is not a DFPC product.
+std::string dfpcOf(const std::string& channel) {
+  constexpr std::string_view prefix = "/cdff/";
+  if (channel.rfind(prefix, 0) != 0) return {};
+  const std::size_t end = channel.find('/', prefix.size());
+  if (end == std::string::npos) return {};
+  return channel.substr(prefix.size(), end - prefix.size());
+}
+
+struct Series {
+  std::vector<Transform> poses;
+  std::string type;
+};
+
+std::string framesOf(const Series& s) {
+  if (s.poses.empty()) return "(no message)";
+  return fmt::format("{}_T_{}", s.poses.front().parent_frame, s.poses.front().child_frame);
+}
+
+std::string listChannels(const std::map<std::string, Series>& series) {
+  std::string out;
+  for (const auto& [name, s] : series)
+    out += fmt::format("{}{} ({}, {})", out.empty() ? "" : ", ", name, s.type, framesOf(s));
+  return out.empty() ? "none" : out;
+}
+
+}  // namespace
+
+Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths,
+                                           const RecordingEvaluationOptions& options,
+                                           RecordingEvaluationNotes* notes) {
+  auto note = [&](std::string text) {
+    if (notes) notes->notes.push_back(std::move(text));
+  };
+  io::Replay replay;
+  CDFF_RETURN_IF_ERROR(replay.open(paths));
+
+  std::map<std::string, Series> products, truths;
+  std::map<std::string, std::vector<std::pair<Timestamp, std::string>>> track_states;
+  std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
+  std::set<std::string> wanted(options.products.begin(), options.products.end());
+
+  while (replay.next()) {
+    const io::ReplayMessage& m = replay.message();
+    const std::string& channel = m.channel();
+    const std::string dfpc = dfpcOf(channel);
+    if (channel == "/cdff/events") {
+      Result<std::shared_ptr<const nlohmann::json>> e = m.decode<nlohmann::json>();
+      if (!e) return e.status();
+      const nlohmann::json& j = **e;
+      if (j.value("type", "") != "track_state_changed") continue;
+      const std::string text = j.value("message", "");
+      const std::size_t arrow = text.find("-> ");
+      if (arrow == std::string::npos) continue;
+      track_states[j.value("dfpc", "")].emplace_back(m.logTime(), text.substr(arrow + 3));
+    } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
+      Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
+      if (!t) return t.status();
+      step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
+    } else if (isPoseType(m.cdffType()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
+      const bool is_truth = dfpc.empty();
+      Result<Transform> pose = decodePose(m);
+      if (!pose) return pose.status();
+      Series& s = (is_truth ? truths : products)[channel];
+      s.type = std::string(m.cdffType());
+      s.poses.push_back(*pose);
+    }
+  }
+  // A damaged recording is evaluated up to the damage, and says so.
+  if (Status s = replay.status(); !s.isOk())
+    note(fmt::format("the recording is damaged; evaluated up to the damage: {}", s.message()));
+
+  for (const std::string& w : wanted)
+    if (!products.count(w))
+      return notFound(
+          "product channel '{}' is not a pose product of the recording; its pose "
+          "products: {}",
+          w, listChannels(products));
+  if (!wanted.empty())
+    std::erase_if(products, [&](const auto& p) { return !wanted.count(p.first); });
+  if (products.empty())
+    return notFound(
+        "no pose product (/cdff/<dfpc>/<output> of type PoseWithCovariance, "
+        "RigidBodyState or Transform) in {}",
+        fmt::join(paths, ", "));
+  if (truths.empty())
+    return notFound(
+        "no ground truth (/truth/* of a pose type) in {}; run `cdff run` with the "
+        "simulator's recording as input (it copies /truth/ channels)",
+        fmt::join(paths, ", "));
+
+  EvaluationReport report;
+  report.input = fmt::format("{}", fmt::join(paths, ", "));
+  report.statistic = toString(options.statistic);
+  for (auto& [channel, product] : products) {
+    // Which truth.
+    std::string truth_channel;
+    if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
+      if (!truths.count(p->second))
+        return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
+                        p->second, p->second, listChannels(truths));
+      truth_channel = p->second;
+    } else {
+      std::vector<std::string> candidates;
+      for (const auto& [name, t] : truths)
+        if (framesOf(t) == framesOf(product)) candidates.push_back(name);
+      if (candidates.empty()) {
+        note(fmt::format("{} ({}): no truth channel of the same transform; truth channels: {}",
+                         channel, framesOf(product), listChannels(truths)));
+        continue;
+      }
+      truth_channel = candidates.front();
+      // Several: the documented preference, or the first by name and the user is told.
+      if (candidates.size() > 1) {
+        if (std::find(candidates.begin(), candidates.end(), "/truth/target_pose") !=
+            candidates.end())
+          truth_channel = "/truth/target_pose";
+        else
+          note(fmt::format("{}: {} truth channels hold {}; measured against {} (--pair chooses)",
+                           channel, candidates.size(), framesOf(product), truth_channel));
+      }
+    }
+
+    const std::string dfpc = dfpcOf(channel);
+    const auto& states = track_states[dfpc];
+    const auto& walls = step_wall_s[dfpc];
+    std::vector<EstimateSample> estimates;
+    estimates.reserve(product.poses.size());
+    for (const Transform& pose : product.poses) {
+      EstimateSample e;
+      e.pose = pose;
+      e.valid = isFinite(pose);
+      // The track state after the last change at or before this stamp.
+      auto after = std::upper_bound(states.begin(), states.end(), pose.stamp,
+                                    [](Timestamp t, const auto& s) { return t < s.first; });
+      if (after != states.begin()) {
+        const std::string& state = std::prev(after)->second;
+        if (state == "LOST" || state == "UNINITIALISED") e.valid = false;
+      }
+      if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
+      estimates.push_back(e);
+    }
+    std::stable_sort(estimates.begin(), estimates.end(),
+                     [](const auto& a, const auto& b) { return a.pose.stamp < b.pose.stamp; });
+    std::vector<Transform> truth = truths[truth_channel].poses;
+    std::stable_sort(truth.begin(), truth.end(),
+                     [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+    Result<PoseEvaluation> evaluation = evaluatePoses(estimates, truth, options.pose);
+    if (!evaluation)
+      return evaluation.status().withContext(
+          fmt::format("evaluating {} against {}", channel, truth_channel));
+    evaluation->channel = channel;
+    evaluation->truth_channel = truth_channel;
+    for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
+      report.requirements.push_back(std::move(v));
+    report.products.push_back(std::move(evaluation).value());
+  }
+  if (report.products.empty())
+    return notFound(
+        "no pose product has a truth channel of the same transform; products: {}; "
+        "truth: {} (pair them with --pair PRODUCT=TRUTH)",
+        listChannels(products), listChannels(truths));
+  return report;
+}
+
+}  // namespace cdff::eval
