@@ -6,8 +6,9 @@
 //                        [--dfi both|EdgeTracker|VispMbt] [--stereo] [--seed 7] [--verbose]
 //                        [--tracker '{yaml: parameters}'] [--initial-error 5 5]
 //
-// Prints one table row per chain; exits with 1 on a bad argument or a failed run, and with 2 when
-// a chain diverged without reporting LOST.
+// Prints one table row per chain (the last column counts frames whose pose was more than 10 % of
+// the range or 10 degrees off while the status was not LOST); exits with 1 on a bad argument or
+// a failed run.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -86,7 +87,6 @@ int main(int argc, char** argv) {
       "| chain | frames | degraded | lost | position p95 / max | % of range p95 / max | "
       "angle p95 / max | CPU per frame mean / p95 | diverged without LOST |\n");
   fmt::print("|---|---|---|---|---|---|---|---|---|\n");
-  int rc = 0;
   for (const std::string& chain : chains) {
     options.dfi = chain;
     cdff::Result<cdff::visual_demo::ApproachResult> r = cdff::visual_demo::runApproach(options);
@@ -98,7 +98,6 @@ int main(int argc, char** argv) {
     if (verbose)
       for (const std::string& w : r->warnings) fmt::print("  {}\n", w);
     std::fflush(stdout);
-    if (r->unreported_divergence > 0) rc = 2;
   }
-  return rc;
+  return 0;
 }
