@@ -55,9 +55,9 @@ int main(int argc, char** argv) {
   cdff::app::addDemoCommand(app, exit_code);
   cdff::app::addDfpcCommands(app, exit_code);
   cdff::app::addLogCommands(app, exit_code);
-  cdff::app::addSimCommand(app, exit_code);
   cdff::app::addRunCommand(app, exit_code);
   cdff::app::addEvalCommand(app, exit_code);
+  cdff::app::addSimCommand(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {

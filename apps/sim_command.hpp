@@ -1,6 +1,6 @@
 #pragma once
 // The MCAP output of `cdff sim`: a SimulationSink writing through cdff::io::Recorder
-// (sim_recording.cpp, built when the recording library is part of the build).
+// (sim_recording.cpp).
 
 #include <memory>
 #include <string>

@@ -256,9 +256,15 @@ Status Simulator::begin(SimulationSink& sink) {
                                                      sc.orbit.altitude, sc.orbit.meanMotion())
                                        : "none (free space)";
   CDFF_RETURN_IF_ERROR(sink.begin(m));
+  // The target model, in its body frame, for model-based trackers and the evaluation.
+  TriangleMesh mesh = target_.mesh;
+  mesh.stamp = 0;
+  mesh.frame_id = "target";
+  queue("/truth/target_mesh", 0, std::move(mesh));
   // Static transforms: every sensor's mounting.
   for (const auto& s : sensors_)
-    queue("/tf_static", 0, toTransform(s->servicer_T_frame, "servicer", s->config->frame(), 0));
+    queue("/chaser/tf/" + s->config->frame(), 0,
+          toTransform(s->servicer_T_frame, "servicer", s->config->frame(), 0));
   time_ = 0;
   done_ = false;
   return Status::ok();
@@ -334,15 +340,16 @@ Status Simulator::run(SimulationSink& sink, const ProgressCallback& progress) {
 Status Simulator::processTruth(double t) {
   const Timestamp stamp = micros(t);
   RigidBodyState truth = truthState("servicer", Eigen::Isometry3d::Identity(), t);
-  queue("/truth/target_pose", stamp, truth);
+  queue("/truth/target_pose", stamp, truth.poseWithCovariance());
+  queue("/truth/target_state", stamp, truth);
   const BodyState servicer = world_->servicer(t), target = world_->target(t);
-  queue("/tf", stamp, toTransform(servicer.lvlh_T_body, "lvlh", "servicer", stamp));
-  queue("/tf", stamp, toTransform(target.lvlh_T_body, "lvlh", "target", stamp));
+  queue("/truth/tf/servicer", stamp, toTransform(servicer.lvlh_T_body, "lvlh", "servicer", stamp));
+  queue("/truth/tf/target", stamp, toTransform(target.lvlh_T_body, "lvlh", "target", stamp));
   if (scenario_.orbit.enabled) {
     Eigen::Isometry3d eci_T_lvlh = Eigen::Isometry3d::Identity();
     eci_T_lvlh.linear() = scenario_.orbit.eciRotationLvlh(t);
     eci_T_lvlh.translation() = scenario_.orbit.targetPositionEci(t);
-    queue("/tf", stamp, toTransform(eci_T_lvlh, "eci", "lvlh", stamp));
+    queue("/truth/tf/lvlh", stamp, toTransform(eci_T_lvlh, "eci", "lvlh", stamp));
   }
   return Status::ok();
 }
@@ -433,7 +440,7 @@ Status Simulator::process(SensorState& sensor, double t) {
       frame->image.stamp = stamp;
       frame->image.frame_id = c.frame();
       queue(prefix + "/image", available, frame->image);
-      queue(prefix + "/camera_info", available, CameraInfo{stamp, c.frame(), c.camera.model});
+      queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.camera.model});
       if (scenario_.truth_camera_depth) {
         frame->depth.image.stamp = stamp;
         frame->depth.image.frame_id = c.frame();
@@ -447,7 +454,7 @@ Status Simulator::process(SensorState& sensor, double t) {
                       "{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
                       faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
       queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t));
+            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
       return Status::ok();
     }
     case SensorType::kLidar: {
@@ -469,7 +476,7 @@ Status Simulator::process(SensorState& sensor, double t) {
       queue(prefix + "/points", available + micros(sensor.lidar->period()),
             std::move(cloud).value());
       queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t));
+            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
       return Status::ok();
     }
     case SensorType::kTof: {
@@ -482,9 +489,9 @@ Status Simulator::process(SensorState& sensor, double t) {
       depth->image.stamp = stamp;
       depth->image.frame_id = c.frame();
       queue(prefix + "/depth", available, std::move(depth).value());
-      queue(prefix + "/camera_info", available, CameraInfo{stamp, c.frame(), c.tof.model});
+      queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.tof.model});
       queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t));
+            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
       return Status::ok();
     }
     case SensorType::kImu: {

@@ -80,6 +80,13 @@ Status DigestSink::write(const SimMessage& message) {
           add(v.model.distortion.data(), v.model.distortion.size() * sizeof(double));
         } else if constexpr (std::is_same_v<T, Transform>) {
           add_transform(v);
+        } else if constexpr (std::is_same_v<T, PoseWithCovariance>) {
+          add_transform(v.pose);
+          add(v.covariance.data(), 36 * sizeof(double));
+        } else if constexpr (std::is_same_v<T, TriangleMesh>) {
+          add(v.frame_id);
+          add(v.vertices.data(), v.vertices.size() * sizeof(Eigen::Vector3f));
+          add(v.triangles.data(), v.triangles.size() * sizeof(std::array<std::uint32_t, 3>));
         } else if constexpr (std::is_same_v<T, RigidBodyState>) {
           add_transform(v.pose);
           add(v.twist.linear.data(), 3 * sizeof(double));

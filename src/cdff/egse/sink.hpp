@@ -13,6 +13,7 @@
 #include "cdff/egse/range_sensors.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/mesh.hpp"
 #include "cdff/types/point_cloud.hpp"
 #include "cdff/types/sensors.hpp"
 #include "cdff/types/status.hpp"
@@ -34,8 +35,9 @@ struct FaultEvent {
   std::string detail;  // human-readable: what happened, with values
 };
 
-using SimPayload = std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement,
-                                CameraInfo, Transform, RigidBodyState, FaultEvent>;
+using SimPayload =
+    std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement, CameraInfo, Transform,
+                 PoseWithCovariance, RigidBodyState, TriangleMesh, FaultEvent>;
 
 struct SimMessage {
   std::string channel;
