@@ -48,7 +48,9 @@ class Feeder final : public egse::SimulationSink {
 
   Status write(const egse::SimMessage& m) override {
     if (m.channel == kTruth) {
-      if (const RigidBodyState* s = std::get_if<RigidBodyState>(&m.payload))
+      if (const PoseWithCovariance* p = std::get_if<PoseWithCovariance>(&m.payload))
+        truth.push_back(p->pose);
+      else if (const RigidBodyState* s = std::get_if<RigidBodyState>(&m.payload))
         truth.push_back(s->pose);
       return Status::ok();
     }
@@ -221,6 +223,8 @@ Result<SimulatedFrames> simulateFrames(const ApproachOptions& options) {
   SimulatedFrames out;
   out.model = std::move(model).value();
   out.images = sink.on<Image>(kLeft);
+  for (const PoseWithCovariance& p : sink.on<PoseWithCovariance>(kTruth))
+    out.truth.push_back(p.pose);
   for (const RigidBodyState& s : sink.on<RigidBodyState>(kTruth)) out.truth.push_back(s.pose);
   if (out.images.size() != out.truth.size())
     return Status(StatusCode::kInternal,
