@@ -13,5 +13,6 @@ void addSimCommand(CLI::App& root, int& exit_code);
 void addDfpcCommands(CLI::App& root, int& exit_code);
 void addRunCommand(CLI::App& root, int& exit_code);
 void addEvalCommand(CLI::App& root, int& exit_code);
+void addInitialStateCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

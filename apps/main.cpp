@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
   cdff::app::addLogCommands(app, exit_code);
   cdff::app::addRunCommand(app, exit_code);
   cdff::app::addEvalCommand(app, exit_code);
+  cdff::app::addInitialStateCommand(app, exit_code);
   cdff::app::addSimCommand(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;

@@ -12,17 +12,42 @@ namespace cdff::dfn {
 
 namespace {
 
-using Matrix12x6d = Eigen::Matrix<double, 12, 6>;
-using Vector12d = Eigen::Matrix<double, 12, 1>;
+constexpr int kN = 18;
+using Matrix18d = Eigen::Matrix<double, kN, kN>;
+using Vector18d = Eigen::Matrix<double, kN, 1>;
 
-// Error-state layout (docs/conventions.md): [dt, dtheta, dv, domega], perturbations in the parent
-// frame: t = t_hat + dt, R = exp(dtheta) R_hat, v = v_hat + dv, w = w_hat + dw.
-constexpr int kPos = 0, kRot = 3, kVel = 6, kAng = 9;
+// Error-state layout (docs/conventions.md): [dt, dtheta, dv, domega] of the relative state a_T_b,
+// perturbations in the parent frame a: t = t_hat + dt, R = exp(dtheta) R_hat, v = v_hat + dv,
+// w = w_hat + dw; then, once an AHRS sample has added them, [dtheta_i, domega_i] of the target's
+// inertial attitude inertial_R_b = exp(dtheta_i) R_hat and inertial angular velocity (inertial
+// frame). Without the inertial part its rows and columns of the covariance stay zero.
+constexpr int kPos = 0, kRot = 3, kVel = 6, kAng = 9, kTargetRot = 12, kTargetAng = 15;
 
 bool isPositiveDefinite(const Eigen::MatrixXd& m) {
   Eigen::LLT<Eigen::MatrixXd> llt(m);
   return llt.info() == Eigen::Success;
 }
+
+struct Estimate {
+  RigidBodyState state;  // its covariance is the top-left block of `covariance`, on output
+  Matrix18d covariance = Matrix18d::Zero();
+  bool has_inertial = false;
+  std::string inertial_frame;
+  Eigen::Quaterniond target_attitude = Eigen::Quaterniond::Identity();  // inertial_R_b
+  Eigen::Vector3d target_rate = Eigen::Vector3d::Zero();                // rad/s, inertial frame
+
+  static Estimate from(const RigidBodyState& s) {
+    Estimate e;
+    e.state = s;
+    e.covariance.topLeftCorner<12, 12>() = s.covariance;
+    return e;
+  }
+  RigidBodyState output() const {
+    RigidBodyState s = state;
+    s.covariance = covariance.topLeftCorner<12, 12>();
+    return s;
+  }
+};
 
 }  // namespace
 
@@ -37,13 +62,14 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     const bool has_initial = in.initial_state.isFresh();
     const bool has_time = in.time.isFresh();
     const bool has_measurement = in.pose_measurement.isFresh();
-    if (!has_initial && !has_time && !has_measurement)
+    const bool has_attitude = in.attitude_measurement.isFresh();
+    if (!has_initial && !has_time && !has_measurement && !has_attitude)
       return invalidInput(
-          "no fresh input; expected a new 'time' (predict), 'pose_measurement' (correct) or "
-          "'initial_state' (reset)");
+          "no fresh input; expected a new 'time' (predict), 'pose_measurement' or "
+          "'attitude_measurement' (correct) or 'initial_state' (reset)");
 
     // Work on a copy so that a failed call leaves the filter as it was.
-    std::optional<RigidBodyState> next = estimate_;
+    std::optional<Estimate> next = estimate_;
     if (has_initial) {
       const RigidBodyState& initial = *in.initial_state;
       CDFF_RETURN_IF_ERROR(initial.validate());
@@ -51,7 +77,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
         return invalidInput(
             "input 'initial_state' covariance is not positive definite; expected "
             "the uncertainty of every one of the 12 state components");
-      next = initial;
+      next = Estimate::from(initial);
     }
     if (has_time) {
       if (!next)
@@ -74,8 +100,13 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       } else {
         CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose));
         CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
-        RigidBodyState corrected = *next;
-        Result<double> fused = correct(corrected, z.pose, *noise);
+        Estimate corrected = *next;
+        Vector6d residual;
+        residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
+        residual.tail<3>() = logSO3(z.pose.rotation * corrected.state.pose.rotation.conjugate());
+        Eigen::Matrix<double, 6, kN> h = Eigen::Matrix<double, 6, kN>::Zero();
+        h.leftCols<6>().setIdentity();
+        Result<double> fused = correct<6>(corrected, h, residual, *noise);
         if (!fused) return fused.status();
         nis = *fused;
         accepted = params_.innovation_gate == 0.0 || nis <= params_.innovation_gate;
@@ -86,22 +117,76 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
                            nis, params_.innovation_gate));
       }
     }
+    if (has_attitude) {
+      const PoseWithCovariance& z = *in.attitude_measurement;
+      CDFF_RETURN_IF_ERROR(z.validate().withContext("input 'attitude_measurement'"));
+      if (!next) {
+        // An AHRS runs before the first pose fix; its samples cannot be used yet.
+        warn(fmt::format(
+            "attitude measurement at t = {} us ignored: the filter is not initialised (expected "
+            "a 'pose_measurement' or an 'initial_state' first)",
+            z.pose.stamp));
+        return Status::ok();
+      }
+      Result<Eigen::Matrix3d> noise = attitudeNoise(z);
+      if (!noise) return noise.status();
+      CDFF_RETURN_IF_ERROR(checkAttitudeFrames(*next, z.pose));
+      CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "attitude_measurement"));
+      if (!next->has_inertial) {
+        addInertialPart(*next, z.pose, *noise);
+      } else {
+        Estimate corrected = *next;
+        const Eigen::Quaterniond predicted =
+            corrected.target_attitude * corrected.state.pose.rotation.conjugate();  // inertial_R_a
+        const Eigen::Vector3d residual = logSO3(z.pose.rotation * predicted.conjugate());
+        Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
+        h.block<3, 3>(0, kRot) = -predicted.toRotationMatrix();
+        h.block<3, 3>(0, kTargetRot).setIdentity();
+        Result<double> fused = correct<3>(corrected, h, residual, *noise);
+        if (!fused) return fused.status();
+        nis = *fused;
+        const bool ok =
+            params_.attitude_innovation_gate == 0.0 || nis <= params_.attitude_innovation_gate;
+        if (ok) {
+          next = corrected;
+          accepted = true;
+        } else {
+          warn(fmt::format("attitude measurement at t = {} us gated out: NIS {:.3g} > {:.3g}",
+                           z.pose.stamp, nis, params_.attitude_innovation_gate));
+        }
+      }
+    }
     estimate_ = next;
-    out.state.set(*estimate_);
+    out.state.set(estimate_->output());
+    out.pose.set(estimate_->state.pose);
     out.measurement_accepted.set(accepted);
     out.innovation_nis.set(nis);
     return Status::ok();
   }
 
  private:
-  Status checkFrames(const RigidBodyState& state, const Transform& measured) const {
-    if (measured.parent_frame != state.pose.parent_frame ||
-        measured.child_frame != state.pose.child_frame)
+  Status checkFrames(const Estimate& e, const Transform& measured) const {
+    const Transform& pose = e.state.pose;
+    if (measured.parent_frame != pose.parent_frame || measured.child_frame != pose.child_frame)
       return invalidInput(
           "input 'pose_measurement' is {}_T_{}; expected {}_T_{}, the frames the "
           "filter was initialised with",
-          measured.parent_frame, measured.child_frame, state.pose.parent_frame,
-          state.pose.child_frame);
+          measured.parent_frame, measured.child_frame, pose.parent_frame, pose.child_frame);
+    return Status::ok();
+  }
+
+  Status checkAttitudeFrames(const Estimate& e, const Transform& measured) const {
+    const std::string& chaser = e.state.pose.parent_frame;
+    if (measured.child_frame != chaser)
+      return invalidInput(
+          "input 'attitude_measurement' is {}_T_{}; expected the chaser's attitude "
+          "<inertial>_T_{} (its child frame is the filter's parent frame)",
+          measured.parent_frame, measured.child_frame, chaser);
+    if (e.has_inertial && measured.parent_frame != e.inertial_frame)
+      return invalidInput(
+          "input 'attitude_measurement' is {}_T_{}; expected {}_T_{}, the inertial frame of the "
+          "earlier AHRS samples",
+          measured.parent_frame, measured.child_frame, e.inertial_frame, chaser);
     return Status::ok();
   }
 
@@ -120,7 +205,21 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     return r;
   }
 
-  RigidBodyState initialiseFrom(const PoseWithCovariance& z, const Matrix6d& noise) const {
+  Result<Eigen::Matrix3d> attitudeNoise(const PoseWithCovariance& z) const {
+    const Eigen::Matrix3d block = z.covariance.block<3, 3>(3, 3);
+    if (params_.use_measurement_covariance && !block.isZero(0.0)) {
+      if (!isPositiveDefinite(block))
+        return invalidInput(
+            "input 'attitude_measurement' attitude covariance is not positive definite "
+            "(diagonal {}); expected a positive-definite 3x3 block [3:6, 3:6] or zeros",
+            fmt::join(block.diagonal(), ", "));
+      return Eigen::Matrix3d(block);
+    }
+    return Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.ahrs_attitude_sigma *
+                           params_.ahrs_attitude_sigma);
+  }
+
+  Estimate initialiseFrom(const PoseWithCovariance& z, const Matrix6d& noise) const {
     RigidBodyState s;
     s.pose = z.pose;
     s.covariance.setZero();
@@ -129,10 +228,41 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     const double sw = params_.initial_angular_velocity_sigma;
     s.covariance.block<3, 3>(kVel, kVel) = Eigen::Matrix3d::Identity() * sv * sv;
     s.covariance.block<3, 3>(kAng, kAng) = Eigen::Matrix3d::Identity() * sw * sw;
-    return s;
+    return Estimate::from(s);
   }
 
-  Status predict(RigidBodyState& s, Timestamp to, const char* input) const {
+  /// Adds the target's inertial attitude and rate to the state from the chaser's attitude
+  /// inertial_R_a (noise `noise`): inertial_R_b = inertial_R_a a_R_b, and the target's inertial
+  /// rate = the chaser's (unknown: zero, give or take initial_chaser_angular_velocity_sigma) +
+  /// inertial_R_a w_ab. The new components are correlated with the relative ones through the
+  /// Jacobians of these two equations, so that later AHRS samples count each piece of
+  /// information once.
+  void addInertialPart(Estimate& e, const Transform& chaser, const Eigen::Matrix3d& noise) const {
+    const Eigen::Matrix3d r = chaser.rotation.toRotationMatrix();
+    e.target_attitude = (chaser.rotation * e.state.pose.rotation).normalized();
+    e.target_rate = r * e.state.twist.angular;
+    e.inertial_frame = chaser.parent_frame;
+    e.has_inertial = true;
+
+    Matrix18d g = Matrix18d::Identity();
+    g.block<3, 3>(kTargetRot, kTargetRot).setZero();
+    g.block<3, 3>(kTargetAng, kTargetAng).setZero();
+    g.block<3, 3>(kTargetRot, kRot) = r;  // dtheta_i = eta + R dtheta
+    g.block<3, 3>(kTargetAng, kAng) = r;  // domega_i = R domega - [R w]x eta + zeta
+    Eigen::Matrix<double, kN, 6> m = Eigen::Matrix<double, kN, 6>::Zero();
+    m.block<3, 3>(kTargetRot, 0).setIdentity();
+    m.block<3, 3>(kTargetAng, 0) = -skew(e.target_rate);
+    m.block<3, 3>(kTargetAng, 3).setIdentity();
+    Matrix6d n = Matrix6d::Zero();
+    n.topLeftCorner<3, 3>() = noise;
+    const double sc = params_.initial_chaser_angular_velocity_sigma;
+    n.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * sc * sc;
+    e.covariance = g * e.covariance * g.transpose() + m * n * m.transpose();
+    e.covariance = 0.5 * (e.covariance + e.covariance.transpose());
+  }
+
+  Status predict(Estimate& e, Timestamp to, const char* input) const {
+    RigidBodyState& s = e.state;
     const Timestamp from = s.pose.stamp;
     if (to < from)
       return invalidInput(
@@ -153,60 +283,74 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     s.pose.rotation = (step * s.pose.rotation).normalized();
     s.pose.stamp = to;
 
-    Matrix12d f = Matrix12d::Identity();
+    Matrix18d f = Matrix18d::Identity();
     f.block<3, 3>(kPos, kVel) = Eigen::Matrix3d::Identity() * dt;
     f.block<3, 3>(kRot, kRot) = step.toRotationMatrix();
     f.block<3, 3>(kRot, kAng) = leftJacobianSO3(rotation_step) * dt;
 
     // White acceleration noise integrated over dt (the classic discrete white-noise jerk model).
-    Matrix12d q = Matrix12d::Zero();
+    Matrix18d q = Matrix18d::Zero();
     const Eigen::Matrix3d i3 = Eigen::Matrix3d::Identity();
     const double dt2 = dt * dt, dt3 = dt2 * dt;
-    for (const auto& [pos, vel, psd] : {std::tuple{kPos, kVel, params_.linear_acceleration_psd},
-                                        std::tuple{kRot, kAng, params_.angular_acceleration_psd}}) {
+    auto add_noise = [&](int pos, int vel, double psd) {
       q.block<3, 3>(pos, pos) = i3 * psd * dt3 / 3.0;
       q.block<3, 3>(pos, vel) = i3 * psd * dt2 / 2.0;
       q.block<3, 3>(vel, pos) = i3 * psd * dt2 / 2.0;
       q.block<3, 3>(vel, vel) = i3 * psd * dt;
+    };
+    add_noise(kPos, kVel, params_.linear_acceleration_psd);
+    add_noise(kRot, kAng, params_.angular_acceleration_psd);
+    if (e.has_inertial) {
+      const Eigen::Vector3d target_step = e.target_rate * dt;
+      const Eigen::Quaterniond turn = expSO3(target_step);
+      e.target_attitude = (turn * e.target_attitude).normalized();
+      f.block<3, 3>(kTargetRot, kTargetRot) = turn.toRotationMatrix();
+      f.block<3, 3>(kTargetRot, kTargetAng) = leftJacobianSO3(target_step) * dt;
+      add_noise(kTargetRot, kTargetAng, params_.target_angular_acceleration_psd);
     }
-    s.covariance = f * s.covariance * f.transpose() + q;
-    s.covariance = 0.5 * (s.covariance + s.covariance.transpose());
+    e.covariance = f * e.covariance * f.transpose() + q;
+    e.covariance = 0.5 * (e.covariance + e.covariance.transpose());
     return Status::ok();
   }
 
-  /// Fuses a pose measurement into `s`; returns its normalised innovation squared.
-  Result<double> correct(RigidBodyState& s, const Transform& measured,
-                         const Matrix6d& noise) const {
-    Vector6d residual;
-    residual.head<3>() = measured.translation - s.pose.translation;
-    residual.tail<3>() = logSO3(measured.rotation * s.pose.rotation.conjugate());
-
-    // H = [I6 0]: the measurement observes the pose error directly.
-    const Matrix6d innovation_cov = s.covariance.topLeftCorner<6, 6>() + noise;
-    Eigen::LLT<Matrix6d> llt(innovation_cov);
+  /// Fuses a measurement with residual `residual` ~ h * error + noise into `e`; returns its
+  /// normalised innovation squared.
+  template <int M>
+  Result<double> correct(Estimate& e, const Eigen::Matrix<double, M, kN>& h,
+                         const Eigen::Matrix<double, M, 1>& residual,
+                         const Eigen::Matrix<double, M, M>& noise) const {
+    using MatrixM = Eigen::Matrix<double, M, M>;
+    const Eigen::Matrix<double, kN, M> ph = e.covariance * h.transpose();
+    const MatrixM innovation_cov = h * ph + noise;
+    Eigen::LLT<MatrixM> llt(innovation_cov);
     if (llt.info() != Eigen::Success)
       return numericalFailure(
           "innovation covariance is not positive definite (diagonal {}); "
           "the filter covariance has degenerated, re-initialise",
           fmt::join(innovation_cov.diagonal(), ", "));
     const double nis = residual.dot(llt.solve(residual));
-    const Matrix12x6d gain = llt.solve(s.covariance.leftCols<6>().transpose()).transpose();
-    const Vector12d correction = gain * residual;
+    const Eigen::Matrix<double, kN, M> gain = llt.solve(ph.transpose()).transpose();
+    const Vector18d correction = gain * residual;
 
+    RigidBodyState& s = e.state;
     s.pose.translation += correction.segment<3>(kPos);
     s.pose.rotation = (expSO3(correction.segment<3>(kRot)) * s.pose.rotation).normalized();
     s.twist.linear += correction.segment<3>(kVel);
     s.twist.angular += correction.segment<3>(kAng);
+    if (e.has_inertial) {
+      e.target_attitude =
+          (expSO3(correction.segment<3>(kTargetRot)) * e.target_attitude).normalized();
+      e.target_rate += correction.segment<3>(kTargetAng);
+    }
 
     // Joseph form: stays symmetric positive semi-definite despite rounding.
-    Matrix12d i_kh = Matrix12d::Identity();
-    i_kh.leftCols<6>() -= gain;
-    s.covariance = i_kh * s.covariance * i_kh.transpose() + gain * noise * gain.transpose();
-    s.covariance = 0.5 * (s.covariance + s.covariance.transpose());
+    const Matrix18d i_kh = Matrix18d::Identity() - gain * h;
+    e.covariance = i_kh * e.covariance * i_kh.transpose() + gain * noise * gain.transpose();
+    e.covariance = 0.5 * (e.covariance + e.covariance.transpose());
     return nis;
   }
 
-  std::optional<RigidBodyState> estimate_;  // none until initialised
+  std::optional<Estimate> estimate_;  // none until initialised
 };
 
 CDFF_REGISTER_DFI(EstimationFilterExtendedKalman);

@@ -1,0 +1,90 @@
+// The LIDAR tracking DFPC (dfpcs/lidar_tracking.yaml) step by step on the simulated mid-range
+// approach: one iteration is one full VLP-16 scan (about 29 000 points, most of them in every
+// direction but the target's) through the Orchestrator: the EKF's prediction ticks since the
+// previous scan, crop and voxel grid, FastIcp, the frame change and the EKF correction. The
+// scans are fed in order, as in a run; the DFPC is started again (untimed) when they run out.
+#include <benchmark/benchmark.h>
+
+#include <optional>
+
+#include "bench_support.hpp"
+#include "cdff/dfpc/orchestrator.hpp"
+#include "lidar_tracking_support.hpp"
+
+namespace cdff {
+namespace {
+
+using lidar_tracking::SimulatedRun;
+
+const SimulatedRun& simulated() {
+  static const SimulatedRun run = [] {
+    Result<SimulatedRun> r = lidar_tracking::simulate("mid_range_approach", 0);
+    return r ? std::move(r).value() : SimulatedRun{};
+  }();
+  return run;
+}
+
+struct Tracker {
+  std::unique_ptr<dfpc::Orchestrator> orchestrator;
+  std::size_t next = 0;  // next message of the run
+};
+
+// A started DFPC that has processed the calibration, the initial state and the first second.
+std::optional<Tracker> startTracker(const SimulatedRun& run) {
+  Result<std::unique_ptr<dfpc::Dfpc>> graph = lidar_tracking::loadGraph(run.mesh_file);
+  if (!graph) return std::nullopt;
+  Tracker t;
+  t.orchestrator = std::make_unique<dfpc::Orchestrator>(dfpc::OrchestratorOptions{});
+  if (!t.orchestrator->add(std::move(graph).value()) || !t.orchestrator->startAll())
+    return std::nullopt;
+  const Timestamp first = run.scans.front().stamp;
+  const RigidBodyState initial =
+      lidar_tracking::perturbedInitialState(run.truth, first, 0.10, 10.0 * M_PI / 180.0, 7);
+  bool initialised = false;
+  for (; t.next < run.messages.size(); ++t.next) {
+    const dfpc::Message& m = run.messages[t.next];
+    if (m.stamp > first + fromSeconds(1.0)) break;
+    if (!initialised && m.channel == "/chaser/lidar/points") {
+      if (!t.orchestrator->process(
+              dfpc::Message::of("/cdff/lidar_tracking/initial_state", initial.pose.stamp, initial)))
+        return std::nullopt;
+      initialised = true;
+    }
+    if (!t.orchestrator->process(m)) return std::nullopt;
+  }
+  return t;
+}
+
+void BM_LidarTrackingStep(benchmark::State& state) {
+  const SimulatedRun& run = simulated();
+  if (run.scans.empty()) return state.SkipWithError("simulation failed");
+  std::optional<Tracker> tracker = startTracker(run);
+  if (!tracker) return state.SkipWithError("the DFPC did not start");
+  std::size_t points = 0, scans = 0;
+  for (auto _ : state) {
+    // Everything up to and including the next scan: one DFPC step per scan.
+    bool scanned = false;
+    while (!scanned) {
+      if (tracker->next >= run.messages.size()) {
+        state.PauseTiming();
+        tracker = startTracker(run);
+        state.ResumeTiming();
+        if (!tracker) return state.SkipWithError("the DFPC did not restart");
+      }
+      const dfpc::Message& m = run.messages[tracker->next++];
+      if (const PointCloud* scan = m.as<PointCloud>()) {
+        points += scan->size();
+        ++scans;
+        scanned = true;
+      }
+      if (!tracker->orchestrator->process(m)) return state.SkipWithError("process failed");
+    }
+  }
+  state.counters["scan_points"] = benchmark::Counter(static_cast<double>(points) / scans);
+}
+BENCHMARK(BM_LidarTrackingStep)->Unit(benchmark::kMillisecond)->Iterations(800);
+
+}  // namespace
+}  // namespace cdff
+
+CDFF_BENCHMARK_MAIN();

@@ -1,0 +1,241 @@
+// LIDAR tracking DFNs on a full VLP-16-like scan (16 rings x 1800 azimuths, ~29 000 points,
+// 3 cm range noise) of the satellite-like test target inside a test-bench room, at close
+// (2.5 m) and mid (10 m) range: PointCloudFiltering (Fast, Pcl), NormalsEstimation (Pca, Pcl),
+// Registration3D (FastIcp, PclIcpPointToPlane) on the same scan / guess pairs, with the pose
+// errors each reaches as counters (t_err_mm, r_err_deg: means over the pairs), and the whole
+// per-scan chain of the LIDAR tracking DFPC (crop + voxel grid, ICP, EKF correction).
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "EstimationFilter.gen.hpp"
+#include "ModelPointCloud.gen.hpp"
+#include "NormalsEstimation.gen.hpp"
+#include "PointCloudFiltering.gen.hpp"
+#include "Registration3D.gen.hpp"
+#include "bench_support.hpp"
+#include "support/lidar.hpp"
+
+namespace {
+
+using namespace cdff;
+constexpr double kDeg = M_PI / 180.0;
+constexpr int kPairs = 8;
+
+Eigen::Isometry3d truthAt(double range) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = (Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitY()) *
+                   Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(range, 0.1 * range, 0.05 * range);
+  return pose;
+}
+
+struct Scene {
+  Eigen::Isometry3d truth;
+  PointCloud scan;                 // the full scan, target and room
+  PointCloud filtered;             // cropped around the guess, voxel grid 3 cm
+  std::vector<Transform> guesses;  // tracking-sized errors: 5 cm, 2 deg
+};
+
+const PointCloud& model() {
+  static const PointCloud cloud = [] {
+    auto sampler = bench::createConfigured<dfn::ModelPointCloud>("ModelPointCloud", "MeshSampler",
+                                                                 "{point_spacing: 0.01}");
+    sampler->in.mesh.set(testing::satelliteMesh());
+    (void)sampler->process();
+    return *sampler->out.model;
+  }();
+  return cloud;
+}
+
+// The filter of the DFPC: a box around the predicted target (its bounds plus 0.3 m), 3 cm voxels.
+const char* kFilterYaml =
+    "{crop_box: true, crop_min: [-1.3, -3.1, -1.0], crop_max: [1.3, 3.1, 1.3], voxel_size: 0.03}";
+
+const Scene& scene(double range) {
+  static std::map<double, Scene> scenes;
+  auto it = scenes.find(range);
+  if (it != scenes.end()) return it->second;
+  Scene s;
+  s.truth = truthAt(range);
+  testing::ScanOptions options;
+  options.room_half_size = 15.0;
+  s.scan = testing::simulateScan(testing::satelliteMesh(), s.truth, options, 1);
+  for (int k = 0; k < kPairs; ++k)
+    s.guesses.push_back(Transform::fromIsometry(testing::perturb(s.truth, 0.05, 2.0 * kDeg, 10 + k),
+                                                "lidar", "target"));
+  auto filter =
+      bench::createConfigured<dfn::PointCloudFiltering>("PointCloudFiltering", "Fast", kFilterYaml);
+  filter->in.cloud.set(s.scan);
+  filter->in.box_pose.set(s.guesses[0]);
+  (void)filter->process();
+  s.filtered = *filter->out.filtered;
+  return scenes.emplace(range, std::move(s)).first->second;
+}
+
+void BM_Filtering(benchmark::State& state, const char* dfi, double range) {
+  const Scene& s = scene(range);
+  auto filter =
+      bench::createConfigured<dfn::PointCloudFiltering>("PointCloudFiltering", dfi, kFilterYaml);
+  if (!filter) return state.SkipWithError("configure failed");
+  filter->in.box_pose.set(s.guesses[0]);
+  for (auto _ : state) {
+    filter->in.cloud.set(s.scan);
+    if (!filter->process()) return state.SkipWithError("filter failed");
+  }
+  state.counters["in_points"] = static_cast<double>(s.scan.size());
+  state.counters["out_points"] = static_cast<double>(filter->out.filtered->size());
+}
+BENCHMARK_CAPTURE(BM_Filtering, Fast_close, "Fast", 2.5)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Filtering, Pcl_close, "Pcl", 2.5)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Filtering, Fast_mid, "Fast", 10.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Filtering, Pcl_mid, "Pcl", 10.0)->Unit(benchmark::kMicrosecond);
+
+void BM_Normals(benchmark::State& state, const char* dfi) {
+  const Scene& s = scene(2.5);
+  auto normals =
+      bench::createConfigured<dfn::NormalsEstimation>("NormalsEstimation", dfi, "{neighbours: 12}");
+  if (!normals) return state.SkipWithError("configure failed");
+  for (auto _ : state) {
+    normals->in.cloud.set(s.filtered);
+    if (!normals->process()) return state.SkipWithError("normals failed");
+  }
+  state.counters["points"] = static_cast<double>(s.filtered.size());
+}
+BENCHMARK_CAPTURE(BM_Normals, Pca, "Pca")->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Normals, Pcl, "Pcl")->Unit(benchmark::kMicrosecond);
+
+// Both ICPs with the same parameters, on the same filtered scan and the same guesses.
+// CDFF_FASTICP_PARAMS (e.g. "lookup_grid_cell: 0") adds FastIcp parameters, to compare variants.
+std::string icpYaml(const char* dfi) {
+  std::string yaml =
+      "max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50, "
+      "translation_epsilon: 1.0e-4, rotation_epsilon: 1.0e-4";
+  if (std::string(dfi) == "FastIcp" && std::getenv("CDFF_FASTICP_PARAMS"))
+    yaml += std::string(", ") + std::getenv("CDFF_FASTICP_PARAMS");
+  return "{" + yaml + "}";
+}
+
+// One warmed-up instance per DFI and scene, kept across Google Benchmark's repeated runs: the
+// model's search structures are built once, as in a DFPC (BM_FirstRegistration measures that).
+dfn::Registration3D* warmRegistration(const std::string& dfi, double range) {
+  static std::map<std::pair<std::string, double>, std::unique_ptr<dfn::Registration3D>> cache;
+  auto& icp = cache[{dfi, range}];
+  if (!icp) {
+    icp = bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi.c_str()));
+    if (!icp) return nullptr;
+    const Scene& s = scene(range);
+    icp->in.model.set(model());
+    icp->in.source.set(s.filtered);
+    icp->in.initial_guess.set(s.guesses[0]);
+    if (!icp->process()) return nullptr;
+  }
+  return icp.get();
+}
+
+void BM_Registration(benchmark::State& state, const char* dfi, double range) {
+  const Scene& s = scene(range);
+  dfn::Registration3D* icp = warmRegistration(dfi, range);
+  if (!icp) return state.SkipWithError("configure or warm-up failed");
+  double sum_t = 0, sum_r = 0, sum_iterations = 0;
+  long calls = 0, converged = 0;
+  for (auto _ : state) {
+    icp->in.source.set(s.filtered);
+    icp->in.initial_guess.set(s.guesses[calls % kPairs]);
+    if (!icp->process()) return state.SkipWithError("registration failed");
+    state.PauseTiming();
+    const testing::PoseError e = testing::poseError(icp->out.transform->isometry(), s.truth);
+    sum_t += e.translation;
+    sum_r += e.rotation;
+    sum_iterations += *icp->out.iterations;
+    converged += *icp->out.converged ? 1 : 0;
+    ++calls;
+    state.ResumeTiming();
+  }
+  state.counters["points"] = static_cast<double>(s.filtered.size());
+  state.counters["t_err_mm"] = 1e3 * sum_t / calls;
+  state.counters["r_err_deg"] = sum_r / calls / kDeg;
+  state.counters["iterations"] = sum_iterations / calls;
+  state.counters["converged"] = static_cast<double>(converged) / calls;
+}
+BENCHMARK_CAPTURE(BM_Registration, FastIcp_close, "FastIcp", 2.5)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Registration, PclIcpPointToPlane_close, "PclIcpPointToPlane", 2.5)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Registration, FastIcp_mid, "FastIcp", 10.0)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_Registration, PclIcpPointToPlane_mid, "PclIcpPointToPlane", 10.0)
+    ->Unit(benchmark::kMicrosecond);
+
+// The DFPC's per-scan work: predict to the scan, crop around the prediction and thin, register
+// from the prediction, correct with the registered pose.
+void BM_TrackingStep(benchmark::State& state, double range) {
+  const Scene& s = scene(range);
+  auto filter =
+      bench::createConfigured<dfn::PointCloudFiltering>("PointCloudFiltering", "Fast", kFilterYaml);
+  dfn::Registration3D* icp = warmRegistration("FastIcp", range);
+  auto ekf = bench::createConfigured<dfn::EstimationFilter>("EstimationFilter", "ExtendedKalman");
+  if (!filter || !icp || !ekf) return state.SkipWithError("configure failed");
+  RigidBodyState initial;
+  initial.pose = s.guesses[0];
+  initial.covariance = Matrix12d::Identity() * 1e-3;
+  ekf->in.initial_state.set(initial);
+  (void)ekf->process();
+  PointCloud scan = s.scan;
+  double sum_t = 0;
+  long calls = 0;
+  for (auto _ : state) {
+    scan.stamp += 100'000;  // 10 Hz
+    ekf->in.time.set(scan.stamp);
+    if (!ekf->process()) return state.SkipWithError("prediction failed");
+    filter->in.cloud.set(scan);
+    filter->in.box_pose.set(ekf->out.pose.shared());
+    if (!filter->process()) return state.SkipWithError("filter failed");
+    icp->in.source.set(filter->out.filtered.shared());
+    icp->in.initial_guess.set(ekf->out.pose.shared());
+    if (!icp->process()) return state.SkipWithError("registration failed");
+    ekf->in.pose_measurement.set(icp->out.pose.shared());
+    if (!ekf->process()) return state.SkipWithError("correction failed");
+    sum_t += testing::poseError(ekf->out.pose->isometry(), s.truth).translation;
+    ++calls;
+  }
+  state.counters["scan_points"] = static_cast<double>(s.scan.size());
+  state.counters["t_err_mm"] = 1e3 * sum_t / calls;
+}
+BENCHMARK_CAPTURE(BM_TrackingStep, close, 2.5)->Unit(benchmark::kMicrosecond);
+BENCHMARK_CAPTURE(BM_TrackingStep, mid, 10.0)->Unit(benchmark::kMicrosecond);
+
+// One-off costs: sampling the dense model (1 cm spacing) and building the ICP's model index.
+void BM_ModelBuild(benchmark::State& state) {
+  auto sampler = bench::createConfigured<dfn::ModelPointCloud>("ModelPointCloud", "MeshSampler",
+                                                               "{point_spacing: 0.01}");
+  const TriangleMesh mesh = testing::satelliteMesh();
+  for (auto _ : state) {
+    sampler->in.mesh.set(mesh);
+    if (!sampler->process()) return state.SkipWithError("sampling failed");
+  }
+  state.counters["points"] = static_cast<double>(sampler->out.model->size());
+}
+BENCHMARK(BM_ModelBuild)->Unit(benchmark::kMillisecond);
+
+void BM_FirstRegistration(benchmark::State& state, const char* dfi) {
+  const Scene& s = scene(2.5);
+  for (auto _ : state) {
+    auto icp = bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi));
+    icp->in.model.set(model());
+    icp->in.source.set(s.filtered);
+    icp->in.initial_guess.set(s.guesses[0]);
+    if (!icp->process()) return state.SkipWithError("registration failed");
+  }
+}
+BENCHMARK_CAPTURE(BM_FirstRegistration, FastIcp, "FastIcp")->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FirstRegistration, PclIcpPointToPlane, "PclIcpPointToPlane")
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+CDFF_BENCHMARK_MAIN();

@@ -1,0 +1,445 @@
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "Registration3D.gen.hpp"
+#include "registration_common.hpp"
+
+namespace cdff::dfn {
+
+namespace {
+
+enum class Kernel { kNone, kHuber, kTukey, kGemanMcClure };
+
+Kernel parseKernel(const std::string& name) {
+  if (name == "huber") return Kernel::kHuber;
+  if (name == "tukey") return Kernel::kTukey;
+  if (name == "geman_mcclure") return Kernel::kGemanMcClure;
+  return Kernel::kNone;
+}
+
+// Iteratively reweighted least squares weights w(r) = rho'(r) / r, with each kernel's usual
+// tuning constant expressed in units of the residual scale s (95 % efficiency on Gaussian noise
+// for Huber and Tukey).
+double weight(Kernel kernel, double r, double s) {
+  switch (kernel) {
+    case Kernel::kNone:
+      return 1.0;
+    case Kernel::kHuber: {
+      const double k = 1.345 * s;
+      return std::abs(r) <= k ? 1.0 : k / std::abs(r);
+    }
+    case Kernel::kTukey: {
+      const double c = 4.685 * s;
+      if (std::abs(r) >= c) return 0.0;
+      const double u = 1.0 - (r / c) * (r / c);
+      return u * u;
+    }
+    case Kernel::kGemanMcClure: {
+      const double c = 2.0 * s;
+      const double u = c * c / (c * c + r * r);
+      return u * u;
+    }
+  }
+  return 1.0;
+}
+
+double median(std::vector<float>& values) {
+  if (values.empty()) return 0.0;
+  const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
+// A dense grid over the model's bounding box (plus a band) whose cells within `band` of the
+// surface hold the model point nearest to their centre: a nearest-neighbour lookup in constant
+// time for the fine iterations, where correspondences are short. The point returned is the
+// nearest to the query's cell centre, at most half a cell diagonal from the query, so it lies on
+// the same face as the true nearest except right at an edge: point-to-plane residuals on a face
+// are then exact. Built once per model by a wavefront from the cells holding model points.
+class NearestGrid {
+ public:
+  static constexpr std::uint32_t kNone = ~std::uint32_t{0};
+
+  bool empty() const { return labels_.empty(); }
+  double band() const { return band_; }
+
+  /// False (and an empty grid) when it would exceed `max_cells`.
+  bool build(const Buffer<Point4f>& points, double cell, double band, std::size_t max_cells) {
+    labels_.clear();
+    opposite_.clear();
+    if (points.empty() || !(cell > 0)) return false;
+    Eigen::Vector3f lo = points[0].vec(), hi = lo;
+    for (const Point4f& p : points) {
+      lo = lo.cwiseMin(p.vec());
+      hi = hi.cwiseMax(p.vec());
+    }
+    cell_ = static_cast<float>(cell);
+    inverse_ = 1.0f / cell_;
+    band_ = band;
+    const float margin = static_cast<float>(band) + cell_;
+    origin_ = lo - Eigen::Vector3f::Constant(margin);
+    const Eigen::Vector3f extent = hi - lo + Eigen::Vector3f::Constant(2 * margin);
+    for (int a = 0; a < 3; ++a) size_[a] = static_cast<int>(std::ceil(extent[a] * inverse_)) + 1;
+    const double cells = static_cast<double>(size_[0]) * size_[1] * size_[2];
+    if (cells > static_cast<double>(max_cells)) return false;
+    labels_.assign(static_cast<std::size_t>(cells), kNone);
+    std::vector<float> distance(labels_.size(), std::numeric_limits<float>::infinity());
+    std::vector<std::uint32_t> queue;
+    auto centre = [&](int x, int y, int z) -> Eigen::Vector3f {  // a value, not an expression
+      return origin_ + cell_ * Eigen::Vector3f(x + 0.5f, y + 0.5f, z + 0.5f);
+    };
+    for (std::uint32_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3f p = points[i].vec();
+      const Eigen::Vector3i c = cellOf(p);
+      const std::size_t k = linear(c.x(), c.y(), c.z());
+      const float d = (centre(c.x(), c.y(), c.z()) - p).squaredNorm();
+      if (d < distance[k]) {
+        if (labels_[k] == kNone) queue.push_back(static_cast<std::uint32_t>(k));
+        distance[k] = d;
+        labels_[k] = i;
+      }
+    }
+    // Wavefront, one layer of cells at a time: the cells of a layer offer their points to their
+    // unsettled neighbours (26-connected), which keep the nearest offer within the band and form
+    // the next layer. Every cell is settled once: a cell's point is the nearest to its centre
+    // among its neighbours' points (approximately the nearest of all, as in vector-propagation
+    // distance transforms).
+    const float band2 = static_cast<float>(band * band);
+    std::vector<std::uint8_t> settled(labels_.size(), 0);
+    for (std::uint32_t k : queue) settled[k] = 1;
+    std::vector<std::uint32_t> next;
+    while (!queue.empty()) {
+      next.clear();
+      for (const std::uint32_t k : queue) {
+        const int z = static_cast<int>(k / (size_[0] * size_[1]));
+        const int y = static_cast<int>(k / size_[0] % size_[1]);
+        const int x = static_cast<int>(k % size_[0]);
+        const Eigen::Vector3f p = points[labels_[k]].vec();
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int nx = x + dx, ny = y + dy, nz = z + dz;
+              if (nx < 0 || ny < 0 || nz < 0 || nx >= size_[0] || ny >= size_[1] || nz >= size_[2])
+                continue;
+              const std::size_t m = linear(nx, ny, nz);
+              if (settled[m]) continue;
+              const float d = (centre(nx, ny, nz) - p).squaredNorm();
+              if (d < distance[m] && d <= band2) {
+                if (labels_[m] == kNone) next.push_back(static_cast<std::uint32_t>(m));
+                distance[m] = d;
+                labels_[m] = labels_[k];
+              }
+            }
+      }
+      for (std::uint32_t m : next) settled[m] = 1;
+      queue.swap(next);
+    }
+    return true;
+  }
+
+  static constexpr std::size_t kOutside = ~std::size_t{0};
+
+  /// The cell holding `q`, or kOutside.
+  std::size_t cellAt(const Eigen::Vector3f& q) const {
+    const Eigen::Vector3f f = (q - origin_) * inverse_;
+    const int x = static_cast<int>(std::floor(f.x())), y = static_cast<int>(std::floor(f.y())),
+              z = static_cast<int>(std::floor(f.z()));
+    if (x < 0 || y < 0 || z < 0 || x >= size_[0] || y >= size_[1] || z >= size_[2]) return kOutside;
+    return linear(x, y, z);
+  }
+  /// The model point nearest to the cell's centre, or kNone outside the band.
+  std::uint32_t label(std::size_t cell) const { return labels_[cell]; }
+
+  /// The model point nearest to the cell's centre among those whose normal opposes its label's
+  /// (the other side of a thin part), or kNone; found by `tree` at the first request and kept,
+  /// since a tracked target keeps showing the same cells.
+  std::uint32_t opposite(std::size_t cell, const KdTree3f& tree, const Buffer<Point4f>& normals) {
+    if (opposite_.size() != labels_.size()) opposite_.assign(labels_.size(), kUnknown);
+    std::uint32_t& alt = opposite_[cell];
+    if (alt != kUnknown) return alt;
+    alt = kNone;
+    const auto z = static_cast<int>(cell / (static_cast<std::size_t>(size_[0]) * size_[1]));
+    const auto y = static_cast<int>(cell / size_[0] % size_[1]);
+    const auto x = static_cast<int>(cell % size_[0]);
+    const Eigen::Vector3f c = origin_ + cell_ * Eigen::Vector3f(x + 0.5f, y + 0.5f, z + 0.5f);
+    // Facing a far point behind the label's normal = a normal opposing it.
+    const Eigen::Vector3f eye = c - 1e4f * normals[labels_[cell]].vec();
+    KdTree3f::Neighbour found;
+    if (tree.nearestFacing(c, eye, static_cast<float>(band_ * band_), found)) alt = found.index;
+    return alt;
+  }
+
+ private:
+  Eigen::Vector3i cellOf(const Eigen::Vector3f& p) const {
+    const Eigen::Vector3f f = (p - origin_) * inverse_;
+    return {std::clamp(static_cast<int>(std::floor(f.x())), 0, size_[0] - 1),
+            std::clamp(static_cast<int>(std::floor(f.y())), 0, size_[1] - 1),
+            std::clamp(static_cast<int>(std::floor(f.z())), 0, size_[2] - 1)};
+  }
+  std::size_t linear(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * size_[1] + y) * size_[0] + x;
+  }
+
+  static constexpr std::uint32_t kUnknown = kNone - 1;
+  std::vector<std::uint32_t> labels_;
+  std::vector<std::uint32_t> opposite_;  // kUnknown until asked for
+  Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
+  float cell_ = 0, inverse_ = 0;
+  double band_ = 0;
+  int size_[3] = {0, 0, 0};
+};
+
+}  // namespace
+
+class Registration3DFastIcp final : public Registration3DFastIcpBase {
+ protected:
+  Status onConfigure() override {
+    if (params_.min_correspondence_distance > params_.max_correspondence_distance)
+      return invalidParameter(
+          "parameter 'min_correspondence_distance' = {} exceeds 'max_correspondence_distance' "
+          "= {}; expected min <= max",
+          params_.min_correspondence_distance, params_.max_correspondence_distance);
+    kernel_ = parseKernel(params_.robust_kernel);
+    grid_model_ = 0;  // the grid's parameters may have changed
+    viewpoint_ = Eigen::Vector3f(params_.viewpoint[0], params_.viewpoint[1], params_.viewpoint[2]);
+    return Status::ok();
+  }
+
+  Status onProcess() override {
+    const PointCloud& source = *in.source;
+    const PointCloud& model = *in.model;
+    Result<Eigen::Isometry3d> guess =
+        registration::checkInputs(source, model, in.initial_guess.get());
+    if (!guess) return guess.status();
+    CDFF_RETURN_IF_ERROR(index_.update(model));
+    if (grid_model_ != index_.builds) {
+      grid_model_ = index_.builds;
+      grid_ready_ =
+          params_.lookup_grid_cell > 0 && grid_.build(index_.points, params_.lookup_grid_cell,
+                                                      params_.lookup_grid_band, kMaxGridCells);
+      if (params_.lookup_grid_cell > 0 && !grid_ready_)
+        warn(
+            fmt::format("the model's lookup grid would need more than {} cells of {} m; only "
+                        "the KD-tree is used (a larger lookup_grid_cell would allow it)",
+                        kMaxGridCells, params_.lookup_grid_cell));
+    }
+    registration::selectSource(source, params_.max_source_points, points_);
+    const std::vector<Eigen::Vector3f>& points = points_;
+
+    Eigen::Matrix3d rotation = guess->linear();
+    Eigen::Vector3d translation = guess->translation();
+    double distance = params_.max_correspondence_distance;
+    bool converged = false, starved = false;
+    int iterations = 0;
+    std::size_t last_pairs = 0;
+    Vector6d previous_step = Vector6d::Zero();
+    for (; iterations < params_.max_iterations; ++iterations) {
+      if (!associate(points, rotation, translation, distance, iterations == 0)) {
+        starved = true;
+        last_pairs = pairs_.size();
+        break;
+      }
+      const double scale = params_.kernel_scale > 0 ? params_.kernel_scale
+                                                    : std::max(params_.min_kernel_scale,
+                                                               1.4826 * median(abs_residuals_));
+      Matrix6d h = Matrix6d::Zero();
+      Vector6d g = Vector6d::Zero();
+      bool point_to_plane = false;
+      double weighted_r2 = 0, weight_sum = 0;
+      if (distance > params_.point_to_point_above && params_.point_to_point_above > 0) {
+        // Coarse phase: point-to-point, whose basin of convergence is wider. The residual
+        // e = (R q + t) - p has the Jacobian [I, -[R q]x] in the pose perturbation.
+        const double pp_scale =
+            std::max(params_.min_kernel_scale, 1.4826 * median(pair_distances_));
+        for (const Pair& pair : pairs_) {
+          const double w = weight(kernel_, pair.offset.norm(), pp_scale);
+          if (w <= 0) continue;
+          Eigen::Matrix<double, 3, 6> j;
+          j << Eigen::Matrix3d::Identity(), -skew(pair.rq);
+          h.noalias() += w * j.transpose() * j;
+          g.noalias() += w * j.transpose() * pair.offset;
+        }
+      } else {
+        point_to_plane = true;
+        for (const Pair& pair : pairs_) {
+          const double w = weight(kernel_, pair.r, scale);
+          if (w <= 0) continue;
+          h.selfadjointView<Eigen::Lower>().rankUpdate(pair.j, w);
+          g += w * pair.r * pair.j;
+          weighted_r2 += w * pair.r * pair.r;
+          weight_sum += w;
+        }
+      }
+      h = h.selfadjointView<Eigen::Lower>();
+      // A relative ridge keeps the step finite when the scan leaves a direction unconstrained
+      // (e.g. one flat face): that direction then stays at the guess instead of jumping.
+      h.diagonal().array() += 1e-9 * h.diagonal().maxCoeff() + 1e-12;
+      const Vector6d step = -h.ldlt().solve(g);
+      if (!step.allFinite())
+        return numericalFailure(
+            "the Gauss-Newton step of iteration {} is not finite ({} correspondences); the "
+            "problem is degenerate",
+            iterations + 1, pairs_.size());
+      // Converged when the step is below the epsilons, or below convergence_sigma standard
+      // deviations of the estimate (its length under the Gauss-Newton covariance): moving by a
+      // small fraction of the uncertainty cannot improve the estimate. Correspondences that flip
+      // between neighbouring model points can also make the pose hop back and forth: a step
+      // that undoes the previous one ends the iterations halfway between the two.
+      const double variance = weighted_r2 / std::max(1.0, weight_sum - 6.0);
+      auto small = [&](const Vector6d& d) {
+        if (d.head<3>().norm() < params_.translation_epsilon &&
+            d.tail<3>().norm() < params_.rotation_epsilon)
+          return true;
+        return point_to_plane && params_.convergence_sigma > 0 && variance > 0 &&
+               d.dot(h * d) / variance < params_.convergence_sigma * params_.convergence_sigma;
+      };
+      const bool hop_back = iterations > 0 && small(step + previous_step);
+      const Vector6d applied = hop_back ? Vector6d(0.5 * step) : step;
+      translation += applied.head<3>();
+      rotation = expSO3(applied.tail<3>()).toRotationMatrix() * rotation;
+      previous_step = step;
+      // Shrink the correspondence distance as the alignment improves: three robust standard
+      // deviations of the point-to-point distances, never below the configured floor.
+      distance = std::clamp(3.0 * 1.4826 * median(pair_distances_),
+                            params_.min_correspondence_distance, distance);
+      if (hop_back || small(step)) {
+        converged = true;
+        ++iterations;
+        break;
+      }
+    }
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Quaterniond(rotation).normalized().toRotationMatrix();
+    pose.translation() = translation;
+    if (starved) {
+      warn(fmt::format(
+          "only {} source points of {} have a model point within {:.3g} m (iteration {}); "
+          "expected at least min_correspondences = {}: no overlap with the model",
+          last_pairs, points.size(), distance, iterations + 1, params_.min_correspondences));
+      pose = *guess;
+    }
+    const registration::Quality quality =
+        registration::evaluate(points, index_, pose, params_.inlier_distance,
+                               params_.covariance_inflation, starved ? nullptr : &previous_);
+    if (converged && quality.degenerate)
+      warn(
+          "the scan constrains some direction of the pose poorly (degenerate geometry); its "
+          "covariance is large there");
+    registration::publish(out, source, model, pose, quality, converged && !starved, iterations);
+    return Status::ok();
+  }
+
+ private:
+  struct Pair {
+    Vector6d j;              // point-to-plane Jacobian
+    double r;                // point-to-plane residual, m
+    Eigen::Vector3d offset;  // R q + t - p, the point-to-point residual
+    Eigen::Vector3d rq;      // R q
+  };
+
+  /// Pairs every source point with its nearest (visible) model point within `distance`; false
+  /// when there are fewer than min_correspondences pairs.
+  bool associate(const std::vector<Eigen::Vector3f>& points, const Eigen::Matrix3d& rotation,
+                 const Eigen::Vector3d& translation, double distance, bool first) {
+    pairs_.clear();
+    abs_residuals_.clear();
+    pair_distances_.clear();
+    if (first) previous_.assign(points.size(), kNoMatch);
+    const Eigen::Matrix3f r_inv = rotation.transpose().cast<float>();
+    const Eigen::Vector3f t = translation.cast<float>();
+    const float max_sq = static_cast<float>(distance * distance);
+    // The viewpoint in the model frame: visible model points have normals facing it.
+    const Eigen::Vector3f eye = r_inv * (viewpoint_ - t);
+    const bool use_grid = grid_ready_ && distance <= grid_.band();
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3f& p = points[i];
+      const Eigen::Vector3f pm = r_inv * (p - t);
+      KdTree3f::Neighbour nn;
+      const bool found = use_grid ? nearestFromGrid(pm, eye, max_sq, nn)
+                                  : nearestVisible(pm, eye, max_sq, previous_[i], nn);
+      if (!found) {
+        previous_[i] = kNoMatch;
+        continue;
+      }
+      previous_[i] = nn.index;
+      const Eigen::Vector3f nm = index_.normals[nn.index].vec();
+      const float r = nm.dot(pm - index_.points[nn.index].vec());
+      const Eigen::Vector3d n = rotation * nm.cast<double>();
+      Pair pair;
+      pair.j << -n, n.cross(p.cast<double>() - translation);
+      pair.r = r;
+      pair.rq = rotation * index_.points[nn.index].vec().cast<double>();
+      pair.offset = pair.rq + translation - p.cast<double>();
+      pairs_.push_back(pair);
+      abs_residuals_.push_back(std::abs(r));
+      pair_distances_.push_back(std::sqrt(nn.squared_distance));
+    }
+    return pairs_.size() >= static_cast<std::size_t>(params_.min_correspondences);
+  }
+
+  bool facesEye(std::uint32_t index, const Eigen::Vector3f& eye) const {
+    return index_.normals[index].vec().dot(eye - index_.points[index].vec()) > 0;
+  }
+
+  /// The nearest model point to `q` within sqrt(max_sq) (that faces `eye` when back faces are
+  /// rejected, unless none does: the pose is then still far off and the plain nearest pulls the
+  /// right way). `previous` (the match of the last iteration, or kNoMatch) bounds the search:
+  /// the pose moved little, so the new match is at most about as far as the old one.
+  bool nearestVisible(const Eigen::Vector3f& q, const Eigen::Vector3f& eye, float max_sq,
+                      std::uint32_t previous, KdTree3f::Neighbour& found) const {
+    const bool facing = params_.back_face_rejection;
+    float bound = max_sq;
+    if (previous != kNoMatch && (!facing || facesEye(previous, eye))) {
+      const float d = (index_.points[previous].vec() - q).squaredNorm();
+      bound = std::min(max_sq, d * 1.0001f + 1e-12f);
+    }
+    auto search = [&](float b) {
+      return facing ? index_.tree.nearestFacing(q, eye, b, found)
+                    : index_.tree.nearest(q, b, found);
+    };
+    if (search(bound) || (bound < max_sq && search(max_sq))) return true;
+    return facing && index_.tree.nearest(q, max_sq, found);
+  }
+
+  /// As nearestVisible, from the lookup grid: constant time, also on thin parts where the
+  /// nearest point is on the hidden side (the grid keeps the other side's nearest point).
+  bool nearestFromGrid(const Eigen::Vector3f& q, const Eigen::Vector3f& eye, float max_sq,
+                       KdTree3f::Neighbour& found) {
+    const std::size_t cell = grid_.cellAt(q);
+    if (cell == NearestGrid::kOutside) return false;
+    std::uint32_t label = grid_.label(cell);
+    if (label == NearestGrid::kNone) return false;  // farther than the band from the model
+    if (params_.back_face_rejection && !facesEye(label, eye)) {
+      const std::uint32_t other = grid_.opposite(cell, index_.tree, index_.normals);
+      if (other == NearestGrid::kNone || !facesEye(other, eye))
+        return nearestVisible(q, eye, max_sq, kNoMatch, found);
+      label = other;
+    }
+    const float d = (index_.points[label].vec() - q).squaredNorm();
+    if (d > max_sq) return false;
+    found = {label, d};
+    return true;
+  }
+
+  static constexpr std::uint32_t kNoMatch = ~std::uint32_t{0};
+  static constexpr std::size_t kMaxGridCells = std::size_t{1} << 24;  // 64 MB of labels
+  Kernel kernel_ = Kernel::kGemanMcClure;
+  registration::ModelIndex index_;
+  NearestGrid grid_;
+  std::uint64_t grid_model_ = 0;  // index_.builds the grid was built for (0: none)
+  bool grid_ready_ = false;
+  // Scratch kept between calls, so that a warmed-up DFI does not allocate.
+  std::vector<Eigen::Vector3f> points_;
+  std::vector<Pair> pairs_;
+  std::vector<float> abs_residuals_, pair_distances_;
+  std::vector<std::uint32_t> previous_;
+  Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
+};
+
+CDFF_REGISTER_DFI(Registration3DFastIcp);
+
+}  // namespace cdff::dfn

@@ -1,0 +1,113 @@
+// The only translation unit of this area that includes PCL's registration headers (slow to
+// compile): keep it that way.
+#include <cmath>
+
+#include <pcl/console/print.h>
+#include <pcl/registration/icp.h>
+#include <pcl/search/kdtree.h>
+
+#include "Registration3D.gen.hpp"
+#include "cdff/types/pcl.hpp"
+#include "registration_common.hpp"
+
+namespace cdff::dfn {
+
+class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointToPlaneBase {
+ public:
+  Registration3DPclIcpPointToPlane() {
+    // PCL prints "not enough correspondences" to stderr; this DFI reports it as a warning.
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  }
+
+ protected:
+  Status onConfigure() override {
+    icp_.setMaxCorrespondenceDistance(params_.max_correspondence_distance);
+    icp_.setMaximumIterations(params_.max_iterations);
+    // PCL compares the squared translation and the cosine of the rotation angle of each step.
+    icp_.setTransformationEpsilon(params_.translation_epsilon * params_.translation_epsilon);
+    icp_.setTransformationRotationEpsilon(std::cos(params_.rotation_epsilon));
+    return Status::ok();
+  }
+
+  Status onProcess() override {
+    const PointCloud& source = *in.source;
+    const PointCloud& model = *in.model;
+    Result<Eigen::Isometry3d> guess =
+        registration::checkInputs(source, model, in.initial_guess.get());
+    if (!guess) return guess.status();
+    if (!index_.holds(model)) {
+      CDFF_RETURN_IF_ERROR(index_.update(model));
+      Result<pcl::PointCloud<pcl::PointNormal>::Ptr> target = toPclWithNormals(model);
+      if (!target) return target.status();
+      target_ = std::move(target).value();
+      tree_ = std::make_shared<pcl::search::KdTree<pcl::PointNormal>>();
+      tree_->setInputCloud(target_);
+      icp_.setInputTarget(target_);
+      icp_.setSearchMethodTarget(tree_, true);  // built once, here
+    }
+    registration::selectSource(source, 0, points_);
+    auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
+    scan->resize(points_.size());
+    for (std::size_t i = 0; i < points_.size(); ++i) {
+      pcl::PointNormal& p = (*scan)[i];
+      p.x = points_[i].x();
+      p.y = points_[i].y();
+      p.z = points_[i].z();
+      p.normal_x = p.normal_y = p.normal_z = 0.0f;  // unused by the point-to-plane error
+    }
+    icp_.setInputSource(scan);
+    // PCL estimates model_T_source (it moves the source onto the target).
+    const Eigen::Matrix4f model_T_source = guess->inverse().matrix().cast<float>();
+    icp_.align(aligned_, model_T_source);
+    using Criteria = pcl::registration::DefaultConvergenceCriteria<float>;
+    const auto state = icp_.getConvergeCriteria()->getConvergenceState();
+    const bool converged = state == Criteria::CONVERGENCE_CRITERIA_TRANSFORM ||
+                           state == Criteria::CONVERGENCE_CRITERIA_ABS_MSE ||
+                           state == Criteria::CONVERGENCE_CRITERIA_REL_MSE;
+    Eigen::Isometry3d pose = *guess;
+    const Eigen::Matrix4d result = icp_.getFinalTransformation().cast<double>();
+    if (state == Criteria::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES || !result.allFinite()) {
+      warn(
+          fmt::format("PCL ICP found too few correspondences within {:.3g} m among {} source "
+                      "points: no overlap with the model",
+                      params_.max_correspondence_distance, points_.size()));
+    } else {
+      Eigen::Isometry3d m_T_s = Eigen::Isometry3d::Identity();
+      // Re-orthonormalise: PCL composes single-precision steps.
+      m_T_s.linear() = Eigen::Quaterniond(Eigen::Matrix3d(result.topLeftCorner<3, 3>()))
+                           .normalized()
+                           .toRotationMatrix();
+      m_T_s.translation() = result.topRightCorner<3, 1>();
+      pose = m_T_s.inverse();
+    }
+    const registration::Quality quality = registration::evaluate(
+        points_, index_, pose, params_.inlier_distance, params_.covariance_inflation);
+    const bool enough = quality.inliers >= static_cast<std::size_t>(params_.min_correspondences);
+    if (!enough && state != Criteria::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES)
+      warn(fmt::format(
+          "only {} source points of {} within inlier_distance {:.3g} m of the model "
+          "at the final pose; expected at least min_correspondences = {}",
+          quality.inliers, points_.size(), params_.inlier_distance, params_.min_correspondences));
+    registration::publish(out, source, model, pose, quality, converged && enough,
+                          icp_.nr_iterations_);
+    return Status::ok();
+  }
+
+ private:
+  // nr_iterations_ is protected in PCL; this subclass exposes it.
+  struct Icp : pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal, float> {
+    using pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal,
+                                                float>::nr_iterations_;
+  };
+
+  Icp icp_;
+  registration::ModelIndex index_;  // for the shared quality measures
+  pcl::PointCloud<pcl::PointNormal>::Ptr target_;
+  pcl::search::KdTree<pcl::PointNormal>::Ptr tree_;
+  pcl::PointCloud<pcl::PointNormal> aligned_;
+  std::vector<Eigen::Vector3f> points_;
+};
+
+CDFF_REGISTER_DFI(Registration3DPclIcpPointToPlane);
+
+}  // namespace cdff::dfn

@@ -1,0 +1,291 @@
+// Registration3D: a VLP-16-like scan (3 cm range noise, ray-cast so only the faces towards the
+// sensor are seen) of a satellite-like target is registered against a dense point model sampled
+// from the same mesh. Both DFIs must recover the true pose from a tracking-sized error of the
+// guess within the issue's accuracy targets (close range: 1 cm and 0.5 deg; mid range: 0.5 % of
+// the range and 1 deg), FastIcp also from the initialisation-sized error (10 % of the range and
+// 10 deg); the reported covariance must describe the actual errors; bad inputs must be reported.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "Registration3D.gen.hpp"
+#include "cdff/dfn/registry.hpp"
+#include "cdff/types/statistics.hpp"
+#include "support/dfn_testing.hpp"
+#include "support/lidar.hpp"
+#include "support/synthetic.hpp"
+
+namespace cdff::dfn {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+const PointCloud& satelliteModel() {
+  static const PointCloud model = [] {
+    Result<PointCloud> cloud = sampleSurface(testing::satelliteMesh(), 100'000, 7);
+    EXPECT_TRUE(cloud.isOk()) << cloud.status().toString();
+    return std::move(cloud).value();
+  }();
+  return model;
+}
+
+// The target seen from a sensor at `range` m along the sensor's x axis, turned so that three
+// faces and a wing are in view.
+Eigen::Isometry3d lidarTTarget(double range) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = (Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitY()) *
+                   Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(range, 0.1 * range, 0.05 * range);
+  return pose;
+}
+
+PointCloud scanAt(const Eigen::Isometry3d& truth, std::uint32_t seed) {
+  return testing::simulateScan(testing::satelliteMesh(), truth, {}, seed);
+}
+
+Transform guessOf(const Eigen::Isometry3d& pose) {
+  return Transform::fromIsometry(pose, "lidar", "target");
+}
+
+template <typename Dfi>
+class Registration3DTest : public ::testing::Test {
+ public:
+  static std::unique_ptr<Registration3D> make(const std::string& yaml = "{}") {
+    return testing::makeDfn<Registration3D>("Registration3D", Dfi::name, yaml);
+  }
+};
+
+struct FastIcpName {
+  static constexpr const char* name = "FastIcp";
+};
+struct PclName {
+  static constexpr const char* name = "PclIcpPointToPlane";
+};
+using Dfis = ::testing::Types<FastIcpName, PclName>;
+TYPED_TEST_SUITE(Registration3DTest, Dfis);
+
+struct Case {
+  double range;         // m
+  double max_position;  // m, the accuracy requirement at this range
+  double max_angle;     // rad
+};
+
+TYPED_TEST(Registration3DTest, RecoversThePoseFromATrackingSizedGuessError) {
+  // Close range (2 m): 1 cm, 0.5 deg. Mid range (8 m): 0.5 % of the range, 1 deg.
+  for (const Case& c : {Case{2.0, 0.01, 0.5 * kDeg}, Case{8.0, 0.005 * 8.0, 1.0 * kDeg}}) {
+    auto icp =
+        this->make("{max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50}");
+    for (std::uint32_t seed = 1; seed <= 3; ++seed) {
+      const Eigen::Isometry3d truth = lidarTTarget(c.range);
+      const PointCloud scan = scanAt(truth, seed);
+      ASSERT_GT(scan.size(), 100u);
+      icp->in.source.set(scan);
+      icp->in.model.set(satelliteModel());
+      icp->in.initial_guess.set(guessOf(testing::perturb(truth, 0.05, 2.0 * kDeg, seed)));
+      ASSERT_OK(icp->process());
+      const testing::PoseError e = testing::poseError(icp->out.transform->isometry(), truth);
+      EXPECT_LT(e.translation, c.max_position) << "range " << c.range << " seed " << seed;
+      EXPECT_LT(e.rotation, c.max_angle) << "range " << c.range << " seed " << seed;
+      EXPECT_TRUE(*icp->out.converged) << "range " << c.range << " seed " << seed << ": "
+                                       << *icp->out.iterations << " iterations";
+      EXPECT_GT(*icp->out.fitness, 0.95);
+      // The residuals are the range noise seen along the normals: at most its 3 cm.
+      EXPECT_LT(*icp->out.inlier_rms, 0.035);
+      EXPECT_GT(*icp->out.inlier_rms, 0.01);
+      EXPECT_EQ(icp->out.transform->parent_frame, "lidar");
+      EXPECT_EQ(icp->out.transform->child_frame, "target");
+      EXPECT_EQ(icp->out.pose->pose.translation, icp->out.transform->translation);
+    }
+  }
+}
+
+TYPED_TEST(Registration3DTest, ANewModelBufferIsUsedNotTheCachedOne) {
+  auto icp = this->make("{max_correspondence_distance: 0.3}");
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  const PointCloud scan = scanAt(truth, 11);
+  icp->in.source.set(scan);
+  icp->in.model.set(satelliteModel());
+  icp->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(icp->process());
+  EXPECT_LT(testing::poseError(icp->out.transform->isometry(), truth).translation, 0.01);
+
+  // The same model shifted by 10 cm along its x axis: the pose found must follow.
+  std::vector<Point4f> shifted(satelliteModel().points.begin(), satelliteModel().points.end());
+  for (Point4f& p : shifted) p.x += 0.1f;
+  PointCloud moved = satelliteModel();
+  moved.points = Buffer<Point4f>::fromVector(std::move(shifted));
+  icp->in.model.set(moved);
+  icp->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(icp->process());
+  const Eigen::Isometry3d expected = truth * Eigen::Translation3d(-0.1, 0, 0);
+  EXPECT_LT(testing::poseError(icp->out.transform->isometry(), expected).translation, 0.01);
+}
+
+TYPED_TEST(Registration3DTest, NoOverlapIsReportedAsNotConvergedAndKeepsTheGuess) {
+  auto icp = this->make("{max_correspondence_distance: 0.3}");
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  icp->in.source.set(scanAt(truth, 3));
+  icp->in.model.set(satelliteModel());
+  // The guess puts the model 20 m away from where the scan saw it.
+  Eigen::Isometry3d far = truth;
+  far.translation() += Eigen::Vector3d(20, 0, 0);
+  icp->in.initial_guess.set(guessOf(far));
+  ASSERT_OK(icp->process());
+  EXPECT_FALSE(*icp->out.converged);
+  EXPECT_EQ(*icp->out.fitness, 0.0);
+  EXPECT_TRUE(std::isnan(*icp->out.inlier_rms));
+  EXPECT_LT(testing::poseError(icp->out.transform->isometry(), far).translation, 1e-6);
+  EXPECT_GE(icp->diagnostics().warning_count, 1u);
+}
+
+TYPED_TEST(Registration3DTest, BadInputsAreReported) {
+  auto icp = this->make();
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  const PointCloud scan = scanAt(truth, 5);
+
+  icp->in.source.set(PointCloud{});
+  icp->in.model.set(satelliteModel());
+  testing::expectRejected(*icp, "input 'source' has no points");
+
+  std::vector<Point4f> with_nan(scan.points.begin(), scan.points.end());
+  with_nan[7].y = std::nanf("");
+  PointCloud nan_scan = scan;
+  nan_scan.points = Buffer<Point4f>::fromVector(std::move(with_nan));
+  icp->in.source.set(nan_scan);
+  testing::expectRejected(*icp, "input 'source' point 7");
+
+  icp->in.source.set(scan);
+  PointCloud bare = satelliteModel();
+  bare.normals = {};
+  icp->in.model.set(bare);
+  testing::expectRejected(*icp, "has no normals");
+
+  std::vector<Point4f> bad_normals(satelliteModel().normals.begin(),
+                                   satelliteModel().normals.end());
+  bad_normals[3] = Point4f(0, 0, 0);
+  PointCloud zero_normal = satelliteModel();
+  zero_normal.normals = Buffer<Point4f>::fromVector(std::move(bad_normals));
+  icp->in.model.set(zero_normal);
+  testing::expectRejected(*icp, "normal 3");
+
+  icp->in.model.set(PointCloud{});
+  testing::expectRejected(*icp, "input 'model' has no points");
+
+  icp->in.model.set(satelliteModel());
+  Transform nan_guess = guessOf(truth);
+  nan_guess.translation.z() = std::nan("");
+  icp->in.initial_guess.set(nan_guess);
+  testing::expectRejected(*icp, "initial_guess");
+
+  Transform wrong = guessOf(truth);
+  wrong.parent_frame = "camera";
+  icp->in.initial_guess.set(wrong);
+  testing::expectRejected(*icp, "expected source_T_model = lidar_T_target");
+
+  // Still works afterwards.
+  icp->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(icp->process());
+  EXPECT_TRUE(*icp->out.converged);
+}
+
+TYPED_TEST(Registration3DTest, BadParametersAreRejected) {
+  auto node = Registry::instance().create("Registration3D", TypeParam::name);
+  ASSERT_TRUE(node.isOk());
+  Status s = node.value()->configure(YAML::Load("{max_correspondence_distance: -1}"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
+  EXPECT_NE(s.message().find("max_correspondence_distance"), std::string::npos) << s.message();
+  s = node.value()->configure(YAML::Load("{max_iterations: 0}"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
+}
+
+std::unique_ptr<Registration3D> makeFast(const std::string& yaml = "{}") {
+  return testing::makeDfn<Registration3D>("Registration3D", "FastIcp", yaml);
+}
+
+TEST(Registration3DFastIcp, ConvergesFromAnInitialisationSizedGuessError) {
+  // The detection stand-in of the issue: 10 % of the range and 10 deg off. The correspondence
+  // distance starts wide (point-to-point first) and shrinks as the alignment improves. From so
+  // far off a sparse scan can mislead any ICP into another minimum: at least 11 of these 12
+  // must recover (the DFPC re-initialises when one does not; its tracking rate is measured
+  // end to end).
+  int recovered = 0, runs = 0;
+  std::string failures;
+  for (const double range : {3.0, 6.0, 10.0}) {
+    auto icp = makeFast(
+        fmt::format("{{max_correspondence_distance: {}, max_iterations: 100}}", 0.2 * range + 0.5));
+    for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+      const Eigen::Isometry3d truth = lidarTTarget(range);
+      icp->in.source.set(scanAt(truth, seed));
+      icp->in.model.set(satelliteModel());
+      icp->in.initial_guess.set(
+          guessOf(testing::perturb(truth, 0.1 * range, 10.0 * kDeg, 100 + seed)));
+      ASSERT_OK(icp->process());
+      const testing::PoseError e = testing::poseError(icp->out.transform->isometry(), truth);
+      ++runs;
+      if (e.translation < 0.005 * range && e.rotation < 1.0 * kDeg && *icp->out.converged)
+        ++recovered;
+      else
+        failures += fmt::format(" [range {} seed {}: {:.3f} m, {:.1f} deg]", range, seed,
+                                e.translation, e.rotation / kDeg);
+    }
+  }
+  RecordProperty("recovered", fmt::format("{}/{}", recovered, runs));
+  EXPECT_GE(recovered, runs - 1) << "not recovered:" << failures;
+}
+
+TEST(Registration3DFastIcp, TheCovarianceDescribesTheSpreadAndTheBiasIsSmall) {
+  // Monte Carlo over the scan noise at a fixed pose (4 m). The Gauss-Newton covariance treats
+  // residuals as independent and correspondences as right; with the default inflation (1.5) it
+  // must describe the estimates' spread about their mean (the NEES of the de-biased errors
+  // within the chi-square 99 % interval). The mean error itself is a bias the covariance cannot
+  // know of: correspondences near edges, where the range noise moves a point closer to the
+  // neighbouring face, pull one way; the lookup grid's nearest-to-the-cell-centre matches add about
+  // half a millimetre near edges. It must stay well below the accuracy targets at this range (2 cm
+  // and 1 deg; 3 mm and 0.3 deg here); the DFPC accounts for it with covariance_inflation (the
+  // recorded ANEES of the raw errors says by how much).
+  constexpr int kRuns = 40;
+  auto icp = makeFast(
+      "{max_correspondence_distance: 0.3, translation_epsilon: 1.0e-6, "
+      "rotation_epsilon: 1.0e-6, max_iterations: 100}");
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  std::vector<Vector6d> errors;
+  std::vector<Matrix6d> covariances;
+  Vector6d mean = Vector6d::Zero();
+  for (int run = 0; run < kRuns; ++run) {
+    icp->in.source.set(scanAt(truth, 1000 + run));
+    icp->in.model.set(satelliteModel());
+    icp->in.initial_guess.set(guessOf(testing::perturb(truth, 0.03, 1.0 * kDeg, run)));
+    ASSERT_OK(icp->process());
+    const PoseWithCovariance& z = *icp->out.pose;
+    Vector6d e;
+    e.head<3>() = z.pose.translation - truth.translation();
+    e.tail<3>() = logSO3(z.pose.rotation * Eigen::Quaterniond(truth.linear()).conjugate());
+    errors.push_back(e);
+    covariances.push_back(z.covariance);
+    mean += e / kRuns;
+  }
+  double sum_spread = 0, sum_raw = 0;
+  for (int run = 0; run < kRuns; ++run) {
+    const Vector6d d = errors[run] - mean;
+    sum_spread += d.dot(covariances[run].ldlt().solve(d));
+    sum_raw += errors[run].dot(covariances[run].ldlt().solve(errors[run]));
+  }
+  // Removing the sample mean takes 6 of the 6 kRuns degrees of freedom.
+  const double spread_anees = sum_spread / kRuns;
+  const double low = chiSquareQuantile(0.005, 6 * (kRuns - 1)) / kRuns;
+  const double high = chiSquareQuantile(0.995, 6 * (kRuns - 1)) / kRuns;
+  RecordProperty("spread_anees_6dof",
+                 fmt::format("{:.2f} in [{:.2f}, {:.2f}]", spread_anees, low, high));
+  RecordProperty("raw_anees_6dof", fmt::format("{:.2f}", sum_raw / kRuns));
+  RecordProperty("bias", fmt::format("{:.2f} mm, {:.3f} deg", 1e3 * mean.head<3>().norm(),
+                                     mean.tail<3>().norm() / kDeg));
+  EXPECT_GT(spread_anees, low) << "the covariance is pessimistic";
+  EXPECT_LT(spread_anees, high) << "the covariance is overconfident about the spread";
+  EXPECT_LT(mean.head<3>().norm(), 0.003);
+  EXPECT_LT(mean.tail<3>().norm(), 0.3 * kDeg);
+}
+
+}  // namespace
+}  // namespace cdff::dfn

@@ -1,0 +1,3 @@
+# PclIcpPointToPlane uses PCL's registration (ICP) and search (KD-tree) components.
+target_link_libraries(${lib} PUBLIC cdff_types_pcl ${PCL_REGISTRATION_LIBRARIES}
+                                    ${PCL_SEARCH_LIBRARIES} ${PCL_KDTREE_LIBRARIES})

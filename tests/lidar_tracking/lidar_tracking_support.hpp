@@ -1,0 +1,55 @@
+#pragma once
+// Runs dfpcs/lidar_tracking.yaml on a simulated scenario (the EGSE simulator in-process, LIDAR
+// only) and evaluates its products against the simulator's ground truth with cdff::eval. Shared
+// by the end-to-end tests and the DFPC benchmark.
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/stream.hpp"
+#include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/types/geometry.hpp"
+#include "cdff/types/point_cloud.hpp"
+
+namespace cdff::lidar_tracking {
+
+struct SimulatedRun {
+  std::vector<dfpc::Message> messages;  // in stamp order: /chaser/tf/*, scans, /truth/target_pose
+  std::vector<Transform> truth;         // servicer_T_target, /truth/target_pose
+  std::vector<PointCloud> scans;
+  std::filesystem::path mesh_file;  // the target's mesh as the simulator used it (PLY)
+};
+
+/// Simulates `scenario` (a library name) with only the LIDAR on, for `duration` s (0: the
+/// scenario's), with `extra_yaml` appended to the scenario file (e.g. a faults: list).
+Result<SimulatedRun> simulate(const std::string& scenario, double duration,
+                              const std::string& extra_yaml = "", std::uint64_t seed = 1);
+
+/// The initial state the tests give the DFPC: the truth at `stamp` with its position moved by
+/// `position_fraction` of the range in a random direction and its attitude turned by
+/// `angle_rad` about a random axis, with a covariance that covers that error
+/// (eval::perturbedInitialState; an empty state when there is no truth at `stamp`).
+RigidBodyState perturbedInitialState(const std::vector<Transform>& truth, Timestamp stamp,
+                                     double position_fraction, double angle_rad,
+                                     std::uint64_t seed);
+
+/// The graph, loaded from dfpcs/lidar_tracking.yaml, with its model read from `mesh_file`.
+Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file);
+
+struct TrackingResult {
+  eval::PoseEvaluation evaluation;  // the pose products after `settle_s`
+  std::size_t scans = 0;            // scans after settle_s
+  std::size_t accepted = 0;         // of those, fused by the EKF
+  double tracked_fraction = 0;      // accepted / scans
+  std::vector<dfpc::Event> events;
+  std::vector<dfpc::Message> products;  // every product of the run
+};
+
+/// Runs the DFPC over `messages` (plus the initial state), evaluating from `settle_s` after the
+/// first scan on.
+Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message> messages,
+                             const RigidBodyState& initial, double settle_s);
+
+}  // namespace cdff::lidar_tracking
