@@ -1,5 +1,9 @@
 #include "cdff/tracking/edge_tracker.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <span>
+
 #include "ModelBasedTracking.gen.hpp"
 #include "tracking_common.hpp"
 
@@ -39,6 +43,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     o.depth.max_distance = p.depth_max_distance;
     o.refinement_passes = p.refinement_passes;
     o.refinement_search_distance = p.refinement_search_distance;
+    acquisition_sigmas_ = p.acquisition_sigmas;
+    acquisition_max_search_ = p.acquisition_max_search_distance;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -70,10 +76,21 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (in.depth.hasValue())
       CDFF_RETURN_IF_ERROR(in.depth->validate().withContext("input 'depth'"));
 
+    const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
+    Transform start = predicted.pose;
+    Result<bool> acquired = acquire(cameras->frames, depth, predicted, start);
+    if (!acquired) return acquired.status();
     Result<tracking::TrackingResult> result =
-        tracker_.track(cameras->frames, in.depth.hasValue() ? in.depth.get() : nullptr,
-                       depth_T_camera_, predicted.pose, options_);
+        tracker_.track(cameras->frames, depth, depth_T_camera_, start, options_);
     if (!result) return result.status();
+    if (!*acquired) {
+      result->status = TrackingStatus::kLost;
+      result->reason = "acquisition from the initial pose failed: " + acquisition_failure_;
+      result->reference_T_model = predicted.pose;
+      result->covariance = tracking::noInformationCovariance();
+    } else if (result->status == TrackingStatus::kLost) {
+      result->reference_T_model = predicted.pose;
+    }
     if (result->status != TrackingStatus::kTracking)
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
 
@@ -81,13 +98,136 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     pose.pose = result->reference_T_model;  // the prediction when lost
     pose.covariance = result->covariance;
     out.pose.set(std::move(pose));
-    out.status.set(static_cast<int>(result->status));
+    mbt::publishStatus(out, result->status);
     out.inlier_ratio.set(result->inlier_ratio);
     out.feature_count.set(static_cast<int>(result->inliers + result->depth_points));
     return Status::ok();
   }
 
  private:
+  // How far, in pixels, the prediction's uncertainty moves the model's image in the reference
+  // camera: acquisition_sigmas standard deviations of the lateral position, of the range (which
+  // scales the image about its centre) and of the attitude (which swings the model's extent).
+  double predictionSpreadPx(const tracking::CameraFrame& frame,
+                            const PoseWithCovariance& predicted) const {
+    if (acquisition_sigmas_ <= 0 || !tracker_.hasModel()) return 0;
+    const Matrix6d& c = predicted.covariance;
+    if (!c.allFinite() || c.diagonal().maxCoeff() <= 0 || c.diagonal().maxCoeff() >= 1e5) return 0;
+    const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * predicted.pose.isometry();
+    const double z = (c_T_m * tracker_.model().centre).z();
+    if (z <= options_.visibility.near_clipping) return 0;
+    const double r = tracker_.model().radius;
+    const Eigen::Matrix3d p = c.topLeftCorner<3, 3>();
+    const double lateral = std::sqrt(std::max(0.0, p(0, 0) + p(1, 1)));
+    const double range = std::sqrt(std::max(0.0, p(2, 2)));
+    const double attitude = std::sqrt(std::max(0.0, c.bottomRightCorner<3, 3>().trace()));
+    const double f = std::max(frame.camera.fx, frame.camera.fy);
+    return acquisition_sigmas_ * f / z * (lateral + range * r / z + attitude * r);
+  }
+
+  static constexpr double kMinModelPx = 96;
+
+  // The diameter of the model's bounding sphere in the image, at the prediction.
+  double modelSizePx(const tracking::CameraFrame& frame,
+                     const PoseWithCovariance& predicted) const {
+    const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * predicted.pose.isometry();
+    const double z = (c_T_m * tracker_.model().centre).z();
+    if (z <= options_.visibility.near_clipping) return 0;
+    return 2 * tracker_.model().radius * std::max(frame.camera.fx, frame.camera.fy) / z;
+  }
+
+  // Half the resolution by 2x2 averaging, with the camera model of the smaller image.
+  static Image halve(const Image& image) {
+    const int w = image.width / 2, h = image.height / 2;
+    std::vector<std::uint8_t> out(static_cast<std::size_t>(w) * h);
+    for (int y = 0; y < h; ++y) {
+      const std::uint8_t* r0 = image.row(2 * y);
+      const std::uint8_t* r1 = image.row(2 * y + 1);
+      for (int x = 0; x < w; ++x)
+        out[static_cast<std::size_t>(y) * w + x] = static_cast<std::uint8_t>(
+            (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1] + 2) / 4);
+    }
+    Image half = Image::fromBytes(std::move(out), w, h, PixelFormat::kGray8).value();
+    half.stamp = image.stamp;
+    half.frame_id = image.frame_id;
+    return half;
+  }
+  static CameraModel halve(const CameraModel& c) {
+    CameraModel h = c;
+    h.width = c.width / 2;
+    h.height = c.height / 2;
+    h.fx = c.fx / 2;
+    h.fy = c.fy / 2;
+    h.cx = (c.cx + 0.5) / 2 - 0.5;
+    h.cy = (c.cy + 0.5) / 2 - 0.5;
+    return h;
+  }
+
+  // Coarse-to-fine acquisition from an uncertain prediction: a pass on an image pyramid level
+  // where the prediction's spread fits the search distance, then one pass per finer level;
+  // `start` becomes their estimate. False (acquisition_failure_ says why) when a pass lost the
+  // track. The final pass at full resolution (the caller's) checks the inlier ratio.
+  Result<bool> acquire(std::span<const tracking::CameraFrame> frames, const DepthMap* depth,
+                       const PoseWithCovariance& predicted, Transform& start) {
+    if (frames.empty()) return true;
+    std::size_t reference = 0;
+    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    const double spread = predictionSpreadPx(frames[reference], predicted);
+    const int search = options_.search.search_distance;
+    if (spread <= search) return true;
+    // Pyramid levels below full resolution: as many as the spread needs, while the model's image
+    // at the level stays large enough to fix the pose (kMinModelPx across).
+    const double model_px = modelSizePx(frames[reference], predicted);
+    const auto fits = [&](int level) { return model_px / (1 << level) >= kMinModelPx; };
+    int levels = 0;
+    while (levels < 3 && spread / (1 << levels) > 2 * search && fits(levels + 1)) ++levels;
+    tracking::EdgeTrackerOptions coarse = options_;
+    coarse.refinement_passes = 0;
+    coarse.visibility_update_translation = coarse.visibility_update_rotation = 0;
+    coarse.min_inlier_ratio = 0;
+    coarse.degraded_inlier_ratio = 0;
+    // The passes may move as far as the prediction is uncertain.
+    const Matrix6d& c = predicted.covariance;
+    coarse.solver.divergence_translation =
+        std::max(options_.solver.divergence_translation,
+                 2 * acquisition_sigmas_ * std::sqrt(c.topLeftCorner<3, 3>().trace()));
+    coarse.solver.divergence_rotation =
+        std::max(options_.solver.divergence_rotation,
+                 2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
+    // The pyramid of every camera's image.
+    std::vector<std::vector<Image>> pyramid(frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (!frames[i].image) continue;
+      pyramid[i].push_back(*frames[i].image);
+      for (int l = 1; l <= levels; ++l) pyramid[i].push_back(halve(pyramid[i].back()));
+    }
+    for (int level = levels; level >= 0; --level) {
+      std::vector<tracking::CameraFrame> scaled(frames.begin(), frames.end());
+      for (std::size_t i = 0; i < frames.size(); ++i) {
+        for (int l = 0; l < level; ++l) scaled[i].camera = halve(scaled[i].camera);
+        if (frames[i].image) scaled[i].image = &pyramid[i][static_cast<std::size_t>(level)];
+      }
+      const double level_spread = spread / (1 << level);
+      coarse.search.search_distance = level == levels
+                                          ? std::clamp(static_cast<int>(std::ceil(level_spread)),
+                                                       search, acquisition_max_search_)
+                                          : search;
+      Result<tracking::TrackingResult> pass =
+          tracker_.track(scaled, level == 0 ? depth : nullptr, depth_T_camera_, start, coarse);
+      if (!pass) return pass.status();
+      if (pass->status == TrackingStatus::kLost) {
+        acquisition_failure_ = fmt::format("at pyramid level {} (search distance {} px): {}", level,
+                                           coarse.search.search_distance, pass->reason);
+        return false;
+      }
+      start = pass->reference_T_model;
+    }
+    return true;
+  }
+
+  double acquisition_sigmas_ = 3;
+  int acquisition_max_search_ = 64;
+  std::string acquisition_failure_;
   tracking::EdgeTrackerOptions options_;
   Eigen::Isometry3d depth_T_camera_ = Eigen::Isometry3d::Identity();
   mbt::ModelSource models_;

@@ -199,7 +199,7 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       PoseWithCovariance lost = predicted;
       lost.covariance = tracking::noInformationCovariance();
       out.pose.set(std::move(lost));
-      out.status.set(static_cast<int>(TrackingStatus::kLost));
+      mbt::publishStatus(out, TrackingStatus::kLost);
       out.inlier_ratio.set(0.0);
       out.feature_count.set(0);
       return Status::ok();
@@ -252,7 +252,7 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
         status = TrackingStatus::kDegraded;
     }
     out.pose.set(std::move(pose));
-    out.status.set(static_cast<int>(status));
+    mbt::publishStatus(out, status);
     out.inlier_ratio.set(error.empty() ? result.inlier_ratio : 0.0);
     out.feature_count.set(error.empty() ? result.feature_count : 0);
     return Status::ok();

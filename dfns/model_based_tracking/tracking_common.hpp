@@ -109,7 +109,23 @@ inline Result<Cameras> gatherCameras(const ModelBasedTracking::Inputs& in,
   return out;
 }
 
-/// The prediction: `predicted_pose`, or the pose of `predicted_state` (EstimationFilter's output).
+/// The time of this call's measurements: the first image (or depth map) with a stamp; 0 if none.
+inline Timestamp sensorStamp(const ModelBasedTracking::Inputs& in) {
+  if (in.image.hasValue() && in.image->stamp != 0) return in.image->stamp;
+  if (in.stereo_images.hasValue()) {
+    if (!in.stereo_images->left.empty() && in.stereo_images->left.stamp != 0)
+      return in.stereo_images->left.stamp;
+    if (!in.stereo_images->right.empty() && in.stereo_images->right.stamp != 0)
+      return in.stereo_images->right.stamp;
+  }
+  if (in.depth.hasValue()) return in.depth->image.stamp;
+  return 0;
+}
+
+/// The prediction: `predicted_pose`, or the pose of `predicted_state` (EstimationFilter's output)
+/// moved to the measurements' time with its twist, the mean of the filter's constant-velocity
+/// prediction (translation += v dt, rotation = exp(w dt) rotation), so that the previous frame's
+/// corrected state predicts this frame.
 inline Result<PoseWithCovariance> prediction(const ModelBasedTracking::Inputs& in) {
   if (in.predicted_pose.hasValue() == in.predicted_state.hasValue())
     return invalidInput("{}; expected exactly one of 'predicted_pose' and 'predicted_state'",
@@ -117,11 +133,38 @@ inline Result<PoseWithCovariance> prediction(const ModelBasedTracking::Inputs& i
                             ? "both 'predicted_pose' and 'predicted_state' "
                               "are set"
                             : "no prediction");
-  PoseWithCovariance p =
-      in.predicted_pose.hasValue() ? *in.predicted_pose : in.predicted_state->poseWithCovariance();
-  CDFF_RETURN_IF_ERROR(p.validate().withContext(
-      in.predicted_pose.hasValue() ? "input 'predicted_pose'" : "input 'predicted_state'"));
+  if (in.predicted_pose.hasValue()) {
+    const PoseWithCovariance& p = *in.predicted_pose;
+    CDFF_RETURN_IF_ERROR(p.validate().withContext("input 'predicted_pose'"));
+    return p;
+  }
+  const RigidBodyState& state = *in.predicted_state;
+  CDFF_RETURN_IF_ERROR(state.validate().withContext("input 'predicted_state'"));
+  PoseWithCovariance p = state.poseWithCovariance();
+  const Timestamp to = sensorStamp(in);
+  if (to > state.pose.stamp) {
+    const double dt = toSeconds(to - state.pose.stamp);
+    p.pose.translation += state.twist.linear * dt;
+    p.pose.rotation = (expSO3(state.twist.angular * dt) * p.pose.rotation).normalized();
+    p.pose.stamp = to;
+  }
   return p;
+}
+
+/// Publishes the status on both status outputs.
+inline void publishStatus(ModelBasedTracking::Outputs& out, TrackingStatus status) {
+  out.status.set(static_cast<int>(status));
+  switch (status) {
+    case TrackingStatus::kTracking:
+      out.track_state.set(std::string("TRACKING"));
+      break;
+    case TrackingStatus::kDegraded:
+      out.track_state.set(std::string("DEGRADED"));
+      break;
+    case TrackingStatus::kLost:
+      out.track_state.set(std::string("LOST"));
+      break;
+  }
 }
 
 inline Result<Eigen::Isometry3d> depthExtrinsics(const std::vector<double>& values) {

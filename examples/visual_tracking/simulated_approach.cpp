@@ -1,0 +1,316 @@
+#include "simulated_approach.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <random>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/orchestrator.hpp"
+#include "cdff/egse/model_io.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/egse/simulator.hpp"
+#include "cdff/egse/sink.hpp"
+#include "cdff/types/polygon_model.hpp"
+
+#ifndef CDFF_SOURCE_DIR
+#define CDFF_SOURCE_DIR "."
+#endif
+
+namespace cdff::visual_demo {
+namespace {
+
+constexpr const char* kLeft = "/chaser/camera/left/image";
+constexpr const char* kRight = "/chaser/camera/right/image";
+constexpr const char* kTruth = "/truth/camera_left/target_pose";
+
+Eigen::Vector3d randomDirection(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  Eigen::Vector3d d;
+  do d = Eigen::Vector3d(n(rng), n(rng), n(rng));
+  while (d.norm() < 1e-6);
+  return d.normalized();
+}
+
+// Feeds the simulator's camera frames to the Orchestrator as they come (a live system), with the
+// perturbed initial pose and the model before the first frame; keeps the truth for evaluation.
+class Feeder final : public egse::SimulationSink {
+ public:
+  Feeder(dfpc::Orchestrator& o, const egse::Simulator& sim, const ApproachOptions& options,
+         PolygonModel model)
+      : o_(o), sim_(sim), options_(options), model_(std::move(model)), rng_(options.initial_seed) {}
+
+  Status begin(const egse::SimulationMetadata&) override { return Status::ok(); }
+
+  Status write(const egse::SimMessage& m) override {
+    if (m.channel == kTruth) {
+      if (const PoseWithCovariance* p = std::get_if<PoseWithCovariance>(&m.payload))
+        truth.push_back(p->pose);
+      else if (const RigidBodyState* s = std::get_if<RigidBodyState>(&m.payload))
+        truth.push_back(s->pose);
+      return Status::ok();
+    }
+    const bool left = m.channel == kLeft, right = m.channel == kRight;
+    if (!left && !right) return Status::ok();
+    const Image* image = std::get_if<Image>(&m.payload);
+    if (!image) return Status::ok();
+    // A frame published late (after a newer one) is dropped, as a live system drops it: the
+    // filter's time does not go backwards.
+    if (image->stamp < last_stamp_ || (!options_.stereo && image->stamp == last_stamp_)) {
+      ++late_frames;
+      return Status::ok();
+    }
+    CDFF_RETURN_IF_ERROR(startIfNeeded(image->stamp));
+    if (!options_.stereo) {
+      last_stamp_ = image->stamp;
+      return left ? o_.process(dfpc::Message::of(kLeft, image->stamp, *image)) : Status::ok();
+    }
+    // Pairs: both cameras' frames of one instant come one after the other; a frame whose
+    // partner has not come when the next instant starts is paired with an empty image.
+    if (pending_ && pending_->left.stamp != image->stamp && pending_->right.stamp != image->stamp)
+      CDFF_RETURN_IF_ERROR(flush());
+    if (!pending_) pending_.emplace(emptyPair());
+    (left ? pending_->left : pending_->right) = *image;
+    if (!pending_->left.empty() && !pending_->right.empty()) return flush();
+    return Status::ok();
+  }
+
+  Status end() override { return pending_ ? flush() : Status::ok(); }
+
+  std::vector<Transform> truth;
+  std::size_t late_frames = 0;
+
+ private:
+  Status startIfNeeded(Timestamp stamp) {
+    if (started_) return Status::ok();
+    started_ = true;
+    const egse::SensorConfig* camera = sim_.scenario().sensor("camera_left");
+    if (!camera) return invalidInput("the scenario has no camera_left");
+    const double t = toSeconds(stamp);
+    const Eigen::Isometry3d truth_pose = sim_.sensorTtarget(*camera, t);
+    if (options_.stereo) {
+      const egse::SensorConfig* r = sim_.scenario().sensor("camera_right");
+      if (!r) return invalidInput("stereo tracking needs camera_right in the scenario");
+      right_T_left_ = Transform::fromIsometry(sim_.sensorTtarget(*r, t) * truth_pose.inverse(),
+                                              "camera_right_optical", "camera_left_optical", 0);
+    }
+    CDFF_RETURN_IF_ERROR(
+        o_.process(dfpc::Message::of("/cdff/visual_tracking/model", stamp, model_)));
+    RigidBodyState s;
+    const double offset = options_.initial_range_fraction * truth_pose.translation().norm();
+    Eigen::Isometry3d p = truth_pose;
+    p.translation() += offset * randomDirection(rng_);
+    p.linear() = expSO3(options_.initial_angle * randomDirection(rng_)).toRotationMatrix() *
+                 truth_pose.linear();
+    s.pose = Transform::fromIsometry(p, "camera_left_optical", "target", stamp);
+    s.covariance.diagonal() << Eigen::Vector3d::Constant(offset * offset),
+        Eigen::Vector3d::Constant(options_.initial_angle * options_.initial_angle),
+        Eigen::Vector3d::Constant(0.05 * 0.05),
+        Eigen::Vector3d::Constant(std::pow(5.0 * M_PI / 180, 2));
+    return o_.process(dfpc::Message::of("/cdff/visual_tracking/initial_pose", stamp, s));
+  }
+
+  StereoImagePair emptyPair() const {
+    StereoImagePair p;
+    p.right_T_left = right_T_left_;
+    return p;
+  }
+
+  Status flush() {
+    StereoImagePair pair = std::move(*pending_);
+    pending_.reset();
+    pair.right.frame_id = "camera_right_optical";
+    const Timestamp stamp = pair.left.empty() ? pair.right.stamp : pair.left.stamp;
+    last_stamp_ = stamp + 1;
+    return o_.process(dfpc::Message::of("/chaser/stereo/pair", stamp, std::move(pair)));
+  }
+
+  dfpc::Orchestrator& o_;
+  const egse::Simulator& sim_;
+  const ApproachOptions& options_;
+  PolygonModel model_;
+  std::mt19937 rng_;
+  bool started_ = false;
+  Timestamp last_stamp_ = 0;
+  Transform right_T_left_;
+  std::optional<StereoImagePair> pending_;
+};
+
+Result<eval::PoseEvaluation> evaluate(const std::vector<dfpc::Message>& messages, std::size_t skip,
+                                      const std::vector<Transform>& truth) {
+  std::vector<eval::EstimateSample> estimates;
+  for (std::size_t i = skip; i < messages.size(); ++i) {
+    eval::EstimateSample e;
+    if (const RigidBodyState* s = messages[i].as<RigidBodyState>())
+      e.pose = s->pose;
+    else if (const PoseWithCovariance* p = messages[i].as<PoseWithCovariance>())
+      e.pose = p->pose;
+    else
+      continue;
+    estimates.push_back(e);
+  }
+  return eval::evaluatePoses(estimates, truth);
+}
+
+}  // namespace
+
+Result<std::unique_ptr<egse::Simulator>> makeSimulator(const ApproachOptions& options) {
+  Result<std::filesystem::path> file = egse::resolveScenario(options.scenario);
+  if (!file) return file.status();
+  // Cameras only: the other sensors cost simulation time and the DFPC does not read them.
+  std::vector<std::string> overrides = {
+      "sensors.lidar.enabled=false", "sensors.tof.enabled=false", "sensors.imu.enabled=false",
+      fmt::format("sensors.camera_left.rate={}", options.camera_rate)};
+  if (options.stereo) {
+    overrides.push_back(fmt::format("sensors.camera_right.rate={}", options.camera_rate));
+    // The stereo graph takes undistorted pairs (the mono graph undistorts its images itself).
+    overrides.push_back("sensors.camera_left.distortion_model=none");
+    overrides.push_back("sensors.camera_right.distortion_model=none");
+  } else {
+    overrides.push_back("sensors.camera_right.enabled=false");
+  }
+  overrides.insert(overrides.end(), options.overrides.begin(), options.overrides.end());
+  Result<egse::Scenario> scenario = egse::loadScenario(*file, overrides);
+  if (!scenario) return scenario.status();
+  return egse::Simulator::create(*scenario, options.seed, options.duration);
+}
+
+static Result<PolygonModel> targetModel(const egse::Simulator& sim) {
+  // The tracker's model: the simulator's own .cao export, read back as the DFPC would.
+  const std::filesystem::path cao =
+      std::filesystem::temp_directory_path() /
+      fmt::format("cdff_visual_tracking_{}.cao", static_cast<const void*>(&sim));
+  CDFF_RETURN_IF_ERROR(egse::writeCao(sim.target(), cao));
+  Result<PolygonModel> model = loadCao(cao.string());
+  std::error_code ignored;
+  std::filesystem::remove(cao, ignored);
+  if (!model) return model.status().withContext("the simulator's .cao export");
+  return model;
+}
+
+Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
+  const std::string source = options.source_dir.empty() ? CDFF_SOURCE_DIR : options.source_dir;
+  const std::string graph_file = source + (options.stereo ? "/dfpcs/visual_tracking_stereo.yaml"
+                                                          : "/dfpcs/visual_tracking.yaml");
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph_file);
+  if (!spec) return spec.status();
+  for (dfpc::InstanceSpec& inst : spec->instances) {
+    if (inst.name != "tracker") continue;
+    if (inst.dfi != options.dfi) {
+      inst.dfi = options.dfi;
+      // The graph's parameters are EdgeTracker's; another DFI starts from its defaults.
+      inst.parameters = YAML::Node(YAML::NodeType::Map);
+    }
+    if (!options.dfi_parameters.empty()) {
+      YAML::Node extra = YAML::Load(options.dfi_parameters);
+      for (const auto& kv : extra) inst.parameters[kv.first.as<std::string>()] = kv.second;
+    }
+  }
+  return dfpc::Dfpc::create(std::move(spec).value());
+}
+
+Result<SimulatedFrames> simulateFrames(const ApproachOptions& options) {
+  Result<std::unique_ptr<egse::Simulator>> sim = makeSimulator(options);
+  if (!sim) return sim.status();
+  Result<PolygonModel> model = targetModel(**sim);
+  if (!model) return model.status();
+  egse::MemorySink sink;
+  CDFF_RETURN_IF_ERROR((*sim)->run(sink));
+  SimulatedFrames out;
+  out.model = std::move(model).value();
+  out.images = sink.on<Image>(kLeft);
+  for (const PoseWithCovariance& p : sink.on<PoseWithCovariance>(kTruth))
+    out.truth.push_back(p.pose);
+  for (const RigidBodyState& s : sink.on<RigidBodyState>(kTruth)) out.truth.push_back(s.pose);
+  if (out.images.size() != out.truth.size())
+    return Status(StatusCode::kInternal,
+                  fmt::format("{} images and {} true poses", out.images.size(), out.truth.size()));
+  return out;
+}
+
+Result<ApproachResult> runApproach(const ApproachOptions& options) {
+  Result<std::unique_ptr<egse::Simulator>> sim = makeSimulator(options);
+  if (!sim) return sim.status();
+  Result<PolygonModel> model = targetModel(**sim);
+  if (!model) return model.status();
+  Result<std::unique_ptr<dfpc::Dfpc>> dfpc = makeDfpc(options);
+  if (!dfpc) return dfpc.status();
+
+  dfpc::MemorySink products;
+  dfpc::OrchestratorOptions o_options;
+  o_options.sink = &products;
+  dfpc::Orchestrator o(o_options);
+  CDFF_RETURN_IF_ERROR(o.add(std::move(dfpc).value()));
+  CDFF_RETURN_IF_ERROR(o.startAll());
+  Feeder feeder(o, **sim, options, std::move(model).value());
+  CDFF_RETURN_IF_ERROR((*sim)->run(feeder));
+  CDFF_RETURN_IF_ERROR(o.finish());
+
+  ApproachResult r;
+  r.late_frames = feeder.late_frames;
+  r.renderer = (*sim)->rendererDescription();
+  const auto poses = products.messages("/cdff/visual_tracking/pose");
+  const auto statuses = products.messages("/cdff/visual_tracking/status");
+  r.frames = statuses.size();
+  if (r.frames == 0 || poses.size() != r.frames + 1)
+    return Status(StatusCode::kInternal,
+                  fmt::format("the DFPC published {} poses for {} frames; expected one per frame "
+                              "and the initial state",
+                              poses.size(), r.frames));
+  Result<eval::PoseEvaluation> filtered = evaluate(poses, 1, feeder.truth);
+  if (!filtered) return filtered.status();
+  r.filtered = std::move(filtered).value();
+  Result<eval::PoseEvaluation> measured =
+      evaluate(products.messages("/cdff/visual_tracking/measurement"), 0, feeder.truth);
+  if (!measured) return measured.status();
+  r.measurement = std::move(measured).value();
+  for (std::size_t i = 0; i < r.frames; ++i) {
+    const int s = *statuses[i].as<int>();
+    r.status.push_back(s);
+    r.stamps_s.push_back(toSeconds(statuses[i].stamp));
+    r.lost += s == 2;
+    r.degraded += s == 1;
+  }
+  for (std::size_t i = 0; i < r.filtered.errors.size(); ++i) {
+    const eval::MatchedError& e = r.filtered.errors[i];
+    r.range_m.push_back(e.range_m);
+    r.position_error_m.push_back(e.position_error_m);
+    r.angle_error_deg.push_back(e.angle_error_deg);
+    if (i < r.status.size() && r.status[i] != 2 &&
+        (e.position_error_m > 0.1 * e.range_m || e.angle_error_deg > 10))
+      ++r.unreported_divergence;
+  }
+  for (const dfpc::Event& e : products.events(dfpc::EventType::kDfnWarning))
+    if (r.warnings.size() < 20)
+      r.warnings.push_back(
+          fmt::format("{:.1f} s {}: {}", toSeconds(e.stamp), e.instance, e.message));
+  std::map<Timestamp, double> cpu;
+  for (const dfpc::MemorySink::Timing& t : products.timings()) {
+    if (t.status != StatusCode::kOk) ++r.dfn_errors;
+    cpu[t.stamp] += t.cpu_s;
+  }
+  std::vector<double> per_frame;
+  for (const dfpc::Message& m : statuses) per_frame.push_back(cpu[m.stamp]);
+  r.cpu_per_frame_s = eval::ErrorStatistics::of(per_frame);
+  double sum = 0;
+  for (double c : per_frame) sum += c;
+  r.mean_cpu_per_frame_s = per_frame.empty() ? 0 : sum / per_frame.size();
+  return r;
+}
+
+std::string summaryLine(const std::string& label, const ApproachResult& r) {
+  return fmt::format(
+      "| {} | {} | {} | {} | {:.1f} mm / {:.1f} mm | {:.2f} % / {:.2f} % | {:.3f}° / {:.3f}° | "
+      "{:.1f} ms / {:.1f} ms | {} |",
+      label, r.frames, r.degraded, r.lost, r.filtered.position_error_m.p95 * 1e3,
+      r.filtered.position_error_m.max * 1e3, r.filtered.position_error_pct_range.p95,
+      r.filtered.position_error_pct_range.max, r.filtered.angle_error_deg.p95,
+      r.filtered.angle_error_deg.max, r.mean_cpu_per_frame_s * 1e3, r.cpu_per_frame_s.p95 * 1e3,
+      r.unreported_divergence);
+}
+
+}  // namespace cdff::visual_demo

@@ -1,0 +1,82 @@
+#pragma once
+// The visual tracking DFPC (dfpcs/visual_tracking.yaml, or visual_tracking_stereo.yaml) on a
+// scenario of the simulator, streamed frame by frame from the simulator into the Orchestrator,
+// started from the true pose perturbed by a fraction of the range and an angle, and evaluated
+// against the simulator's ground truth with src/cdff/eval. Used by the end-to-end tests, the
+// benchmark and `visual_tracking_demo` (what `make demo` calls).
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/types/image.hpp"
+#include "cdff/types/polygon_model.hpp"
+#include "cdff/types/status.hpp"
+
+namespace cdff::dfpc {
+class Dfpc;
+}
+namespace cdff::egse {
+class Simulator;
+}
+
+namespace cdff::visual_demo {
+
+struct ApproachOptions {
+  std::string scenario = "close_range_approach";  // a library name or a path
+  std::vector<std::string> overrides;             // scenario "dotted.key=value" overrides
+  std::uint64_t seed = 7;
+  std::optional<double> duration;   // s; the scenario's when unset
+  double camera_rate = 2.0;         // Hz (the simulated camera does 10)
+  bool stereo = false;              // visual_tracking_stereo.yaml on left/right pairs
+  std::string dfi = "EdgeTracker";  // or VispMbt
+  std::string dfi_parameters;       // YAML map merged into the tracker's parameters
+  double initial_range_fraction = 0.05;
+  double initial_angle = 5.0 * 3.14159265358979323846 / 180.0;  // rad
+  std::uint32_t initial_seed = 1;
+  std::string source_dir;  // the repository (dfpcs/); CDFF_SOURCE_DIR when empty
+};
+
+struct ApproachResult {
+  eval::PoseEvaluation filtered;     // /cdff/visual_tracking/pose against the truth
+  eval::PoseEvaluation measurement;  // the tracker's own estimates
+  std::vector<double> stamps_s;      // per frame
+  std::vector<int> status;           // per frame: 0 tracking, 1 degraded, 2 lost
+  std::vector<double> range_m;       // per frame, the true range
+  std::vector<double> position_error_m, angle_error_deg;  // per frame, of the filtered pose
+  std::size_t frames = 0, lost = 0, degraded = 0;
+  /// Frames whose filtered error exceeds 10 % of the range or 10 degrees while the status is
+  /// not LOST: divergence the DFPC did not report.
+  std::size_t unreported_divergence = 0;
+  eval::ErrorStatistics cpu_per_frame_s;  // CPU of all DFN calls of a frame (undistortion,
+                                          // tracker, filter), one thread
+  double mean_cpu_per_frame_s = 0;
+  std::size_t dfn_errors = 0;
+  std::size_t late_frames = 0;  // published after a newer frame: dropped
+  std::string renderer;
+  std::vector<std::string> warnings;  // the DFNs' warnings (why frames were lost), first 20
+};
+
+/// Runs the scenario (cameras only) through the DFPC.
+Result<ApproachResult> runApproach(const ApproachOptions& options);
+
+/// The left camera's frames of the scenario with the true camera_left_optical_T_target of each,
+/// and the target's model (its .cao export), for benchmarks.
+struct SimulatedFrames {
+  PolygonModel model;
+  std::vector<Image> images;
+  std::vector<Transform> truth;
+};
+Result<SimulatedFrames> simulateFrames(const ApproachOptions& options);
+
+/// The scenario's simulator (cameras only, options.camera_rate) and the DFPC of `options`
+/// (graph, DFI and parameters).
+Result<std::unique_ptr<egse::Simulator>> makeSimulator(const ApproachOptions& options);
+Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options);
+
+/// One line of figures for a table: frames, lost, p95/max position and angle, CPU per frame.
+std::string summaryLine(const std::string& label, const ApproachResult& r);
+
+}  // namespace cdff::visual_demo
