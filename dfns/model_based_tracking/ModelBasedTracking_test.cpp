@@ -376,7 +376,8 @@ TEST(ModelBasedTracking, EdgeTrackerAcquiresFromAnUncertainInitialPose) {
   node->in.predicted_pose.set(prediction(start));
   node->in.image.set(seq.image(seq.truth(0), 0));
   ASSERT_OK(node->process());
-  EXPECT_TRUE(*node->out.status == kLost || translationError(*node->out.pose, seq.truth(0)) > 0.002);
+  EXPECT_TRUE(*node->out.status == kLost ||
+              translationError(*node->out.pose, seq.truth(0)) > 0.002);
 }
 
 TEST(ModelBasedTracking, ExactlyOnePredictionIsExpected) {

@@ -271,8 +271,9 @@ std::string recordSchema() {
 
 std::string scalarSchema(std::string_view title, std::string_view value_type,
                          std::string_view description) {
-  return jsonSchema(title, description,
-                    fmt::format(R"("timestamp":{},"value":{{"type":{}}})", kTimeSchema, value_type));
+  return jsonSchema(
+      title, description,
+      fmt::format(R"("timestamp":{},"value":{{"type":{}}})", kTimeSchema, value_type));
 }
 
 struct FormatStore {
@@ -1012,9 +1013,9 @@ Status encode(const nlohmann::json& v, Timestamp stamp, Encoded& out) {
 }
 
 template <typename T>
-  requires std::same_as<T, double> || std::same_as<T, bool> || std::same_as<T, int> ||
-           std::same_as<T, std::int64_t> || std::same_as<T, std::string>
-Status encodeScalar(const T& v, Timestamp stamp, Encoded& out) {
+requires std::same_as<T, double> || std::same_as<T, bool> || std::same_as<T, int> ||
+    std::same_as<T, std::int64_t> || std::same_as<T, std::string>
+        Status encodeScalar(const T& v, Timestamp stamp, Encoded& out) {
   out.clear();
   if (stamp < 0) return negativeStamp("scalar", stamp);
   json value = v;

@@ -151,9 +151,9 @@ Status encode(const nlohmann::json& v, Timestamp stamp, Encoded& out);
 /// Scalars are JSON objects {"timestamp", "value"} (schema cdff.Double, cdff.String...); a NaN
 /// double is null.
 template <typename T>
-  requires std::same_as<T, double> || std::same_as<T, bool> || std::same_as<T, int> ||
-           std::same_as<T, std::int64_t> || std::same_as<T, std::string>
-Status encodeScalar(const T& v, Timestamp stamp, Encoded& out);
+requires std::same_as<T, double> || std::same_as<T, bool> || std::same_as<T, int> ||
+    std::same_as<T, std::int64_t> || std::same_as<T, std::string>
+        Status encodeScalar(const T& v, Timestamp stamp, Encoded& out);
 
 // Decoders. `owner` keeps `data` alive: when given, large arrays (pixels) are shared with it
 // instead of copied. Errors say which field is malformed, at which byte of the message.
