@@ -200,13 +200,16 @@ std::string toText(const EvaluationReport& report) {
     row("position [% range]", p.position_error_pct_range, 1.0);
     row("angle [deg]", p.angle_error_deg, 1.0);
     if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
+    // Each product's verdicts right under its statistics.
+    for (const RequirementVerdict& v : report.requirements) {
+      if (v.channel != p.channel) continue;
+      text += fmt::format(
+          "  {:<13}{:<17}{:<15} {} {} {:g}  {}\n", v.id, v.quantity, toString(v.verdict),
+          v.verdict == Verdict::kNotApplicable ? std::string("—")
+                                               : fmt::format("{} {:.4g}", v.statistic, v.measured),
+          v.comparison, v.threshold, v.note);
+    }
   }
-  for (const RequirementVerdict& v : report.requirements)
-    text += fmt::format(
-        "  {:<13}{:<17}{:<15} {} {} {:g}  {}\n", v.id, v.quantity, toString(v.verdict),
-        v.verdict == Verdict::kNotApplicable ? std::string("—")
-                                             : fmt::format("{} {:.4g}", v.statistic, v.measured),
-        v.comparison, v.threshold, v.note);
   return text;
 }
 
