@@ -14,6 +14,7 @@
 #include "cdff/dfpc/recording_streams.hpp"
 #include "cdff/dfpc/replay.hpp"
 #include "cdff/io/replay.hpp"
+#include "support/command.hpp"
 #include "test_helpers.hpp"
 
 namespace cdff::dfpc {
@@ -199,22 +200,8 @@ TEST(RecordingRun, AProductWithoutARecordingEncodingIsReportedNotDropped) {
 // ---------------------------------------------------------------------------------------------
 // The command
 
-struct CommandResult {
-  int status = -1;
-  std::string output;  // stdout and stderr
-};
-
-CommandResult runCdff(const std::string& arguments) {
-  const std::string command = std::string(CDFF_EXECUTABLE) + " " + arguments + " 2>&1";
-  CommandResult r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer;
-  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.output += buffer.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+using cdff::testing::CommandResult;
+using cdff::testing::runCdff;
 
 TEST(RunCommand, RecordsProductsAndSaysWhatItDid) {
   const fs::path in = scratch("cmd_in.mcap"), out = scratch("cmd_out.mcap");

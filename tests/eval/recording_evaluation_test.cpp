@@ -12,6 +12,7 @@
 
 #include "cdff/eval/recording_evaluation.hpp"
 #include "cdff/io/recorder.hpp"
+#include "support/command.hpp"
 
 namespace cdff::eval {
 namespace {
@@ -146,22 +147,8 @@ TEST(RecordingEvaluation, SaysWhatIsMissing) {
   EXPECT_NE(r.status().message().find("absent.mcap"), std::string::npos);
 }
 
-struct CommandResult {
-  int status = -1;
-  std::string output;
-};
-
-CommandResult runCdff(const std::string& arguments) {
-  const std::string command = std::string(CDFF_EXECUTABLE) + " " + arguments + " 2>&1";
-  CommandResult r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buffer;
-  while (std::fgets(buffer.data(), buffer.size(), pipe) != nullptr) r.output += buffer.data();
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  return r;
-}
+using cdff::testing::CommandResult;
+using cdff::testing::runCdff;
 
 TEST(EvalCommand, WritesTheDocumentedReports) {
   const fs::path run = scratch("cmd_run.mcap"), json = scratch("report.json"),
