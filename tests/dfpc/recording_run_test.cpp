@@ -154,6 +154,16 @@ TEST(RecordingRun, PoseFilteringFromOneRecordingIntoAnother) {
     started |= e["type"] == "started" && e["dfpc"] == "pose_filtering";
   }
   EXPECT_TRUE(started);
+  // The end of the input stops the DFPC: the recording says so, at the last stream time.
+  EXPECT_EQ(o.events.back()["type"], "stopped");
+  EXPECT_EQ(o.events.back()["dfpc"], "pose_filtering");
+  const nlohmann::json& stop_time = o.events.back()["timestamp"];
+  EXPECT_EQ(
+      stop_time["sec"].get<Timestamp>() * 1'000'000 + stop_time["nsec"].get<Timestamp>() / 1000,
+      *result->summary.last);
+  EXPECT_EQ(result->dfpcs.at(0).state, DfpcState::kStopped);
+  // The graph declares no track state, so none is reported.
+  EXPECT_TRUE(result->dfpcs.at(0).track_state.empty());
   EXPECT_EQ(o.events.size(), result->summary.events);
 }
 
@@ -210,7 +220,7 @@ TEST(RunCommand, RecordsProductsAndSaysWhatItDid) {
       fmt::format("run {} -i {} -o {} --compression zstd", kGraph, in.string(), out.string()));
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("153 messages read"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("pose_filtering: running"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pose_filtering: stopped"), std::string::npos) << r.output;
   const Output o = readOutput(out);
   EXPECT_EQ(o.counts.at("/truth/target_pose"), 51u);
   EXPECT_GT(o.counts.at("/cdff/pose_filtering/state"), 90u);

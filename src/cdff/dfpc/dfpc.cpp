@@ -763,7 +763,8 @@ DfpcStatus Dfpc::status() const {
   DfpcStatus s;
   s.name = spec_.name;
   s.state = state_;
-  s.track_state = track_state_;
+  // A DFPC that declares no track state has none to report (not a permanent UNINITIALISED).
+  if (spec_.track_state) s.track_state = track_state_;
   s.stream_time = stream_time_;
   s.last_product = last_product_;
   s.messages = messages_;

@@ -292,6 +292,7 @@ Result<RunSummary> Orchestrator::run(InputStream& input, const RunOptions& optio
     if (options.progress) options.progress(progress);
   }
   CDFF_RETURN_IF_ERROR(finish());
+  if (options.stop_at_end) CDFF_RETURN_IF_ERROR(stopAll());
   if (options_.sink) CDFF_RETURN_IF_ERROR(options_.sink->flush());
   std::lock_guard lock(mutex_);
   summary.routed = counters_.routed;

@@ -49,6 +49,9 @@ struct RunOptions {
   Clock* clock = nullptr;                            // pacing clock; the steady clock when null
   std::function<void(const RunProgress&)> progress;  // after each message
   const std::atomic<bool>* cancel = nullptr;         // stops the run when set
+  /// The end of the input (or a cancel) stops the running DFPCs, so that the recording ends
+  /// with their "stopped" events; false leaves them running for more input.
+  bool stop_at_end = true;
 };
 
 struct RunSummary {
@@ -94,7 +97,8 @@ class Orchestrator final : private DfpcObserver {
   Status process(const Message& message);
   /// End of the input: lets synchronised inputs resolve what they still hold.
   Status finish();
-  /// Runs `input` to its end through process() and finish(), then flushes the sink.
+  /// Runs `input` to its end through process() and finish(), stops the DFPCs (unless
+  /// `options.stop_at_end` is false), then flushes the sink.
   Result<RunSummary> run(InputStream& input, const RunOptions& options = {});
 
   Result<DfpcStatus> status(const std::string& dfpc) const;

@@ -69,7 +69,11 @@ Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions&
   run.progress = options.progress;
   run.cancel = options.cancel;
   Result<RunSummary> summary = orchestrator.run(input, run);
-  if (!summary) return summary.status();
+  if (!summary) {
+    // The DFPCs stop where the input failed, so that what was recorded ends with their stop.
+    (void)orchestrator.stopAll();
+    return summary.status();
+  }
   return ReplayResult{std::move(summary).value(), orchestrator.statuses()};
 }
 
