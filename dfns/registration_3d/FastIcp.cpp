@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -230,19 +231,100 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     registration::selectSource(source, params_.max_source_points, points_);
     const std::vector<Eigen::Vector3f>& points = points_;
 
-    Eigen::Matrix3d rotation = guess->linear();
-    Eigen::Vector3d translation = guess->translation();
-    double distance = params_.max_correspondence_distance;
+    Search search;
+    search.rotation = guess->linear();
+    search.translation = guess->translation();
+    search.distance = params_.max_correspondence_distance;
+    if (params_.hypotheses > 1) {
+      // Acquisition from a poor guess: a sparse scan of a target that looks alike from several
+      // sides has local minima within the guess's error, into which a single ICP run falls.
+      // Every start gets a short run; the one that explains the scan best (most inliers, then
+      // the smallest inlier RMS) goes on to the full refinement.
+      std::optional<Search> best;
+      registration::Quality best_quality;
+      double best_turn = 0;
+      std::vector<Eigen::Vector3d> positions = {guess->translation()};
+      if (params_.hypothesis_centroid) positions.push_back(centredPosition(points, *guess));
+      for (const Eigen::Vector3d& position : positions)
+        for (const Eigen::Matrix3d& turn : hypothesisTurns()) {
+          Search start;
+          // Turned about the model's origin: its position in the sensor frame stays put.
+          start.rotation = turn * guess->linear();
+          start.translation = position;
+          start.distance = params_.max_correspondence_distance;
+          CDFF_RETURN_IF_ERROR(iterate(points, start, params_.hypothesis_iterations));
+          // The guess's error is about hypothesis_angle: a start that turned much farther than
+          // that found another minimum (a symmetric view of the target), not the pose.
+          const double turned =
+              Eigen::AngleAxisd(start.rotation * guess->linear().transpose()).angle();
+          if (start.starved || turned > params_.hypothesis_max_turn) continue;
+          Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+          at.linear() = start.rotation;
+          at.translation() = start.translation;
+          const registration::Quality quality = registration::evaluate(
+              points, index_, at, params_.inlier_distance, params_.covariance_inflation);
+          if (!best || betterFit(quality, turned, best_quality, best_turn)) {
+            best = start;
+            best_quality = quality;
+            best_turn = turned;
+          }
+        }
+      if (best) {
+        search = *best;
+        search.converged = false;
+      }
+    }
+    CDFF_RETURN_IF_ERROR(iterate(points, search, params_.max_iterations));
+    const Eigen::Matrix3d& rotation = search.rotation;
+    const Eigen::Vector3d& translation = search.translation;
+    const double distance = search.distance;
+    const bool converged = search.converged, starved = search.starved;
+    const int iterations = search.iterations;
+    const std::size_t last_pairs = search.last_pairs;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = Eigen::Quaterniond(rotation).normalized().toRotationMatrix();
+    pose.translation() = translation;
+    if (starved) {
+      warn(fmt::format(
+          "only {} source points of {} have a model point within {:.3g} m (iteration {}); "
+          "expected at least min_correspondences = {}: no overlap with the model",
+          last_pairs, points.size(), distance, iterations + 1, params_.min_correspondences));
+      pose = *guess;
+    }
+    const registration::Quality quality =
+        registration::evaluate(points, index_, pose, params_.inlier_distance,
+                               params_.covariance_inflation, starved ? nullptr : &previous_);
+    if (converged && quality.degenerate)
+      warn(
+          "the scan constrains some direction of the pose poorly (degenerate geometry); its "
+          "covariance is large there");
+    registration::publish(out, source, model, pose, quality, converged && !starved, iterations);
+    return Status::ok();
+  }
+
+ private:
+  /// The state of one ICP run, carried over when a run continues (acquisition).
+  struct Search {
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+    double distance = 0;  // the current correspondence distance
     bool converged = false, starved = false;
     int iterations = 0;
     std::size_t last_pairs = 0;
     Vector6d previous_step = Vector6d::Zero();
-    for (; iterations < params_.max_iterations; ++iterations) {
-      if (!associate(points, rotation, translation, distance, iterations == 0)) {
-        starved = true;
-        last_pairs = pairs_.size();
+  };
+
+  /// At most `max_iterations` more ICP iterations of `s`, until converged or starved.
+  Status iterate(const std::vector<Eigen::Vector3f>& points, Search& s, int max_iterations) {
+    bool first = true;
+    const int stop = s.iterations + max_iterations;
+    for (; s.iterations < stop; ++s.iterations) {
+      if (!associate(points, s.rotation, s.translation, s.distance, first)) {
+        s.starved = true;
+        s.last_pairs = pairs_.size();
         break;
       }
+      first = false;
       const double scale = params_.kernel_scale > 0 ? params_.kernel_scale
                                                     : std::max(params_.min_kernel_scale,
                                                                1.4826 * median(abs_residuals_));
@@ -250,7 +332,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       Vector6d g = Vector6d::Zero();
       bool point_to_plane = false;
       double weighted_r2 = 0, weight_sum = 0;
-      if (distance > params_.point_to_point_above && params_.point_to_point_above > 0) {
+      if (s.distance > params_.point_to_point_above && params_.point_to_point_above > 0) {
         // Coarse phase: point-to-point, whose basin of convergence is wider. The residual
         // e = (R q + t) - p has the Jacobian [I, -[R q]x] in the pose perturbation.
         const double pp_scale =
@@ -283,7 +365,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         return numericalFailure(
             "the Gauss-Newton step of iteration {} is not finite ({} correspondences); the "
             "problem is degenerate",
-            iterations + 1, pairs_.size());
+            s.iterations + 1, pairs_.size());
       // Converged when the step is below the epsilons, or below convergence_sigma standard
       // deviations of the estimate (its length under the Gauss-Newton covariance): moving by a
       // small fraction of the uncertainty cannot improve the estimate. Correspondences that flip
@@ -297,43 +379,77 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         return point_to_plane && params_.convergence_sigma > 0 && variance > 0 &&
                d.dot(h * d) / variance < params_.convergence_sigma * params_.convergence_sigma;
       };
-      const bool hop_back = iterations > 0 && small(step + previous_step);
+      const bool hop_back = s.iterations > 0 && small(step + s.previous_step);
       const Vector6d applied = hop_back ? Vector6d(0.5 * step) : step;
-      translation += applied.head<3>();
-      rotation = expSO3(applied.tail<3>()).toRotationMatrix() * rotation;
-      previous_step = step;
+      s.translation += applied.head<3>();
+      s.rotation = expSO3(applied.tail<3>()).toRotationMatrix() * s.rotation;
+      s.previous_step = step;
       // Shrink the correspondence distance as the alignment improves: three robust standard
       // deviations of the point-to-point distances, never below the configured floor.
-      distance = std::clamp(3.0 * 1.4826 * median(pair_distances_),
-                            params_.min_correspondence_distance, distance);
+      s.distance = std::clamp(3.0 * 1.4826 * median(pair_distances_),
+                              params_.min_correspondence_distance, s.distance);
       if (hop_back || small(step)) {
-        converged = true;
-        ++iterations;
+        s.converged = true;
+        ++s.iterations;
         break;
       }
     }
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = Eigen::Quaterniond(rotation).normalized().toRotationMatrix();
-    pose.translation() = translation;
-    if (starved) {
-      warn(fmt::format(
-          "only {} source points of {} have a model point within {:.3g} m (iteration {}); "
-          "expected at least min_correspondences = {}: no overlap with the model",
-          last_pairs, points.size(), distance, iterations + 1, params_.min_correspondences));
-      pose = *guess;
-    }
-    const registration::Quality quality =
-        registration::evaluate(points, index_, pose, params_.inlier_distance,
-                               params_.covariance_inflation, starved ? nullptr : &previous_);
-    if (converged && quality.degenerate)
-      warn(
-          "the scan constrains some direction of the pose poorly (degenerate geometry); its "
-          "covariance is large there");
-    registration::publish(out, source, model, pose, quality, converged && !starved, iterations);
     return Status::ok();
   }
 
- private:
+  /// The starting rotations of an acquisition (applied to the guess in the sensor frame): none,
+  /// then turns by hypothesis_angle about hypotheses - 1 axes spread evenly over the sphere (a
+  /// Fibonacci lattice), so that a guess whose attitude error is about that angle has a start
+  /// within a fraction of it.
+  const std::vector<Eigen::Matrix3d>& hypothesisTurns() {
+    if (static_cast<int>(turns_.size()) == params_.hypotheses) return turns_;
+    turns_.assign(1, Eigen::Matrix3d::Identity());
+    const int n = params_.hypotheses - 1;
+    const double golden = M_PI * (3.0 - std::sqrt(5.0));
+    for (int k = 0; k < n; ++k) {
+      const double z = 1.0 - (2.0 * k + 1.0) / n;
+      const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const Eigen::Vector3d axis(rho * std::cos(golden * k), rho * std::sin(golden * k), z);
+      turns_.push_back(Eigen::AngleAxisd(params_.hypothesis_angle, axis).toRotationMatrix());
+    }
+    return turns_;
+  }
+
+  /// The guess's position moved across the line of sight so that the model's centroid (at the
+  /// guess's attitude) lies on the line of sight to the scan's centroid: a guess off by more
+  /// than the target's size across the line of sight leaves the ICP sliding the model along
+  /// the scan into a wrong minimum, while the scan's centroid, across the line of sight, is
+  /// within a fraction of the target's size of its centre. Its depth stays the guess's.
+  Eigen::Vector3d centredPosition(const std::vector<Eigen::Vector3f>& points,
+                                  const Eigen::Isometry3d& guess) {
+    if (model_centroid_for_ != index_.builds) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (const Point4f& p : index_.points) sum += p.vec().cast<double>();
+      model_centroid_ = sum / static_cast<double>(std::max<std::size_t>(1, index_.points.size()));
+      model_centroid_for_ = index_.builds;
+    }
+    Eigen::Vector3d scan = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3f& p : points) scan += p.cast<double>();
+    scan /= static_cast<double>(std::max<std::size_t>(1, points.size()));
+    const Eigen::Vector3d centre = guess * model_centroid_;
+    const Eigen::Vector3d sight = (centre - viewpoint_.cast<double>()).normalized();
+    Eigen::Vector3d offset = scan - centre;
+    offset -= offset.dot(sight) * sight;
+    return guess.translation() + offset;
+  }
+
+  /// More inliers (by more than 2 % of the scan); or as many with an inlier RMS smaller by more
+  /// than 10 %; or a fit as good nearer the guess (`turn`: the angle from the guess's attitude),
+  /// which is then the best information left.
+  static bool betterFit(const registration::Quality& a, double a_turn,
+                        const registration::Quality& b, double b_turn) {
+    if (a.fitness > b.fitness + 0.02) return true;
+    if (a.fitness < b.fitness - 0.02) return false;
+    if (a.inlier_rms < 0.9 * b.inlier_rms) return true;
+    if (b.inlier_rms < 0.9 * a.inlier_rms) return false;
+    return a_turn < b_turn;
+  }
+
   struct Pair {
     Vector6d j;              // point-to-plane Jacobian
     double r;                // point-to-plane residual, m
@@ -437,6 +553,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::vector<Pair> pairs_;
   std::vector<float> abs_residuals_, pair_distances_;
   std::vector<std::uint32_t> previous_;
+  std::vector<Eigen::Matrix3d> turns_;  // hypothesisTurns(), for params_.hypotheses
+  Eigen::Vector3d model_centroid_ = Eigen::Vector3d::Zero();
+  std::uint64_t model_centroid_for_ = 0;  // index_.builds it was computed for (0: none)
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
 };
 
