@@ -188,6 +188,58 @@ TEST(EstimationFilterExtendedKalman, TheInnovationGateRejectsAnOutlierAndKeepsTh
       1e-12);
 }
 
+TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAndLossReacquires) {
+  const double gate = chiSquareQuantile(0.999, 6);
+  auto ekf = make(fmt::format("{{innovation_gate: {}, lost_after: 1.0, reacquire: true}}", gate));
+  const RigidBodyState s0 = knownState();  // at 1 s
+  ekf->in.initial_state.set(s0);
+  ASSERT_OK(ekf->process());
+  EXPECT_EQ(*ekf->out.track_state, "ACQUIRING");
+  // While acquiring, a measurement far from the initial state re-initialises the pose (no gate)
+  // and keeps the twist.
+  PoseWithCovariance z;
+  z.pose = Transform::identity("servicer", "target", 1'100'000);
+  z.pose.translation = s0.pose.translation + Eigen::Vector3d(3.0, 0, 0);
+  z.pose.rotation = s0.pose.rotation;
+  z.covariance = Matrix6d::Identity() * 1e-4;
+  ekf->in.pose_measurement.set(z);
+  ASSERT_OK(ekf->process());
+  EXPECT_TRUE(*ekf->out.measurement_accepted);
+  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
+  EXPECT_EQ(ekf->out.state->twist.linear, s0.twist.linear);
+  // Predictions only: TRACKING for 1 s after the last fix, LOST after.
+  ekf->in.time.set(Timestamp{2'100'000});
+  ASSERT_OK(ekf->process());
+  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  ekf->in.time.set(Timestamp{2'150'000});
+  ASSERT_OK(ekf->process());
+  EXPECT_EQ(*ekf->out.track_state, "LOST");
+  // Lost: a measurement far from the coasted prediction re-acquires, gate or not.
+  z.pose.stamp = 2'200'000;
+  z.pose.translation += Eigen::Vector3d(0, 2.0, 0);
+  ekf->in.pose_measurement.set(z);
+  ASSERT_OK(ekf->process());
+  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
+  // Tracking: the same jump is gated out again.
+  z.pose.stamp = 2'300'000;
+  z.pose.translation += Eigen::Vector3d(0, 2.0, 0);
+  ekf->in.pose_measurement.set(z);
+  ASSERT_OK(ekf->process());
+  EXPECT_FALSE(*ekf->out.measurement_accepted);
+  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  // Without reacquire (the default), a lost filter keeps gating.
+  auto plain = make(fmt::format("{{innovation_gate: {}, lost_after: 1.0}}", gate));
+  plain->in.initial_state.set(s0);
+  ASSERT_OK(plain->process());
+  z.pose.stamp = 1'100'000;
+  plain->in.pose_measurement.set(z);
+  ASSERT_OK(plain->process());
+  EXPECT_FALSE(*plain->out.measurement_accepted);
+  EXPECT_EQ(*plain->out.track_state, "ACQUIRING");
+}
+
 TEST(EstimationFilterExtendedKalman, BadInputsAreReportedAndLeaveTheFilterUnchanged) {
   auto ekf = make("max_prediction_interval: 5");
   auto reference = make("max_prediction_interval: 5");

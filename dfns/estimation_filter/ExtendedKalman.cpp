@@ -35,11 +35,14 @@ struct Estimate {
   std::string inertial_frame;
   Eigen::Quaterniond target_attitude = Eigen::Quaterniond::Identity();  // inertial_R_b
   Eigen::Vector3d target_rate = Eigen::Vector3d::Zero();                // rad/s, inertial frame
+  bool acquiring = false;  // initialised by an initial state, no pose fused since
+  Timestamp last_fix = 0;  // stamp of the last fused pose measurement (or of the initial state)
 
   static Estimate from(const RigidBodyState& s) {
     Estimate e;
     e.state = s;
     e.covariance.topLeftCorner<12, 12>() = s.covariance;
+    e.last_fix = s.pose.stamp;
     return e;
   }
   RigidBodyState output() const {
@@ -78,6 +81,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
             "input 'initial_state' covariance is not positive definite; expected "
             "the uncertainty of every one of the 12 state components");
       next = Estimate::from(initial);
+      next->acquiring = true;
     }
     if (has_time) {
       if (!next)
@@ -100,6 +104,11 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       } else {
         CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose));
         CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
+      }
+      if (!accepted && params_.reacquire && (next->acquiring || lost(*next))) {
+        reacquire(*next, z, *noise);
+        accepted = true;
+      } else if (!accepted) {
         Estimate corrected = *next;
         Vector6d residual;
         residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
@@ -110,9 +119,11 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
         if (!fused) return fused.status();
         nis = *fused;
         accepted = params_.innovation_gate == 0.0 || nis <= params_.innovation_gate;
-        if (accepted)
+        if (accepted) {
           next = corrected;
-        else  // gated out: the state is only predicted to the measurement's time
+          next->acquiring = false;
+          next->last_fix = z.pose.stamp;
+        } else  // gated out: the state is only predicted to the measurement's time
           warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
                            nis, params_.innovation_gate));
       }
@@ -161,6 +172,9 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     out.pose.set(estimate_->state.pose);
     out.measurement_accepted.set(accepted);
     out.innovation_nis.set(nis);
+    out.track_state.set(estimate_->acquiring ? "ACQUIRING"
+                        : lost(*estimate_)   ? "LOST"
+                                             : "TRACKING");
     return Status::ok();
   }
 
@@ -219,6 +233,26 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
                            params_.ahrs_attitude_sigma);
   }
 
+  /// No pose fused for longer than lost_after.
+  bool lost(const Estimate& e) const {
+    return params_.lost_after > 0 &&
+           toSeconds(e.state.pose.stamp - e.last_fix) > params_.lost_after;
+  }
+
+  /// The pose and its covariance from `z`, the twist and its covariance kept from the
+  /// prediction, uncorrelated (the prediction's pose after a loss says nothing of the new one);
+  /// the inertial part, tied to the old pose, is dropped until the next AHRS sample.
+  void reacquire(Estimate& e, const PoseWithCovariance& z, const Matrix6d& noise) const {
+    const Matrix6d twist = e.covariance.block<6, 6>(kVel, kVel);
+    e.state.pose = z.pose;
+    e.covariance.setZero();
+    e.covariance.topLeftCorner<6, 6>() = noise;
+    e.covariance.block<6, 6>(kVel, kVel) = twist;
+    e.has_inertial = false;
+    e.acquiring = false;
+    e.last_fix = z.pose.stamp;
+  }
+
   Estimate initialiseFrom(const PoseWithCovariance& z, const Matrix6d& noise) const {
     RigidBodyState s;
     s.pose = z.pose;
@@ -228,7 +262,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     const double sw = params_.initial_angular_velocity_sigma;
     s.covariance.block<3, 3>(kVel, kVel) = Eigen::Matrix3d::Identity() * sv * sv;
     s.covariance.block<3, 3>(kAng, kAng) = Eigen::Matrix3d::Identity() * sw * sw;
-    return Estimate::from(s);
+    return Estimate::from(s);  // last_fix = the measurement's stamp, not acquiring
   }
 
   /// Adds the target's inertial attitude and rate to the state from the chaser's attitude
