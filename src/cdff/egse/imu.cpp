@@ -4,6 +4,14 @@
 
 namespace cdff::egse {
 
+Status AhrsSpec::validate(const std::string& name) const {
+  if (!std::isfinite(attitude_sigma) || attitude_sigma < 0 || attitude_sigma > M_PI)
+    return invalidParameter(
+        "{}: 'attitude_sigma' = {} rad is out of range; expected a finite value in [0, pi]", name,
+        attitude_sigma);
+  return Status::ok();
+}
+
 Status ImuSpec::validate(const std::string& name) const {
   if (!std::isfinite(rate) || rate <= 0 || rate > 10000)
     return invalidParameter("{}: 'rate' = {} Hz is out of range; expected (0, 10000]", name, rate);

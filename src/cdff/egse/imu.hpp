@@ -45,6 +45,17 @@ struct ImuSpec {
   Status validate(const std::string& name) const;
 };
 
+/// The servicer's AHRS (attitude and heading reference): its attitude in the inertial frame
+/// (eci; lvlh when the orbit is off), each sample turned by white noise of `attitude_sigma` per
+/// axis. The default (0.2 deg) is an assumption for an attitude solution aided by a star tracker,
+/// the EstimationFilter's ahrs_attitude_sigma (docs/simulator.md).
+struct AhrsSpec {
+  double attitude_sigma = 0.0035;  // rad, 1 sigma per axis
+  bool noise = true;               // false: exact truth
+
+  Status validate(const std::string& name) const;
+};
+
 struct ImuBiasJump {
   double time = 0;                                  // s
   Eigen::Vector3d gyro = Eigen::Vector3d::Zero();   // rad/s, added from `time` on

@@ -25,6 +25,8 @@ const char* toString(SensorType type) {
       return "imu";
     case SensorType::kRadar:
       return "radar";
+    case SensorType::kAhrs:
+      return "ahrs";
   }
   return "?";
 }
@@ -504,6 +506,13 @@ Status readSensor(const Field& f, SensorConfig& s, int shadow_map_size) {
           optNumber(f, "angle_noise_deg", r.angle_noise, 0, 90, "deg", false, kDeg));
       return r.validate(s.name).withContext(f.where() + ": " + f.path());
     }
+    case SensorType::kAhrs: {
+      CDFF_RETURN_IF_ERROR(f.allowOnly(with(kCommonSensorKeys, {"attitude_sigma", "noise"})));
+      AhrsSpec& a = s.ahrs;
+      CDFF_RETURN_IF_ERROR(optNumber(f, "attitude_sigma", a.attitude_sigma, 0, M_PI, "rad"));
+      CDFF_RETURN_IF_ERROR(optBool(f, "noise", a.noise));
+      return a.validate(s.name).withContext(f.where() + ": " + f.path());
+    }
   }
   return Status::ok();
 }
@@ -635,6 +644,14 @@ std::vector<SensorConfig> defaultSensors() {
   radar.rate = 1.0;
   radar.servicer_T_mount = mountAt({0.45, 0.0, 0.0});
   sensors.push_back(radar);
+  // Off by default: recordings without it stay as they were; the LIDAR tracking DFPC uses it
+  // when present.
+  SensorConfig ahrs;
+  ahrs.name = "ahrs";
+  ahrs.type = SensorType::kAhrs;
+  ahrs.enabled = false;
+  ahrs.rate = 10.0;
+  sensors.push_back(ahrs);
   return sensors;
 }
 
@@ -966,7 +983,7 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
         if (!f.has("type"))
           return invalidParameter(
               "{}: sensors.{}: a new sensor needs a 'type' (one of {{camera, lidar, tof, imu, "
-              "radar}})",
+              "radar, ahrs}})",
               f.where(), name);
         bool valid_name = !name.empty();
         for (char c : name)
@@ -975,13 +992,15 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
           return Field(it->first, "sensors." + name, &context)
               .fail("a sensor name of letters, digits and '_'");
         std::string type;
-        CDFF_RETURN_IF_ERROR(f["type"].choice(type, {"camera", "lidar", "tof", "imu", "radar"}));
+        CDFF_RETURN_IF_ERROR(
+            f["type"].choice(type, {"camera", "lidar", "tof", "imu", "radar", "ahrs"}));
         SensorConfig s;
         s.name = name;
         s.type = type == "camera"  ? SensorType::kCamera
                  : type == "lidar" ? SensorType::kLidar
                  : type == "tof"   ? SensorType::kTof
                  : type == "imu"   ? SensorType::kImu
+                 : type == "ahrs"  ? SensorType::kAhrs
                                    : SensorType::kRadar;
         // New sensors start from the defaults of their type.
         for (const SensorConfig& d : defaultSensors())
@@ -1050,8 +1069,8 @@ Result<Scenario> parseScenario(const std::string& text, const std::string& sourc
           allowed = {SensorType::kImu};
           break;
         default:
-          allowed = {SensorType::kCamera, SensorType::kLidar, SensorType::kTof, SensorType::kImu,
-                     SensorType::kRadar};
+          allowed = {SensorType::kCamera, SensorType::kLidar, SensorType::kTof,
+                     SensorType::kImu,    SensorType::kRadar, SensorType::kAhrs};
       }
       if (fault.sensor != "*") {
         const SensorConfig* target = sc.sensor(fault.sensor);

@@ -28,7 +28,7 @@
 
 namespace cdff::egse {
 
-enum class SensorType { kCamera, kLidar, kTof, kImu, kRadar };
+enum class SensorType { kCamera, kLidar, kTof, kImu, kRadar, kAhrs };
 const char* toString(SensorType type);
 
 struct SensorConfig {
@@ -46,6 +46,7 @@ struct SensorConfig {
   TofSpec tof;
   ImuSpec imu;
   RadarSpec radar;
+  AhrsSpec ahrs;
 
   /// The frame the measurements are expressed in.
   std::string frame() const;

@@ -171,6 +171,9 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
         CDFF_RETURN_IF_ERROR(s.radar.validate(s.name));
         rays = true;
         break;
+      case SensorType::kAhrs:
+        CDFF_RETURN_IF_ERROR(s.ahrs.validate(s.name));
+        break;
     }
     sim->sensors_.push_back(std::move(state));
   }
@@ -504,6 +507,30 @@ Status Simulator::process(SensorState& sensor, double t) {
       sample->stamp = stamp;
       sample->frame_id = c.frame();
       queue(prefix, available, std::move(sample).value());
+      return Status::ok();
+    }
+    case SensorType::kAhrs: {
+      // The servicer body's attitude (an AHRS reports its host's attitude, whatever its
+      // mounting), inertial_T_servicer; only the attitude is measured: the translation is zero,
+      // with a zero covariance block.
+      Eigen::Quaterniond attitude(world_->servicer(t).lvlh_T_body.linear());
+      std::string inertial = "lvlh";
+      if (scenario_.orbit.enabled) {
+        attitude = Eigen::Quaterniond(scenario_.orbit.eciRotationLvlh(t)) * attitude;
+        inertial = "eci";
+      }
+      const double sigma = c.ahrs.noise ? c.ahrs.attitude_sigma : 0.0;
+      const Eigen::Vector3d error(rng.normal(0, sigma), rng.normal(0, sigma), rng.normal(0, sigma));
+      PoseWithCovariance m;
+      m.pose.stamp = stamp;
+      m.pose.parent_frame = inertial;
+      m.pose.child_frame = "servicer";
+      m.pose.translation.setZero();
+      m.pose.rotation = (expSO3(error) * attitude).normalized();
+      m.covariance.setZero();
+      // Perturbation in the inertial frame, as the EstimationFilter expects.
+      m.covariance.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::max(sigma * sigma, 1e-12);
+      queue(prefix + "/attitude", available, std::move(m));
       return Status::ok();
     }
     case SensorType::kRadar: {
