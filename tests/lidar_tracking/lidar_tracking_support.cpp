@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "cdff/dfpc/orchestrator.hpp"
@@ -14,15 +15,17 @@
 namespace cdff::lidar_tracking {
 
 Result<SimulatedRun> simulate(const std::string& name, double duration,
-                              const std::string& extra_yaml, std::uint64_t seed) {
+                              const std::string& extra_yaml, std::uint64_t seed,
+                              const std::vector<std::string>& overrides) {
   Result<std::filesystem::path> file = egse::resolveScenario(name);
   if (!file) return file.status();
   std::ifstream in(*file);
   std::stringstream text;
   text << in.rdbuf() << "\n" << extra_yaml << "\n";
-  const std::vector<std::string> lidar_only = {
-      "sensors.camera_left.enabled=false", "sensors.camera_right.enabled=false",
-      "sensors.tof.enabled=false", "sensors.imu.enabled=false"};
+  std::vector<std::string> lidar_only = {"sensors.camera_left.enabled=false",
+                                         "sensors.camera_right.enabled=false",
+                                         "sensors.tof.enabled=false", "sensors.imu.enabled=false"};
+  lidar_only.insert(lidar_only.end(), overrides.begin(), overrides.end());
   Result<egse::Scenario> scenario =
       egse::parseScenario(text.str(), file->string(), lidar_only, file->parent_path());
   if (!scenario) return scenario.status();
@@ -44,6 +47,9 @@ Result<SimulatedRun> simulate(const std::string& name, double duration,
     } else if (const auto* t = std::get_if<Transform>(&m.payload);
                t && m.channel.starts_with("/chaser/tf/")) {
       run.messages.push_back(dfpc::Message::of(m.channel, t->stamp, *t));
+    } else if (const auto* a = std::get_if<PoseWithCovariance>(&m.payload);
+               a && m.channel == "/chaser/ahrs/attitude") {
+      run.messages.push_back(dfpc::Message::of(m.channel, a->pose.stamp, *a));
     } else if (const auto* s = std::get_if<PoseWithCovariance>(&m.payload);
                s && m.channel == "/truth/target_pose") {
       run.truth.push_back(s->pose);
@@ -110,9 +116,13 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
   for (const PointCloud& scan : run.scans)
     if (scan.stamp >= from) ++result.scans;
   // Scans whose registration passed the DFPC's checks and that the EKF fused (a prediction tick
-  // reports false; a gated-out measurement too).
+  // reports false; a gated-out measurement too; an AHRS sample, at its own stamp, is not a scan).
+  std::set<Timestamp> scan_stamps;
+  for (const PointCloud& scan : run.scans) scan_stamps.insert(scan.stamp);
   for (const dfpc::Message& m : sink.messages("/cdff/lidar_tracking/accepted"))
-    if (const bool* fused = m.as<bool>(); fused && *fused && m.stamp >= from) ++result.accepted;
+    if (const bool* fused = m.as<bool>();
+        fused && *fused && m.stamp >= from && scan_stamps.erase(m.stamp))
+      ++result.accepted;
   result.tracked_fraction =
       result.scans ? static_cast<double>(result.accepted) / static_cast<double>(result.scans) : 0;
   Result<eval::PoseEvaluation> evaluation = eval::evaluatePoses(estimates, run.truth);

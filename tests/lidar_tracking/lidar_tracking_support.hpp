@@ -16,16 +16,19 @@
 namespace cdff::lidar_tracking {
 
 struct SimulatedRun {
-  std::vector<dfpc::Message> messages;  // in stamp order: /chaser/tf/*, scans, /truth/target_pose
+  std::vector<dfpc::Message> messages;  // in stamp order: /chaser/tf/*, scans, AHRS attitudes,
+                                        // /truth/target_pose
   std::vector<Transform> truth;         // servicer_T_target, /truth/target_pose
   std::vector<PointCloud> scans;
   std::filesystem::path mesh_file;  // the target's mesh as the simulator used it (PLY)
 };
 
 /// Simulates `scenario` (a library name) with only the LIDAR on, for `duration` s (0: the
-/// scenario's), with `extra_yaml` appended to the scenario file (e.g. a faults: list).
+/// scenario's), with `extra_yaml` appended to the scenario file (e.g. a faults: list) and the
+/// `overrides` (`cdff sim --set` syntax, e.g. sensors.ahrs.enabled=true) applied.
 Result<SimulatedRun> simulate(const std::string& scenario, double duration,
-                              const std::string& extra_yaml = "", std::uint64_t seed = 1);
+                              const std::string& extra_yaml = "", std::uint64_t seed = 1,
+                              const std::vector<std::string>& overrides = {});
 
 /// The initial state the tests give the DFPC: the truth at `stamp` with its position moved by
 /// `position_fraction` of the range in a random direction and its attitude turned by
