@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -159,6 +161,8 @@ class NearestGrid {
   /// (the other side of a thin part), or kNone; found by `tree` at the first request and kept,
   /// since a tracked target keeps showing the same cells.
   std::uint32_t opposite(std::size_t cell, const KdTree3f& tree, const Buffer<Point4f>& normals) {
+    // The grid is shared between instances, which may run in different threads.
+    const std::lock_guard<std::mutex> lock(opposite_mutex_);
     if (opposite_.size() != labels_.size()) opposite_.assign(labels_.size(), kUnknown);
     std::uint32_t& alt = opposite_[cell];
     if (alt != kUnknown) return alt;
@@ -188,6 +192,7 @@ class NearestGrid {
   static constexpr std::uint32_t kUnknown = kNone - 1;
   std::vector<std::uint32_t> labels_;
   std::vector<std::uint32_t> opposite_;  // kUnknown until asked for
+  std::mutex opposite_mutex_;
   Eigen::Vector3f origin_ = Eigen::Vector3f::Zero();
   float cell_ = 0, inverse_ = 0;
   double band_ = 0;
@@ -216,12 +221,14 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     Result<Eigen::Isometry3d> guess =
         registration::checkInputs(source, model, in.initial_guess.get());
     if (!guess) return guess.status();
-    CDFF_RETURN_IF_ERROR(index_.update(model));
-    if (grid_model_ != index_.builds) {
-      grid_model_ = index_.builds;
-      grid_ready_ =
-          params_.lookup_grid_cell > 0 && grid_.build(index_.points, params_.lookup_grid_cell,
-                                                      params_.lookup_grid_band, kMaxGridCells);
+    Result<std::shared_ptr<const registration::ModelIndex>> shared =
+        registration::sharedIndex(model, shared_index_);
+    if (!shared) return shared.status();
+    shared_index_ = std::move(shared).value();
+    if (grid_model_ != shared_index_->builds) {
+      grid_model_ = shared_index_->builds;
+      grid_ = sharedGrid();
+      grid_ready_ = grid_ != nullptr;
       if (params_.lookup_grid_cell > 0 && !grid_ready_)
         warn(
             fmt::format("the model's lookup grid would need more than {} cells of {} m; only "
@@ -262,7 +269,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           at.linear() = start.rotation;
           at.translation() = start.translation;
           const registration::Quality quality = registration::evaluate(
-              points, index_, at, params_.inlier_distance, params_.covariance_inflation);
+              points, *shared_index_, at, params_.inlier_distance, params_.covariance_inflation);
           if (!best || betterFit(quality, turned, best_quality, best_turn)) {
             best = start;
             best_quality = quality;
@@ -292,7 +299,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       pose = *guess;
     }
     const registration::Quality quality =
-        registration::evaluate(points, index_, pose, params_.inlier_distance,
+        registration::evaluate(points, *shared_index_, pose, params_.inlier_distance,
                                params_.covariance_inflation, starved ? nullptr : &previous_);
     if (converged && quality.degenerate)
       warn(
@@ -397,6 +404,33 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return Status::ok();
   }
 
+  /// The lookup grid of the current model for this instance's grid parameters, shared by the
+  /// instances that register against the same model with the same parameters; null when the
+  /// grid is off or too large.
+  std::shared_ptr<NearestGrid> sharedGrid() {
+    if (!(params_.lookup_grid_cell > 0)) return nullptr;
+    struct Entry {
+      std::uint64_t model;
+      double cell, band;
+      std::weak_ptr<NearestGrid> grid;
+    };
+    static std::mutex mutex;
+    static std::vector<Entry> live;
+    const std::lock_guard<std::mutex> lock(mutex);
+    std::erase_if(live, [](const Entry& e) { return e.grid.expired(); });
+    for (const Entry& e : live)
+      if (e.model == shared_index_->builds && e.cell == params_.lookup_grid_cell &&
+          e.band == params_.lookup_grid_band)
+        if (std::shared_ptr<NearestGrid> grid = e.grid.lock()) return grid;
+    auto grid = std::make_shared<NearestGrid>();
+    if (!grid->build(shared_index_->points, params_.lookup_grid_cell, params_.lookup_grid_band,
+                     kMaxGridCells))
+      return nullptr;
+    live.push_back(
+        {shared_index_->builds, params_.lookup_grid_cell, params_.lookup_grid_band, grid});
+    return grid;
+  }
+
   /// The starting rotations of an acquisition (applied to the guess in the sensor frame): none,
   /// then turns by hypothesis_angle about hypotheses - 1 axes spread evenly over the sphere (a
   /// Fibonacci lattice), so that a guess whose attitude error is about that angle has a start
@@ -422,11 +456,12 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   /// within a fraction of the target's size of its centre. Its depth stays the guess's.
   Eigen::Vector3d centredPosition(const std::vector<Eigen::Vector3f>& points,
                                   const Eigen::Isometry3d& guess) {
-    if (model_centroid_for_ != index_.builds) {
+    if (model_centroid_for_ != shared_index_->builds) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (const Point4f& p : index_.points) sum += p.vec().cast<double>();
-      model_centroid_ = sum / static_cast<double>(std::max<std::size_t>(1, index_.points.size()));
-      model_centroid_for_ = index_.builds;
+      for (const Point4f& p : shared_index_->points) sum += p.vec().cast<double>();
+      model_centroid_ =
+          sum / static_cast<double>(std::max<std::size_t>(1, shared_index_->points.size()));
+      model_centroid_for_ = shared_index_->builds;
     }
     Eigen::Vector3d scan = Eigen::Vector3d::Zero();
     for (const Eigen::Vector3f& p : points) scan += p.cast<double>();
@@ -470,7 +505,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     const float max_sq = static_cast<float>(distance * distance);
     // The viewpoint in the model frame: visible model points have normals facing it.
     const Eigen::Vector3f eye = r_inv * (viewpoint_ - t);
-    const bool use_grid = grid_ready_ && distance <= grid_.band();
+    const bool use_grid = grid_ready_ && distance <= grid_->band();
     for (std::size_t i = 0; i < points.size(); ++i) {
       const Eigen::Vector3f& p = points[i];
       const Eigen::Vector3f pm = r_inv * (p - t);
@@ -482,13 +517,13 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         continue;
       }
       previous_[i] = nn.index;
-      const Eigen::Vector3f nm = index_.normals[nn.index].vec();
-      const float r = nm.dot(pm - index_.points[nn.index].vec());
+      const Eigen::Vector3f nm = shared_index_->normals[nn.index].vec();
+      const float r = nm.dot(pm - shared_index_->points[nn.index].vec());
       const Eigen::Vector3d n = rotation * nm.cast<double>();
       Pair pair;
       pair.j << -n, n.cross(p.cast<double>() - translation);
       pair.r = r;
-      pair.rq = rotation * index_.points[nn.index].vec().cast<double>();
+      pair.rq = rotation * shared_index_->points[nn.index].vec().cast<double>();
       pair.offset = pair.rq + translation - p.cast<double>();
       pairs_.push_back(pair);
       abs_residuals_.push_back(std::abs(r));
@@ -498,7 +533,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   }
 
   bool facesEye(std::uint32_t index, const Eigen::Vector3f& eye) const {
-    return index_.normals[index].vec().dot(eye - index_.points[index].vec()) > 0;
+    return shared_index_->normals[index].vec().dot(eye - shared_index_->points[index].vec()) > 0;
   }
 
   /// The nearest model point to `q` within sqrt(max_sq) (that faces `eye` when back faces are
@@ -510,32 +545,33 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     const bool facing = params_.back_face_rejection;
     float bound = max_sq;
     if (previous != kNoMatch && (!facing || facesEye(previous, eye))) {
-      const float d = (index_.points[previous].vec() - q).squaredNorm();
+      const float d = (shared_index_->points[previous].vec() - q).squaredNorm();
       bound = std::min(max_sq, d * 1.0001f + 1e-12f);
     }
     auto search = [&](float b) {
-      return facing ? index_.tree.nearestFacing(q, eye, b, found)
-                    : index_.tree.nearest(q, b, found);
+      return facing ? shared_index_->tree.nearestFacing(q, eye, b, found)
+                    : shared_index_->tree.nearest(q, b, found);
     };
     if (search(bound) || (bound < max_sq && search(max_sq))) return true;
-    return facing && index_.tree.nearest(q, max_sq, found);
+    return facing && shared_index_->tree.nearest(q, max_sq, found);
   }
 
   /// As nearestVisible, from the lookup grid: constant time, also on thin parts where the
   /// nearest point is on the hidden side (the grid keeps the other side's nearest point).
   bool nearestFromGrid(const Eigen::Vector3f& q, const Eigen::Vector3f& eye, float max_sq,
                        KdTree3f::Neighbour& found) {
-    const std::size_t cell = grid_.cellAt(q);
+    const std::size_t cell = grid_->cellAt(q);
     if (cell == NearestGrid::kOutside) return false;
-    std::uint32_t label = grid_.label(cell);
+    std::uint32_t label = grid_->label(cell);
     if (label == NearestGrid::kNone) return false;  // farther than the band from the model
     if (params_.back_face_rejection && !facesEye(label, eye)) {
-      const std::uint32_t other = grid_.opposite(cell, index_.tree, index_.normals);
+      const std::uint32_t other =
+          grid_->opposite(cell, shared_index_->tree, shared_index_->normals);
       if (other == NearestGrid::kNone || !facesEye(other, eye))
         return nearestVisible(q, eye, max_sq, kNoMatch, found);
       label = other;
     }
-    const float d = (index_.points[label].vec() - q).squaredNorm();
+    const float d = (shared_index_->points[label].vec() - q).squaredNorm();
     if (d > max_sq) return false;
     found = {label, d};
     return true;
@@ -544,9 +580,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   static constexpr std::uint32_t kNoMatch = ~std::uint32_t{0};
   static constexpr std::size_t kMaxGridCells = std::size_t{1} << 24;  // 64 MB of labels
   Kernel kernel_ = Kernel::kGemanMcClure;
-  registration::ModelIndex index_;
-  NearestGrid grid_;
-  std::uint64_t grid_model_ = 0;  // index_.builds the grid was built for (0: none)
+  std::shared_ptr<const registration::ModelIndex> shared_index_;
+  std::shared_ptr<NearestGrid> grid_;  // shared like the index; null: none
+  std::uint64_t grid_model_ = 0;       // shared_index_->builds the grid was built for (0: none)
   bool grid_ready_ = false;
   // Scratch kept between calls, so that a warmed-up DFI does not allocate.
   std::vector<Eigen::Vector3f> points_;
@@ -555,7 +591,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::vector<std::uint32_t> previous_;
   std::vector<Eigen::Matrix3d> turns_;  // hypothesisTurns(), for params_.hypotheses
   Eigen::Vector3d model_centroid_ = Eigen::Vector3d::Zero();
-  std::uint64_t model_centroid_for_ = 0;  // index_.builds it was computed for (0: none)
+  std::uint64_t model_centroid_for_ = 0;  // shared_index_->builds it was computed for (0: none)
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
 };
 

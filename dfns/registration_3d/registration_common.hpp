@@ -3,8 +3,11 @@
 // quality measures and covariance, computed the same way for every DFI at its final pose.
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -25,7 +28,7 @@ struct ModelIndex {
   Buffer<Point4f> points;
   Buffer<Point4f> normals;
   KdTree3f tree;
-  std::uint64_t builds = 0;
+  std::uint64_t builds = 0;  // a number unique to each build in the process (0: none)
 
   bool holds(const PointCloud& model) const {
     return !points.empty() && points.sharesMemoryWith(model.points) &&
@@ -53,10 +56,32 @@ struct ModelIndex {
     points = model.points;
     normals = model.normals;
     tree.build(model.points.span(), 12, model.normals.span());
-    ++builds;
+    static std::atomic<std::uint64_t> generation{0};
+    builds = ++generation;
     return Status::ok();
   }
 };
+
+/// The ModelIndex of `model`, shared by every DFI instance of the process that registers against
+/// the same model buffer (a DFPC's acquisition and tracking registrations): the first to see the
+/// model builds it, the others reuse it, so a registration that starts later (tracking, after the
+/// acquisition) does not spend its first call building the same structures. `current` is
+/// returned as it is when it holds the model. The index is immutable once built.
+inline Result<std::shared_ptr<const ModelIndex>> sharedIndex(
+    const PointCloud& model, const std::shared_ptr<const ModelIndex>& current) {
+  if (current && current->holds(model)) return current;
+  static std::mutex mutex;
+  static std::vector<std::weak_ptr<const ModelIndex>> live;
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::erase_if(live, [](const std::weak_ptr<const ModelIndex>& w) { return w.expired(); });
+  for (const std::weak_ptr<const ModelIndex>& w : live)
+    if (std::shared_ptr<const ModelIndex> index = w.lock(); index && index->holds(model))
+      return index;
+  auto fresh = std::make_shared<ModelIndex>();
+  CDFF_RETURN_IF_ERROR(fresh->update(model));
+  live.push_back(fresh);
+  return std::shared_ptr<const ModelIndex>(std::move(fresh));
+}
 
 /// Checks the scan and the guess; returns the starting pose source_T_model.
 inline Result<Eigen::Isometry3d> checkInputs(const PointCloud& source, const PointCloud& model,
