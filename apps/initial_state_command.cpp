@@ -27,6 +27,9 @@ struct InitialStateOptions {
   std::string channel = "/cdff/lidar_tracking/initial_state";
   double position_fraction = 0.10;
   double angle_deg = 10.0;
+  double linear_velocity_sigma = eval::InitialStatePerturbation{}.linear_velocity_sigma;
+  double angular_velocity_sigma_deg =
+      eval::InitialStatePerturbation{}.angular_velocity_sigma * 180.0 / M_PI;
   std::uint64_t seed = 1;
 };
 
@@ -61,6 +64,8 @@ Status writeInitialState(const InitialStateOptions& o) {
   perturbation.position_fraction = o.position_fraction;
   perturbation.angle_rad = o.angle_deg * M_PI / 180.0;
   perturbation.seed = o.seed;
+  perturbation.linear_velocity_sigma = o.linear_velocity_sigma;
+  perturbation.angular_velocity_sigma = o.angular_velocity_sigma_deg * M_PI / 180.0;
   Result<RigidBodyState> state = eval::perturbedInitialState(truth, *at, perturbation);
   if (!state) return state.status().withContext(o.input);
   io::Recorder recorder;
@@ -94,6 +99,12 @@ void addInitialStateCommand(CLI::App& root, int& exit_code) {
       ->check(CLI::Range(0.0, 10.0));
   cmd->add_option("--angle-deg", options->angle_deg, "Attitude error (degrees)")
       ->check(CLI::Range(0.0, 180.0));
+  cmd->add_option("--velocity-sigma", options->linear_velocity_sigma,
+                  "Standard deviation of the (zero) linear velocity in the covariance (m/s)")
+      ->check(CLI::Range(0.0, 100.0));
+  cmd->add_option("--angular-velocity-sigma-deg", options->angular_velocity_sigma_deg,
+                  "Standard deviation of the (zero) angular velocity in the covariance (deg/s)")
+      ->check(CLI::Range(0.0, 1000.0));
   cmd->add_option("--seed", options->seed, "Seed of the error's directions");
   cmd->callback([options, &exit_code] {
     const Status s = writeInitialState(*options);

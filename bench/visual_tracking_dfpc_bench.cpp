@@ -67,9 +67,12 @@ void trackApproach(benchmark::State& state, const std::string& scenario, const s
     const Timestamp shift = static_cast<Timestamp>(pass) * period;
     if (k == 0) {
       state.PauseTiming();
-      if (pass == 0)
+      if (pass == 0) {
+        (void)orchestrator.process(
+            dfpc::Message::of("/chaser/tf/camera_left_optical", 0, seq.camera_mounting));
         (void)orchestrator.process(
             dfpc::Message::of("/cdff/visual_tracking/model", images[0].stamp, seq.model));
+      }
       RigidBodyState initial;
       initial.pose = seq.truth[0];
       initial.pose.stamp += shift;
@@ -85,7 +88,7 @@ void trackApproach(benchmark::State& state, const std::string& scenario, const s
       return;
     }
     state.PauseTiming();
-    const auto poses = sink.messages("/cdff/visual_tracking/pose");
+    const auto poses = sink.messages("/cdff/visual_tracking/camera_pose");
     const auto statuses = sink.messages("/cdff/visual_tracking/status");
     if (!poses.empty() && !statuses.empty()) {
       const Transform& est = poses.back().as<RigidBodyState>()->pose;

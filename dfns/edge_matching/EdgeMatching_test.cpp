@@ -10,6 +10,7 @@
 
 #include "EdgeMatching.gen.hpp"
 #include "cdff/tracking/contours.hpp"
+#include "cdff/tracking/edge_search.hpp"
 #include "cdff/types/opencv.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/model_rendering.hpp"
@@ -171,6 +172,46 @@ TEST(EdgeMatching, MismatchedInputsAreRejected) {
   node->in.image.set(render(scene, 0.0));
   node->in.samples.set(ContourSamples{});
   testing::expectRejected(*node, "carry no contours");
+}
+
+// Contrast adaptation (tracking::EdgeSearchOptions::relative_gradient, what the visual tracking
+// DFPC uses): a dim image whose edges are all below min_gradient is matched once the threshold
+// follows its contrast, at the same place; in pure noise the threshold stays above the noise.
+TEST(EdgeMatching, ContrastAdaptationFindsTheEdgesOfADimImageAndNotNoise) {
+  const Scene scene;
+  const Image dim = render(scene, 0.5, 0.04);  // edges of a few grey levels
+  const ContourSamples samples = samplesAt(scene, scene.truth);
+  tracking::EdgeSearchOptions fixed;
+  Result<ContourSamples> plain = tracking::searchEdges(dim, samples, fixed);
+  ASSERT_OK(plain.status());
+  const auto ratio = [](const ContourSamples& m) {
+    return static_cast<double>(m.matchedCount()) / static_cast<double>(m.samples.size());
+  };
+  EXPECT_LT(ratio(*plain), 0.2);
+  tracking::EdgeSearchOptions adaptive = fixed;
+  adaptive.relative_gradient = 0.25;
+  Result<ContourSamples> adapted = tracking::searchEdges(dim, samples, adaptive);
+  ASSERT_OK(adapted.status());
+  EXPECT_LT(tracking::lastEdgeThreshold(), fixed.min_gradient);
+  EXPECT_GT(ratio(*adapted), 0.9);
+  std::vector<double> errors;
+  for (const ContourSample& s : adapted->samples)
+    if (s.candidate_count > 0)
+      errors.push_back(std::abs(adapted->candidates[s.first_candidate].offset));
+  std::sort(errors.begin(), errors.end());
+  ASSERT_FALSE(errors.empty());
+  EXPECT_LT(errors[errors.size() / 2], 0.3);  // median offset of the strongest candidate, px
+
+  // Noise alone (sigma 2 grey levels on black, clipped at 0): the threshold rises above its floor
+  // with the noise, and almost no sample finds a candidate.
+  const Image noise = render(scene, 2.0, 0.0);
+  Result<ContourSamples> in_noise = tracking::searchEdges(noise, samples, adaptive);
+  ASSERT_OK(in_noise.status());
+  EXPECT_GT(tracking::lastEdgeThreshold(), 2 * adaptive.min_gradient_floor);
+  EXPECT_LT(ratio(*in_noise), 0.05);
+
+  adaptive.relative_gradient = 1.5;
+  EXPECT_FALSE(tracking::searchEdges(dim, samples, adaptive).status().isOk());
 }
 
 }  // namespace

@@ -96,6 +96,68 @@ TEST(FrameTransformationRigid, TheCovarianceTurnsWithTheFrame) {
             0.03 * forward->out.pose->covariance.norm());
 }
 
+// A rigid-body state: the moved twist is the velocity of the moved pose (a finite difference of
+// two poses a short time apart, each moved), and its covariance blocks turn as the pose's do.
+TEST(FrameTransformationRigid, AStateKeepsItsMotion) {
+  auto forward = make();
+  forward->in.extrinsic.set(servicerTLidar());
+  RigidBodyState z;
+  z.pose = lidarTTarget().pose;
+  z.twist.linear = Eigen::Vector3d(0.3, -0.1, -0.8);
+  z.twist.angular = Eigen::Vector3d(0.02, 0.05, -0.03);
+  Eigen::Matrix<double, 12, 12> a = Eigen::Matrix<double, 12, 12>::Random() * 0.01;
+  z.covariance = a * a.transpose() + Matrix12d::Identity() * 1e-6;
+  forward->in.state.set(z);
+  ASSERT_OK(forward->process());
+  ASSERT_TRUE(forward->out.state.hasValue());
+  const RigidBodyState& s = *forward->out.state;
+  EXPECT_EQ(s.pose.parent_frame, "servicer");
+  EXPECT_EQ(s.pose.child_frame, "target");
+  EXPECT_EQ(s.pose.stamp, 1234);
+  EXPECT_LT(
+      (s.pose.isometry().matrix() - (servicerTLidar().isometry() * z.pose.isometry()).matrix())
+          .norm(),
+      1e-12);
+
+  constexpr double kDt = 1e-6;
+  Transform later = z.pose;
+  later.translation += kDt * z.twist.linear;
+  later.rotation = expSO3(kDt * z.twist.angular) * z.pose.rotation;
+  const Transform moved_later = servicerTLidar().compose(later).value();
+  const Eigen::Vector3d v = (moved_later.translation - s.pose.translation) / kDt;
+  const Eigen::Vector3d w = logSO3(moved_later.rotation * s.pose.rotation.conjugate()) / kDt;
+  EXPECT_LT((v - s.twist.linear).norm(), 1e-6);
+  EXPECT_LT((w - s.twist.angular).norm(), 1e-6);
+
+  // The pose blocks agree with the pose path (checked by sampling above); every block turns.
+  PoseWithCovariance pose{z.pose, z.covariance.topLeftCorner<6, 6>()};
+  forward->in.pose.set(pose);
+  ASSERT_OK(forward->process());
+  EXPECT_LT((s.covariance.topLeftCorner<6, 6>() - forward->out.pose->covariance).norm(), 1e-15);
+  const Eigen::Matrix3d r = servicerTLidar().rotation.toRotationMatrix();
+  EXPECT_LT(
+      (s.covariance.block<3, 3>(6, 9) - r * z.covariance.block<3, 3>(6, 9) * r.transpose()).norm(),
+      1e-15);
+  EXPECT_LT(
+      (s.covariance.block<3, 3>(0, 9) - r * z.covariance.block<3, 3>(0, 9) * r.transpose()).norm(),
+      1e-15);
+
+  // And back with `inverse`.
+  auto back = make("{inverse: true}");
+  back->in.extrinsic.set(servicerTLidar());
+  back->in.state.set(s);
+  ASSERT_OK(back->process());
+  EXPECT_EQ(back->out.state->pose.parent_frame, "lidar");
+  EXPECT_LT((back->out.state->twist.linear - z.twist.linear).norm(), 1e-12);
+  EXPECT_LT((back->out.state->twist.angular - z.twist.angular).norm(), 1e-12);
+  EXPECT_LT((back->out.state->covariance - z.covariance).norm(), 1e-15);
+
+  RigidBodyState wrong = z;
+  wrong.pose.parent_frame = "camera_left_optical";
+  forward->in.state.set(wrong);
+  testing::expectRejected(*forward, "input 'state' is camera_left_optical_T_target");
+}
+
 TEST(FrameTransformationRigid, BadInputsAreReported) {
   auto forward = make();
   forward->in.extrinsic.set(

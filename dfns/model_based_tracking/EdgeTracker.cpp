@@ -27,6 +27,9 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     o.search.search_distance = p.search_distance;
     o.search.angular_threshold = p.angular_threshold;
     o.search.min_gradient = p.min_gradient;
+    o.search.relative_gradient = p.relative_gradient;
+    o.search.noise_sigmas = p.noise_sigmas;
+    o.search.min_gradient_floor = p.min_gradient_floor;
     o.search.max_candidates = p.max_candidates;
     o.search.half_width = p.mask_half_width;
     o.solver.max_iterations = p.max_iterations;
@@ -45,6 +48,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     o.refinement_search_distance = p.refinement_search_distance;
     acquisition_sigmas_ = p.acquisition_sigmas;
     acquisition_max_search_ = p.acquisition_max_search_distance;
+    lateral_first_ = p.acquisition_lateral_first;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -78,11 +82,33 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
 
     const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
     Transform start = predicted.pose;
-    Result<bool> acquired = acquire(cameras->frames, depth, predicted, start);
+    Result<bool> acquired = acquire(cameras->frames, depth, predicted, start, false);
     if (!acquired) return acquired.status();
     Result<tracking::TrackingResult> result =
         tracker_.track(cameras->frames, depth, depth_T_camera_, start, options_);
     if (!result) return result.status();
+    if (acquisition_ran_ && lateral_first_) {
+      // Two hypotheses: neither acquisition works everywhere (the lateral-first one locks on at
+      // 8 m where the plain one diverges, and the reverse happens at 2.7 m), so both run and the
+      // full-resolution result with the higher inlier ratio is kept.
+      const std::string plain_failure = acquisition_failure_;
+      Transform lateral_start = predicted.pose;
+      Result<bool> lateral = acquire(cameras->frames, depth, predicted, lateral_start, true);
+      if (!lateral) return lateral.status();
+      if (*lateral) {
+        Result<tracking::TrackingResult> other =
+            tracker_.track(cameras->frames, depth, depth_T_camera_, lateral_start, options_);
+        if (!other) return other.status();
+        const bool plain_ok = *acquired && result->status != TrackingStatus::kLost;
+        if (other->status != TrackingStatus::kLost &&
+            (!plain_ok || other->inlier_ratio > result->inlier_ratio)) {
+          result = std::move(other);
+          acquired = true;
+        }
+      }
+      if (!*acquired)
+        acquisition_failure_ = plain_failure + "; lateral first: " + acquisition_failure_;
+    }
     if (!*acquired) {
       result->status = TrackingStatus::kLost;
       result->reason = "acquisition from the initial pose failed: " + acquisition_failure_;
@@ -90,6 +116,26 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       result->covariance = tracking::noInformationCovariance();
     } else if (result->status == TrackingStatus::kLost) {
       result->reference_T_model = predicted.pose;
+    } else if (acquisition_ran_) {
+      // A wide acquisition can lock onto a wrong alignment (at long range the model's image is
+      // small next to the search); one the prediction's own uncertainty does not admit is lost.
+      const Eigen::Isometry3d p = predicted.pose.isometry();
+      const Eigen::Isometry3d e = result->reference_T_model.isometry();
+      Vector6d d;
+      d.head<3>() = e.translation() - p.translation();
+      d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
+      const Eigen::LDLT<Matrix6d> ldlt(predicted.covariance);
+      const double m = ldlt.info() == Eigen::Success ? d.dot(ldlt.solve(d)) : 0.0;
+      if (ldlt.info() == Eigen::Success && m > kAcquisitionGate) {
+        result->status = TrackingStatus::kLost;
+        result->reason = fmt::format(
+            "the acquired pose is {:.3f} m and {:.2f} deg from the prediction, a squared "
+            "Mahalanobis distance of {:.1f} under its covariance (gate {:.2f}: chi-square, 6 dof, "
+            "0.999)",
+            d.head<3>().norm(), d.tail<3>().norm() * 180 / M_PI, m, kAcquisitionGate);
+        result->reference_T_model = predicted.pose;
+        result->covariance = tracking::noInformationCovariance();
+      }
     }
     if (result->status != TrackingStatus::kTracking)
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
@@ -168,13 +214,15 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   // `start` becomes their estimate. False (acquisition_failure_ says why) when a pass lost the
   // track. The final pass at full resolution (the caller's) checks the inlier ratio.
   Result<bool> acquire(std::span<const tracking::CameraFrame> frames, const DepthMap* depth,
-                       const PoseWithCovariance& predicted, Transform& start) {
+                       const PoseWithCovariance& predicted, Transform& start, bool lateral_first) {
+    acquisition_ran_ = false;
     if (frames.empty()) return true;
     std::size_t reference = 0;
     while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
     const double spread = predictionSpreadPx(frames[reference], predicted);
     const int search = options_.search.search_distance;
     if (spread <= search) return true;
+    acquisition_ran_ = true;
     // Pyramid levels below full resolution: as many as the spread needs, while the model's image
     // at the level stays large enough to fix the pose (kMinModelPx across).
     const double model_px = modelSizePx(frames[reference], predicted);
@@ -208,25 +256,36 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
         if (frames[i].image) scaled[i].image = &pyramid[i][static_cast<std::size_t>(level)];
       }
       const double level_spread = spread / (1 << level);
-      coarse.search.search_distance = level == levels
-                                          ? std::clamp(static_cast<int>(std::ceil(level_spread)),
-                                                       search, acquisition_max_search_)
-                                          : search;
-      Result<tracking::TrackingResult> pass =
-          tracker_.track(scaled, level == 0 ? depth : nullptr, depth_T_camera_, start, coarse);
-      if (!pass) return pass.status();
-      if (pass->status == TrackingStatus::kLost) {
-        acquisition_failure_ = fmt::format("at pyramid level {} (search distance {} px): {}", level,
-                                           coarse.search.search_distance, pass->reason);
-        return false;
+      // The coarsest level first finds the lateral offset alone with the wide search, then all
+      // six degrees of freedom from there with the usual one.
+      const bool coarsest = level == levels;
+      for (int step = coarsest && lateral_first ? 0 : 1; step < 2; ++step) {
+        coarse.solver.lateral_only = step == 0;
+        coarse.search.search_distance = coarsest && (step == 0 || !lateral_first)
+                                            ? std::clamp(static_cast<int>(std::ceil(level_spread)),
+                                                         search, acquisition_max_search_)
+                                            : search;
+        Result<tracking::TrackingResult> pass =
+            tracker_.track(scaled, level == 0 ? depth : nullptr, depth_T_camera_, start, coarse);
+        if (!pass) return pass.status();
+        if (pass->status == TrackingStatus::kLost) {
+          acquisition_failure_ = fmt::format("at pyramid level {} (search distance {} px{}): {}",
+                                             level, coarse.search.search_distance,
+                                             step == 0 ? ", lateral only" : "", pass->reason);
+          return false;
+        }
+        start = pass->reference_T_model;
       }
-      start = pass->reference_T_model;
     }
     return true;
   }
 
   double acquisition_sigmas_ = 3;
   int acquisition_max_search_ = 64;
+  bool lateral_first_ = true;
+  bool acquisition_ran_ = false;
+  // The chi-square 0.999 quantile for 6 degrees of freedom.
+  static constexpr double kAcquisitionGate = 22.46;
   std::string acquisition_failure_;
   tracking::EdgeTrackerOptions options_;
   Eigen::Isometry3d depth_T_camera_ = Eigen::Isometry3d::Identity();

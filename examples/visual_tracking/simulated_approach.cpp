@@ -27,6 +27,8 @@ namespace {
 constexpr const char* kLeft = "/chaser/camera/left/image";
 constexpr const char* kRight = "/chaser/camera/right/image";
 constexpr const char* kTruth = "/truth/camera_left/target_pose";
+constexpr const char* kServicerTruth = "/truth/target_pose";
+constexpr const char* kCameraMounting = "/chaser/tf/camera_left_optical";
 
 Eigen::Vector3d randomDirection(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
@@ -47,11 +49,17 @@ class Feeder final : public egse::SimulationSink {
   Status begin(const egse::SimulationMetadata&) override { return Status::ok(); }
 
   Status write(const egse::SimMessage& m) override {
-    if (m.channel == kTruth) {
+    if (m.channel == kTruth || m.channel == kServicerTruth) {
+      std::vector<Transform>& to = m.channel == kTruth ? camera_truth : truth;
       if (const PoseWithCovariance* p = std::get_if<PoseWithCovariance>(&m.payload))
-        truth.push_back(p->pose);
+        to.push_back(p->pose);
       else if (const RigidBodyState* s = std::get_if<RigidBodyState>(&m.payload))
-        truth.push_back(s->pose);
+        to.push_back(s->pose);
+      return Status::ok();
+    }
+    if (m.channel == kCameraMounting) {
+      if (const Transform* t = std::get_if<Transform>(&m.payload))
+        return o_.process(dfpc::Message::of(kCameraMounting, t->stamp, *t));
       return Status::ok();
     }
     const bool left = m.channel == kLeft, right = m.channel == kRight;
@@ -81,7 +89,8 @@ class Feeder final : public egse::SimulationSink {
 
   Status end() override { return pending_ ? flush() : Status::ok(); }
 
-  std::vector<Transform> truth;
+  std::vector<Transform> truth;         // servicer_T_target
+  std::vector<Transform> camera_truth;  // camera_left_optical_T_target, at each left frame
   std::size_t late_frames = 0;
 
  private:
@@ -205,6 +214,8 @@ Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
       // The graph's parameters are EdgeTracker's; another DFI starts from its defaults.
       inst.parameters = YAML::Node(YAML::NodeType::Map);
     }
+    // The model comes on the model input (the simulator's own target), not from the file.
+    inst.parameters["model_file"] = "";
     if (!options.dfi_parameters.empty()) {
       YAML::Node extra = YAML::Load(options.dfi_parameters);
       for (const auto& kv : extra) inst.parameters[kv.first.as<std::string>()] = kv.second;
@@ -226,6 +237,9 @@ Result<SimulatedFrames> simulateFrames(const ApproachOptions& options) {
   for (const PoseWithCovariance& p : sink.on<PoseWithCovariance>(kTruth))
     out.truth.push_back(p.pose);
   for (const RigidBodyState& s : sink.on<RigidBodyState>(kTruth)) out.truth.push_back(s.pose);
+  const std::vector<Transform> mounting = sink.on<Transform>(kCameraMounting);
+  if (mounting.empty()) return notFound("the simulation has no {}", kCameraMounting);
+  out.camera_mounting = mounting.front();
   if (out.images.size() != out.truth.size())
     return Status(StatusCode::kInternal,
                   fmt::format("{} images and {} true poses", out.images.size(), out.truth.size()));
@@ -264,8 +278,12 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
   Result<eval::PoseEvaluation> filtered = evaluate(poses, 1, feeder.truth);
   if (!filtered) return filtered.status();
   r.filtered = std::move(filtered).value();
+  Result<eval::PoseEvaluation> camera =
+      evaluate(products.messages("/cdff/visual_tracking/camera_pose"), 1, feeder.camera_truth);
+  if (!camera) return camera.status();
+  r.camera_frame = std::move(camera).value();
   Result<eval::PoseEvaluation> measured =
-      evaluate(products.messages("/cdff/visual_tracking/measurement"), 0, feeder.truth);
+      evaluate(products.messages("/cdff/visual_tracking/measurement"), 0, feeder.camera_truth);
   if (!measured) return measured.status();
   r.measurement = std::move(measured).value();
   for (std::size_t i = 0; i < r.frames; ++i) {

@@ -40,11 +40,12 @@ struct ApproachOptions {
 };
 
 struct ApproachResult {
-  eval::PoseEvaluation filtered;     // /cdff/visual_tracking/pose against the truth
-  eval::PoseEvaluation measurement;  // the tracker's own estimates
-  std::vector<double> stamps_s;      // per frame
-  std::vector<int> status;           // per frame: 0 tracking, 1 degraded, 2 lost
-  std::vector<double> range_m;       // per frame, the true range
+  eval::PoseEvaluation filtered;      // /cdff/visual_tracking/pose against /truth/target_pose
+  eval::PoseEvaluation camera_frame;  // .../camera_pose against /truth/camera_left/target_pose
+  eval::PoseEvaluation measurement;   // the tracker's own estimates (camera frame)
+  std::vector<double> stamps_s;       // per frame
+  std::vector<int> status;            // per frame: 0 tracking, 1 degraded, 2 lost
+  std::vector<double> range_m;        // per frame, the true range
   std::vector<double> position_error_m, angle_error_deg;  // per frame, of the filtered pose
   std::size_t frames = 0, lost = 0, degraded = 0;
   /// Frames whose filtered error exceeds 10 % of the range or 10 degrees while the status is
@@ -63,11 +64,13 @@ struct ApproachResult {
 Result<ApproachResult> runApproach(const ApproachOptions& options);
 
 /// The left camera's frames of the scenario with the true camera_left_optical_T_target of each,
-/// and the target's model (its .cao export), for benchmarks.
+/// the camera's mounting (servicer_T_camera_left_optical) and the target's model (its .cao
+/// export), for benchmarks.
 struct SimulatedFrames {
   PolygonModel model;
   std::vector<Image> images;
   std::vector<Transform> truth;
+  Transform camera_mounting;
 };
 Result<SimulatedFrames> simulateFrames(const ApproachOptions& options);
 

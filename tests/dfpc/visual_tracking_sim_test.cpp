@@ -44,8 +44,9 @@ TEST(VisualTrackingSimulated, CloseRangeApproachMono) {
 
 // Mid range, 17 m -> 2 m (issue: position p95 <= 1 % of the range, not met: see
 // docs/benchmarks.md). Acquisition from the prescribed 5 % / 5 degree initial error does not
-// succeed at 17 m (the coarse passes diverge in range); the DFPC must then say LOST on every
-// frame rather than publish a wrong pose as tracked.
+// succeed at 17 m (the coarse passes diverge in range, or lock onto a wrong alignment that the
+// Mahalanobis gate then rejects); the DFPC must then say LOST rather than publish a wrong pose as
+// tracked.
 TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsReportedLost) {
   ApproachOptions o;
   o.scenario = "mid_range_approach";
@@ -85,7 +86,9 @@ TEST(VisualTrackingSimulated, CloseRangeStereoCarriesOnWhenACameraFails) {
 }
 
 // The seed's two lighting boundary conditions: degradation is allowed, divergence without a LOST
-// status is not.
+// status is not. Back-lit, the target's visible side is unlit against black space: its outline
+// has no contrast at all (even from a nearly true pose and with the contrast-adaptive threshold,
+// fewer than 10 % of the samples find an edge), so LOST is the right answer.
 TEST(VisualTrackingSimulated, UnderIlluminatedTargetDoesNotDivergeSilently) {
   ApproachOptions o;
   o.scenario = "under_illuminated";
@@ -96,7 +99,10 @@ TEST(VisualTrackingSimulated, UnderIlluminatedTargetDoesNotDivergeSilently) {
   EXPECT_EQ(r->unreported_divergence, 0u);
 }
 
-TEST(VisualTrackingSimulated, SpecularGlareDoesNotDivergeSilently) {
+// Glare: acquired from 5 % / 5 degrees at 8 m (the lateral-first acquisition hypothesis) and
+// tracked, degraded (the saturated wing and the Earth behind the bus cost inliers), within the
+// mid-range goal of 1 % of the range.
+TEST(VisualTrackingSimulated, SpecularGlareIsTrackedDegraded) {
   ApproachOptions o;
   o.scenario = "specular_glare";
   o.duration = 10;
@@ -104,6 +110,9 @@ TEST(VisualTrackingSimulated, SpecularGlareDoesNotDivergeSilently) {
   ASSERT_OK(r.status());
   record("specular_glare", *r);
   EXPECT_EQ(r->unreported_divergence, 0u);
+  EXPECT_EQ(r->lost, 0u);
+  EXPECT_LE(r->filtered.position_error_pct_range.p95, 1.0);
+  EXPECT_LE(r->filtered.angle_error_deg.p95, 1.0);
 }
 
 }  // namespace

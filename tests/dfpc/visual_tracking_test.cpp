@@ -1,12 +1,16 @@
 // End to end: dfpcs/visual_tracking.yaml through the Orchestrator on ViSP's Castle-simu sequence
 // (real rendered images with ground truth), started from the true pose perturbed by 5 % of the
 // range and 5 degrees (the initial pose the visual tracking issue prescribes until the detection
-// DFPC provides one); a stretch of black frames is a LOST status, never a silent divergence.
+// DFPC provides one); a stretch of black frames is a LOST status, never a silent divergence. The
+// camera is given a mounting on a servicer, so that the servicer-frame pose product is checked
+// against the camera-frame state moved by it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <random>
 
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/orchestrator.hpp"
 
 #include "support/castle_simu.hpp"
@@ -20,10 +24,18 @@ namespace castle = cdff::testing::castle;
 
 const std::string kGraph = std::string(CDFF_SOURCE_DIR) + "/dfpcs/visual_tracking.yaml";
 constexpr const char* kPose = "/cdff/visual_tracking/pose";
+constexpr const char* kCameraPose = "/cdff/visual_tracking/camera_pose";
 constexpr const char* kStatus = "/cdff/visual_tracking/status";
 
+Transform servicerTCamera() {
+  return Transform::fromIsometry(
+      Eigen::Translation3d(0.4, -0.1, 1.2) *
+          Eigen::AngleAxisd(1.9, Eigen::Vector3d(1, -2, 0.5).normalized()),
+      "servicer", "camera_left_optical");
+}
+
 struct CastleRun {
-  eval::PoseEvaluation pose;  // the filtered pose against the truth, every frame
+  eval::PoseEvaluation pose;  // the filtered camera-frame state against the truth, every frame
   std::vector<int> status;    // per frame
   MemorySink sink;
 };
@@ -38,15 +50,18 @@ void runCastle(CastleRun& run, std::uint32_t seed, int black_from = 0, int black
   for (int k = 1; k <= castle::kFrames; ++k) {
     Result<castle::Frame> f = castle::frame(k, false);
     ASSERT_OK(f.status());
-    truth.push_back(Transform::fromIsometry(f->camera_T_model, "camera", "castle", f->image.stamp));
+    truth.push_back(Transform::fromIsometry(f->camera_T_model, "camera_left_optical", "castle",
+                                            f->image.stamp));
     frames.push_back(std::move(f).value());
   }
   const Timestamp t0 = frames[0].image.stamp;
+  input.add(Message::of("/chaser/tf/camera_left_optical", 0, servicerTCamera()));
   input.add(Message::of("/cdff/visual_tracking/model", t0, *model));
   std::mt19937 rng(seed);
-  input.add(Message::of("/cdff/visual_tracking/initial_pose", t0,
-                        visual::perturbedInitialState(frames[0].camera_T_model, "camera", "castle",
-                                                      t0, 0.05, 5.0 * M_PI / 180, rng)));
+  input.add(
+      Message::of("/cdff/visual_tracking/initial_pose", t0,
+                  visual::perturbedInitialState(frames[0].camera_T_model, "camera_left_optical",
+                                                "castle", t0, 0.05, 5.0 * M_PI / 180, rng)));
   for (int k = 1; k <= castle::kFrames; ++k) {
     Image image = frames[k - 1].image;
     if (k >= black_from && k <= black_to) {
@@ -63,17 +78,41 @@ void runCastle(CastleRun& run, std::uint32_t seed, int black_from = 0, int black
   OrchestratorOptions options;
   options.sink = &run.sink;
   Orchestrator o(options);
-  ASSERT_OK(o.addGraphFile(kGraph));
+  Result<GraphSpec> spec = loadGraphFile(kGraph);
+  ASSERT_OK(spec.status());
+  for (InstanceSpec& instance : spec->instances)
+    if (instance.name == "tracker") instance.parameters["model_file"] = "";  // the model input
+  Result<std::unique_ptr<Dfpc>> dfpc = Dfpc::create(std::move(spec).value());
+  ASSERT_OK(dfpc.status());
+  ASSERT_OK(o.add(std::move(dfpc).value()));
   ASSERT_OK(o.startAll());
   ASSERT_OK(o.run(input).status());
 
   for (const Message& m : run.sink.messages(kStatus)) run.status.push_back(*m.as<int>());
   // The first pose is the initial state itself, published when the filter takes it.
-  const std::vector<Message> poses = run.sink.messages(kPose);
-  ASSERT_EQ(poses.size(), castle::kFrames + 1u);
-  Result<eval::PoseEvaluation> e = eval::evaluatePoses(visual::estimates(poses, 1), truth);
+  const std::vector<Message> camera_poses = run.sink.messages(kCameraPose);
+  ASSERT_EQ(camera_poses.size(), castle::kFrames + 1u);
+  Result<eval::PoseEvaluation> e = eval::evaluatePoses(visual::estimates(camera_poses, 1), truth);
   ASSERT_OK(e.status());
   run.pose = std::move(e).value();
+  // The product: the same state in the servicer frame, twist and covariance turned with it.
+  const std::vector<Message> poses = run.sink.messages(kPose);
+  ASSERT_EQ(poses.size(), camera_poses.size());
+  const Transform mounting = servicerTCamera();
+  const Eigen::Matrix3d r = mounting.rotation.toRotationMatrix();
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const RigidBodyState& c = *camera_poses[i].as<RigidBodyState>();
+    const RigidBodyState& s = *poses[i].as<RigidBodyState>();
+    ASSERT_EQ(s.pose.parent_frame, "servicer");
+    ASSERT_EQ(s.pose.child_frame, "castle");
+    ASSERT_EQ(s.pose.stamp, c.pose.stamp);
+    EXPECT_LT(
+        (s.pose.isometry().matrix() - (mounting.isometry() * c.pose.isometry()).matrix()).norm(),
+        1e-9);
+    EXPECT_LT((s.twist.linear - r * c.twist.linear).norm(), 1e-12);
+    EXPECT_LT((s.twist.angular - r * c.twist.angular).norm(), 1e-12);
+    EXPECT_NEAR(s.covariance.trace(), c.covariance.trace(), 1e-9 * c.covariance.trace());
+  }
 }
 
 TEST(VisualTrackingDfpc, TracksCastleSimuFromAPerturbedInitialPose) {

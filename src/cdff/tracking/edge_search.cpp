@@ -33,7 +33,13 @@ class Bilinear {
   double max_x_, max_y_;
 };
 
+thread_local double last_threshold = 0;
+
 }  // namespace
+
+double lastEdgeThreshold() {
+  return last_threshold;
+}
 
 Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& samples,
                                    const EdgeSearchOptions& options) {
@@ -50,6 +56,12 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
         "edge search needs search_distance >= 1, half_width >= 0 and "
         "max_candidates >= 1; got {}, {} and {}",
         options.search_distance, options.half_width, options.max_candidates);
+  if (!(options.relative_gradient >= 0 && options.relative_gradient <= 1) ||
+      !(options.noise_sigmas >= 0) || !(options.min_gradient_floor >= 0))
+    return invalidParameter(
+        "edge search needs relative_gradient in [0, 1], noise_sigmas >= 0 and "
+        "min_gradient_floor >= 0; got {}, {} and {}",
+        options.relative_gradient, options.noise_sigmas, options.min_gradient_floor);
 
   ContourSamples out;
   out.contours = samples.contours;
@@ -64,13 +76,21 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
   const int lines = 2 * h + 1;
   const float tan_max = static_cast<float>(std::tan(std::min(options.angular_threshold, 1.5607)));
   std::vector<float> grey(static_cast<std::size_t>(rows * lines));
-  std::vector<bool> valid(static_cast<std::size_t>(rows));
-  std::vector<float> gn(static_cast<std::size_t>(rows)), gt(static_cast<std::size_t>(rows));
   std::vector<EdgeCandidate> found;
 
-  for (ContourSample& s : out.samples) {
-    s.first_candidate = static_cast<std::uint32_t>(out.candidates.size());
-    s.candidate_count = 0;
+  // First the responses along every sample's line, then the threshold from all of them, then
+  // the candidates.
+  const std::size_t n_samples = out.samples.size();
+  std::vector<float> all_gn(n_samples * rows), all_gt(n_samples * rows);
+  std::vector<char> all_valid(n_samples * rows);
+  std::vector<float> peaks, magnitudes;
+  peaks.reserve(n_samples);
+  if (options.relative_gradient > 0) magnitudes.reserve(n_samples * rows);
+  for (std::size_t i = 0; i < n_samples; ++i) {
+    const ContourSample& s = out.samples[i];
+    float* gn = all_gn.data() + i * rows;
+    float* gt = all_gt.data() + i * rows;
+    char* valid = all_valid.data() + i * rows;
     const Eigen::Vector2d n = s.normal, t(-s.normal.y(), s.normal.x());
     for (int r = 0; r < rows; ++r) {
       const int j = r - (D + 2);
@@ -84,10 +104,11 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
         }
         grey[static_cast<std::size_t>(r * lines + k + h)] = at(x, y);
       }
-      valid[static_cast<std::size_t>(r)] = ok;
+      valid[r] = ok;
     }
     // Derivatives along the normal (mean over the lines) and across it (outer lines).
     const float norm_n = 1.0f / (2.0f * lines);
+    float peak = 0;
     for (int r = 1; r + 1 < rows; ++r) {
       if (!valid[r - 1] || !valid[r + 1] || !valid[r]) {
         gn[r] = 0;
@@ -105,12 +126,43 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
       } else {
         gt[r] = 0;
       }
+      if (options.relative_gradient > 0) {
+        magnitudes.push_back(std::abs(gn[r]));
+        if (r >= 2 && r + 2 < rows) peak = std::max(peak, std::abs(gn[r]));
+      }
     }
     gn[0] = gn[rows - 1] = 0;
+    if (options.relative_gradient > 0) peaks.push_back(peak);
+  }
+
+  double threshold = options.min_gradient;
+  if (options.relative_gradient > 0 && !peaks.empty() && !magnitudes.empty()) {
+    const auto percentile = [](std::vector<float>& v, double q) {
+      const auto k = static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+      std::nth_element(v.begin(), v.begin() + k, v.end());
+      return static_cast<double>(v[static_cast<std::size_t>(k)]);
+    };
+    const double strong = percentile(peaks, 0.75);
+    // Median absolute response / 0.6745: the noise's standard deviation if most of the line
+    // positions see flat image.
+    const double noise = percentile(magnitudes, 0.5) / 0.6745;
+    const double adapted = std::max({options.relative_gradient * strong,
+                                     options.noise_sigmas * noise, options.min_gradient_floor});
+    threshold = std::min(threshold, adapted);
+  }
+  last_threshold = threshold;
+
+  for (std::size_t i = 0; i < n_samples; ++i) {
+    ContourSample& s = out.samples[i];
+    const float* gn = all_gn.data() + i * rows;
+    const float* gt = all_gt.data() + i * rows;
+    const char* valid = all_valid.data() + i * rows;
+    s.first_candidate = static_cast<std::uint32_t>(out.candidates.size());
+    s.candidate_count = 0;
     found.clear();
     for (int r = 2; r + 2 < rows; ++r) {  // offsets -D .. D
       const float a = std::abs(gn[r - 1]), b = std::abs(gn[r]), c = std::abs(gn[r + 1]);
-      if (b < options.min_gradient || b < a || b <= c) continue;
+      if (b < threshold || b < a || b <= c) continue;
       if (!valid[r]) continue;
       if (std::abs(gt[r]) > tan_max * b) continue;  // not parallel to the contour
       // Opposite signs around the peak mean two edges: keep the peak unrefined.

@@ -21,7 +21,19 @@ struct EdgeSearchOptions {
   double min_gradient = 8.0;                       // grey levels per pixel along the normal
   int max_candidates = 3;
   int half_width = 1;  // h: lines on each side of the sample's own line (mask 2 h + 1 wide)
+  /// Contrast adaptation (0: off). A dim image (back-lit target, a veil of stray light over a
+  /// saturated one) has weak edges everywhere; then the threshold becomes this fraction of the
+  /// 75th percentile of the samples' strongest responses, when that is below min_gradient, but
+  /// never below noise_sigmas times the noise of the response (from the median absolute
+  /// response along all the search lines, which mostly cross flat image) nor below
+  /// min_gradient_floor.
+  double relative_gradient = 0.0;
+  double noise_sigmas = 4.0;
+  double min_gradient_floor = 0.5;  // grey levels per pixel
 };
+
+/// The threshold searchEdges applied in its last call on this thread (for diagnostics and tests).
+double lastEdgeThreshold();
 
 /// Fills the candidates of `samples` from the grey image `image` (8UC1, the size of the
 /// samples' camera model). The samples keep their order.

@@ -331,6 +331,14 @@ Result<PoseSolution> solvePose(const Eigen::Isometry3d& initial, std::span<const
     // A little Levenberg-Marquardt damping keeps weakly observed directions from jumping.
     Matrix6d A = e.H;
     A.diagonal() += 1e-9 * (e.H.diagonal().cwiseAbs() + Vector6::Ones());
+    if (options.lateral_only) {
+      for (int i = 2; i < 6; ++i) {
+        A.row(i).setZero();
+        A.col(i).setZero();
+        A(i, i) = 1;
+        e.g(i) = 0;
+      }
+    }
     const Eigen::LDLT<Matrix6d> ldlt(A);
     if (ldlt.info() != Eigen::Success)
       return numericalFailure("the normal equations are singular at iteration {}", it);

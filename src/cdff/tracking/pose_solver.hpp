@@ -70,6 +70,11 @@ struct PoseSolverOptions {
   double depth_weight = 1.0;
   double inlier_threshold = 2.0;  // px: a matched sample this close at the end is an inlier
   int min_measurements = 12;      // fewer usable residuals: no estimate
+  /// Only the translation across the reference frame's z axis (the reference camera's optical
+  /// axis) moves; range and attitude stay. Acquisition's first coarse pass: the lateral offset
+  /// moves the model's image most, and range and attitude, weakly observed from a wrong
+  /// association at a coarse level, would run away with the update.
+  bool lateral_only = false;
 };
 
 struct ViewStatistics {
