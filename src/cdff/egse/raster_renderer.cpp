@@ -110,11 +110,11 @@ struct ShadowLookup {
       d0 = Eigen::Vector3f::Zero();  // sun-frame ray per pixel step in x, y, and at pixel (0, 0)
 };
 
-// Calls fragment(x, y) for every pixel centre inside the triangle (sx, sy) (pixel units, y
-// down), with exact 24.8 fixed-point edge functions and the top-left rule.
-template <typename Fragment>
+// Calls span(y, x_first, x_last) for every row of pixel centres inside the triangle (sx, sy)
+// (pixel units, y down), with exact 24.8 fixed-point edge functions and the top-left rule.
+template <typename Span>
 inline void rasterise(const double sx[3], const double sy[3], int width, int height,
-                      Fragment&& fragment) {
+                      Span&& row_span) {
   std::int64_t X[3], Y[3];
   for (int i = 0; i < 3; ++i) {
     X[i] = std::llround(sx[i] * 256.0);
@@ -162,9 +162,20 @@ inline void rasterise(const double sx[3], const double sy[3], int width, int hei
         hi = -1;
       }
     }
-    for (std::int64_t i = lo; i <= hi; ++i) fragment(x0 + static_cast<int>(i), y);
+    if (lo <= hi) row_span(y, x0 + static_cast<int>(lo), x0 + static_cast<int>(hi));
     for (int k = 0; k < 3; ++k) row[k] += step_y[k];
   }
+}
+
+// floor() to an int without SSE4.1's roundss (the x86-64 baseline): the same value as
+// static_cast<int>(std::floor(v)) for any v in the int range, in three instructions.
+inline int floorToInt(float v) {
+  const int i = static_cast<int>(v);
+  return i - (v < static_cast<float>(i) ? 1 : 0);
+}
+// The fractional part v - floor(v).
+inline float fraction(float v) {
+  return v - static_cast<float>(floorToInt(v));
 }
 
 // One division per vector instead of three (Eigen's normalized() divides each coefficient).
@@ -373,12 +384,15 @@ class CpuRenderer final : public Renderer {
               d.y0, std::max(0, static_cast<int>(std::floor(std::min({sy[0], sy[1], sy[2]})))));
           d.y1 = std::max(
               d.y1, std::min(H - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]})))));
-          rasterise(sx, sy, W, H, [&](int x, int y) {
-            const float value = static_cast<float>(A * x + B * y + C);
-            const std::size_t i = static_cast<std::size_t>(y) * W + x;
-            if (value > ibuf[i]) {
-              ibuf[i] = value;
-              vis[i] = code;
+          rasterise(sx, sy, W, H, [&](int y, int first, int last) {
+            const double row_c = B * y + C;
+            float* __restrict depth_row = ibuf + static_cast<std::size_t>(y) * W;
+            std::uint32_t* __restrict vis_row = vis + static_cast<std::size_t>(y) * W;
+            for (int x = first; x <= last; ++x) {  // without branches: depth order is random
+              const float value = static_cast<float>(A * x + row_c);
+              const bool nearer = value > depth_row[x];
+              depth_row[x] = nearer ? value : depth_row[x];
+              vis_row[x] = nearer ? code : vis_row[x];
             }
           });
         }
@@ -434,16 +448,18 @@ class CpuRenderer final : public Renderer {
         const double B =
             ((sx[1] - sx[0]) * (sz[2] - sz[0]) - (sx[2] - sx[0]) * (sz[1] - sz[0])) / det;
         const double C = sz[0] - A * sx[0] - B * sy[0];
-        rasterise(sx, sy, S, S, [&](int x, int y) {
-          const float depth = static_cast<float>(A * x + B * y + C);
-          float& cell = map[static_cast<std::size_t>(y) * S + x];
-          if (depth < cell) {
-            cell = depth;
-            sd.x0 = std::min(sd.x0, x);
-            sd.x1 = std::max(sd.x1, x);
-            sd.y0 = std::min(sd.y0, y);
-            sd.y1 = std::max(sd.y1, y);
+        rasterise(sx, sy, S, S, [&](int y, int first, int last) {
+          const double row_c = B * y + C;
+          float* __restrict map_row = map + static_cast<std::size_t>(y) * S;
+          for (int x = first; x <= last; ++x) {
+            const float depth = static_cast<float>(A * x + row_c);
+            map_row[x] = depth < map_row[x] ? depth : map_row[x];
           }
+          // The texels to clear next time (a superset of those written).
+          sd.x0 = std::min(sd.x0, first);
+          sd.x1 = std::max(sd.x1, last);
+          sd.y0 = std::min(sd.y0, y);
+          sd.y1 = std::max(sd.y1, y);
         });
       }
     }
@@ -553,9 +569,8 @@ class CpuRenderer final : public Renderer {
     // Clamped first: far outside the map is outside (lit), and the conversion stays defined.
     const float tx = std::clamp(s.x(), -2.0f, static_cast<float>(S + 1));
     const float ty = std::clamp(s.y(), -2.0f, static_cast<float>(S + 1));
-    const float fx = std::floor(tx), fy = std::floor(ty);
-    const int ix = static_cast<int>(fx), iy = static_cast<int>(fy);
-    const float wx = tx - fx, wy = ty - fy;
+    const int ix = floorToInt(tx), iy = floorToInt(ty);
+    const float wx = tx - static_cast<float>(ix), wy = ty - static_cast<float>(iy);
     const float depth = s.z();
     float l00, l10, l01, l11;
     if (ix >= 0 && iy >= 0 && ix + 1 < S && iy + 1 < S) {
@@ -684,15 +699,13 @@ class CpuRenderer final : public Renderer {
             if (!(f.ndl > 0)) continue;
             N = f.normal;
             if (mat.pattern == SurfacePattern::kCrinkle) {
-              const int tx =
-                  static_cast<int>(std::floor(f.pattern_u.at(z, fx, fy))) & (kCrinkleSize - 1);
-              const int ty =
-                  static_cast<int>(std::floor(f.pattern_v.at(z, fx, fy))) & (kCrinkleSize - 1);
+              const int tx = floorToInt(f.pattern_u.at(z, fx, fy)) & (kCrinkleSize - 1);
+              const int ty = floorToInt(f.pattern_v.at(z, fx, fy)) & (kCrinkleSize - 1);
               const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
               N += tilt[0] * f.tilt_u + tilt[1] * f.tilt_v;  // normalised in stage 2
             } else if (mat.pattern == SurfacePattern::kSolarCell) {
               const float cu = f.pattern_u.at(z, fx, fy), cv = f.pattern_v.at(z, fx, fy);
-              if (cu - std::floor(cu) < kSolarCellGap || cv - std::floor(cv) < kSolarCellGap)
+              if (fraction(cu) < kSolarCellGap || fraction(cv) < kSolarCellGap)
                 boost = mat.pattern_strength;
             }
             shadow_point = z * shadow_ray + f.shadow;
@@ -715,13 +728,12 @@ class CpuRenderer final : public Renderer {
               const float cu = p_o[a1] * mat.pattern_frequency,
                           cv = p_o[a2] * mat.pattern_frequency;
               if (mat.pattern == SurfacePattern::kCrinkle) {
-                const int tx = static_cast<int>(std::floor(cu)) & (kCrinkleSize - 1);
-                const int ty = static_cast<int>(std::floor(cv)) & (kCrinkleSize - 1);
+                const int tx = floorToInt(cu) & (kCrinkleSize - 1);
+                const int ty = floorToInt(cv) & (kCrinkleSize - 1);
                 const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
                 shading_n_o[a1] += mat.pattern_strength * tilt[0];
                 shading_n_o[a2] += mat.pattern_strength * tilt[1];
-              } else if (cu - std::floor(cu) < kSolarCellGap ||
-                         cv - std::floor(cv) < kSolarCellGap) {
+              } else if (fraction(cu) < kSolarCellGap || fraction(cv) < kSolarCellGap) {
                 boost = mat.pattern_strength;
               }
             }
