@@ -114,6 +114,41 @@ TEST(RecordingEvaluation, PairsByFramesAndUsesTrackStateAndTiming) {
   EXPECT_TRUE(report->allPass());
 }
 
+// A DFPC publishes its external initial state before the track is acquired: the products stamped
+// before the first track-state change take the state that change leaves (UNINITIALISED here),
+// so the initial guess, 1 m off, does not count as a tracked frame.
+TEST(RecordingEvaluation, ProductsBeforeTheFirstTrackStateChangeTakeItsEarlierState) {
+  const fs::path run = scratch("run_initial_state.mcap");
+  {
+    io::Recorder rec;
+    ASSERT_OK_STATUS(rec.open(run.string()));
+    for (int k = 0; k <= 100; ++k)
+      ASSERT_OK_STATUS(
+          rec.write("/truth/target_pose", PoseWithCovariance{truthPose(0.05 * k), {}}));
+    for (int k = 0; k <= 50; ++k) {
+      const double t = 0.1 * k;
+      if (k == 3)
+        ASSERT_OK_STATUS(rec.writeJson("/cdff/events", fromSeconds(t),
+                                       {{"level", "info"},
+                                        {"type", "track_state_changed"},
+                                        {"dfpc", "trk"},
+                                        {"message", "UNINITIALISED -> TRACKING"}}));
+      RigidBodyState x;
+      x.pose = truthPose(t);
+      x.pose.translation.x() += k < 3 ? 1.0 : kOffsetM;
+      ASSERT_OK_STATUS(rec.write("/cdff/trk/pose", x));
+    }
+    ASSERT_OK_STATUS(rec.close());
+  }
+  Result<EvaluationReport> report = evaluateRecording({run.string()});
+  ASSERT_TRUE(report.isOk()) << report.status().message();
+  ASSERT_EQ(report->products.size(), 1u);
+  const PoseEvaluation& p = report->products[0];
+  EXPECT_EQ(p.frames, 51u);
+  EXPECT_EQ(p.valid_frames, 48u);  // the three products before the track was acquired excluded
+  EXPECT_NEAR(p.position_error_m.max, kOffsetM, 1e-9);
+}
+
 TEST(RecordingEvaluation, SaysWhatIsMissing) {
   const fs::path run = scratch("run_missing.mcap");
   writeRun(run);

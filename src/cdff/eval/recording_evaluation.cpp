@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <limits>
 #include <set>
 
 #include "cdff/io/replay.hpp"
@@ -73,6 +74,9 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   CDFF_RETURN_IF_ERROR(replay.open(paths));
 
   std::map<std::string, Series> products, truths;
+  // dfpc -> (stamp, state after the change); the first entry is the state before the first
+  // change (stamped at the minimum), so that products published before it, such as the
+  // initial state of an UNINITIALISED track, are judged by it.
   std::map<std::string, std::vector<std::pair<Timestamp, std::string>>> track_states;
   std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
   std::set<std::string> wanted(options.products.begin(), options.products.end());
@@ -89,7 +93,13 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       const std::string text = j.value("message", "");
       const std::size_t arrow = text.find("-> ");
       if (arrow == std::string::npos) continue;
-      track_states[j.value("dfpc", "")].emplace_back(m.logTime(), text.substr(arrow + 3));
+      auto& states = track_states[j.value("dfpc", "")];
+      if (states.empty()) {
+        std::string before = text.substr(0, arrow);
+        while (!before.empty() && before.back() == ' ') before.pop_back();
+        states.emplace_back(std::numeric_limits<Timestamp>::min(), std::move(before));
+      }
+      states.emplace_back(m.logTime(), text.substr(arrow + 3));
     } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
