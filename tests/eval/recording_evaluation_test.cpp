@@ -115,9 +115,9 @@ TEST(RecordingEvaluation, PairsByFramesAndUsesTrackStateAndTiming) {
 }
 
 // A DFPC publishes its external initial state before the track is acquired: the products stamped
-// before the first track-state change take the state that change leaves (UNINITIALISED here),
-// so the initial guess, 1 m off, does not count as a tracked frame.
-TEST(RecordingEvaluation, ProductsBeforeTheFirstTrackStateChangeTakeItsEarlierState) {
+// before the first track-state change take the state that change leaves (UNINITIALISED here);
+// neither those nor the products while ACQUIRING, 1 m off, count as tracked frames.
+TEST(RecordingEvaluation, NothingCountsAsTrackedBeforeTheTrackIsAcquired) {
   const fs::path run = scratch("run_initial_state.mcap");
   {
     io::Recorder rec;
@@ -127,15 +127,16 @@ TEST(RecordingEvaluation, ProductsBeforeTheFirstTrackStateChangeTakeItsEarlierSt
           rec.write("/truth/target_pose", PoseWithCovariance{truthPose(0.05 * k), {}}));
     for (int k = 0; k <= 50; ++k) {
       const double t = 0.1 * k;
-      if (k == 3)
-        ASSERT_OK_STATUS(rec.writeJson("/cdff/events", fromSeconds(t),
-                                       {{"level", "info"},
-                                        {"type", "track_state_changed"},
-                                        {"dfpc", "trk"},
-                                        {"message", "UNINITIALISED -> TRACKING"}}));
+      if (k == 3 || k == 5)
+        ASSERT_OK_STATUS(rec.writeJson(
+            "/cdff/events", fromSeconds(t),
+            {{"level", "info"},
+             {"type", "track_state_changed"},
+             {"dfpc", "trk"},
+             {"message", k == 3 ? "UNINITIALISED -> ACQUIRING" : "ACQUIRING -> TRACKING"}}));
       RigidBodyState x;
       x.pose = truthPose(t);
-      x.pose.translation.x() += k < 3 ? 1.0 : kOffsetM;
+      x.pose.translation.x() += k < 5 ? 1.0 : kOffsetM;
       ASSERT_OK_STATUS(rec.write("/cdff/trk/pose", x));
     }
     ASSERT_OK_STATUS(rec.close());
@@ -145,7 +146,7 @@ TEST(RecordingEvaluation, ProductsBeforeTheFirstTrackStateChangeTakeItsEarlierSt
   ASSERT_EQ(report->products.size(), 1u);
   const PoseEvaluation& p = report->products[0];
   EXPECT_EQ(p.frames, 51u);
-  EXPECT_EQ(p.valid_frames, 48u);  // the three products before the track was acquired excluded
+  EXPECT_EQ(p.valid_frames, 46u);  // the five products before the track was acquired excluded
   EXPECT_NEAR(p.position_error_m.max, kOffsetM, 1e-9);
 }
 

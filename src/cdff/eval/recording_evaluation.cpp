@@ -47,6 +47,8 @@ std::string dfpcOf(const std::string& channel) {
 
 struct Series {
   std::vector<Transform> poses;
+  // For products: how many track-state changes of their DFPC the recording held before each pose.
+  std::vector<std::size_t> changes_before;
   std::string type;
 };
 
@@ -74,10 +76,12 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   CDFF_RETURN_IF_ERROR(replay.open(paths));
 
   std::map<std::string, Series> products, truths;
-  // dfpc -> (stamp, state after the change); the first entry is the state before the first
-  // change (stamped at the minimum), so that products published before it, such as the
-  // initial state of an UNINITIALISED track, are judged by it.
-  std::map<std::string, std::vector<std::pair<Timestamp, std::string>>> track_states;
+  // dfpc -> the states its track-state changes left, in recording order, after the state before
+  // the first change. A product takes the state of the changes recorded before it (not those
+  // at or before its stamp: a DFPC publishes its step's products and then the change the step
+  // made, at the same stamp); products before the first change take that change's earlier
+  // state, so that the initial state of an UNINITIALISED track is not a tracked estimate.
+  std::map<std::string, std::vector<std::string>> track_states;
   std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
   std::set<std::string> wanted(options.products.begin(), options.products.end());
 
@@ -93,13 +97,13 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       const std::string text = j.value("message", "");
       const std::size_t arrow = text.find("-> ");
       if (arrow == std::string::npos) continue;
-      auto& states = track_states[j.value("dfpc", "")];
+      std::vector<std::string>& states = track_states[j.value("dfpc", "")];
       if (states.empty()) {
         std::string before = text.substr(0, arrow);
         while (!before.empty() && before.back() == ' ') before.pop_back();
-        states.emplace_back(std::numeric_limits<Timestamp>::min(), std::move(before));
+        states.push_back(std::move(before));
       }
-      states.emplace_back(m.logTime(), text.substr(arrow + 3));
+      states.push_back(text.substr(arrow + 3));
     } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
@@ -111,6 +115,10 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       Series& s = (is_truth ? truths : products)[channel];
       s.type = std::string(m.cdffType());
       s.poses.push_back(*pose);
+      if (!is_truth) {
+        const auto states = track_states.find(dfpc);
+        s.changes_before.push_back(states == track_states.end() ? 0 : states->second.size() - 1);
+      }
     }
   }
   // A damaged recording is evaluated up to the damage, and says so.
@@ -173,16 +181,14 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     const auto& walls = step_wall_s[dfpc];
     std::vector<EstimateSample> estimates;
     estimates.reserve(product.poses.size());
-    for (const Transform& pose : product.poses) {
+    for (std::size_t i = 0; i < product.poses.size(); ++i) {
+      const Transform& pose = product.poses[i];
       EstimateSample e;
       e.pose = pose;
       e.valid = isFinite(pose);
-      // The track state after the last change at or before this stamp.
-      auto after = std::upper_bound(states.begin(), states.end(), pose.stamp,
-                                    [](Timestamp t, const auto& s) { return t < s.first; });
-      if (after != states.begin()) {
-        const std::string& state = std::prev(after)->second;
-        if (state == "LOST" || state == "UNINITIALISED") e.valid = false;
+      if (!states.empty()) {
+        const std::string& state = states[product.changes_before[i]];
+        if (state == "LOST" || state == "UNINITIALISED" || state == "ACQUIRING") e.valid = false;
       }
       if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
       estimates.push_back(e);
