@@ -1,4 +1,5 @@
 #include <cmath>
+#include <filesystem>
 #include <optional>
 
 #include "ModelPointCloud.gen.hpp"
@@ -8,9 +9,29 @@ namespace cdff::dfn {
 
 class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
  protected:
+  // The mesh file is read here, not at the first call: a graph naming a file that is not there
+  // (a relative path from another working directory, say) fails to start, with the file's name,
+  // instead of running with a model node that faults at every step.
   Status onConfigure() override {
     model_.reset();  // new parameters, new model
     file_mesh_.reset();
+    if (params_.mesh_file.empty()) return Status::ok();
+    // The simulator's loader, so that the tracker reads a mesh file exactly as the simulator
+    // that rendered the target did.
+    egse::MeshLoadOptions options;
+    options.scale = params_.scale;
+    Result<egse::TargetModel> loaded = egse::loadModel(params_.mesh_file, options);
+    if (!loaded) {
+      std::string where;
+      std::error_code ec;
+      if (std::filesystem::path(params_.mesh_file).is_relative())
+        where = " (a relative path: from the working directory '" +
+                std::filesystem::current_path(ec).string() + "')";
+      return Status(loaded.status().code(),
+                    "parameter 'mesh_file': " + loaded.status().message() + where);
+    }
+    file_mesh_ = std::move(loaded->mesh);
+    file_mesh_->frame_id = params_.frame_id;
     return Status::ok();
   }
 
@@ -26,19 +47,7 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
         Result<PointCloud> model = sample(*in.mesh, "input 'mesh'");
         if (!model) return model.status();
         model_ = std::make_shared<const PointCloud>(std::move(model).value());
-      } else if (!params_.mesh_file.empty()) {
-        if (!file_mesh_) {
-          // The simulator's loader, so that the tracker reads a mesh file exactly as the
-          // simulator that rendered the target did.
-          egse::MeshLoadOptions options;
-          options.scale = params_.scale;
-          Result<egse::TargetModel> loaded = egse::loadModel(params_.mesh_file, options);
-          if (!loaded)
-            return Status(loaded.status().code(),
-                          "parameter 'mesh_file': " + loaded.status().message());
-          file_mesh_ = std::move(loaded->mesh);
-          file_mesh_->frame_id = params_.frame_id;
-        }
+      } else if (file_mesh_) {
         Result<PointCloud> model = sample(*file_mesh_, "mesh_file");
         if (!model) return model.status();
         model_ = std::make_shared<const PointCloud>(std::move(model).value());

@@ -157,26 +157,28 @@ TEST_F(MeshFiles, ObjAndPlyFilesLoadAsTheSameCube) {
   EXPECT_NEAR(modelArea(fmt::format("{{mesh_file: '{}', scale: 0.001}}", mm)), 6.0, 1e-3);
 }
 
-TEST_F(MeshFiles, MissingAndMalformedFilesAreReported) {
-  auto missing = make(fmt::format("{{mesh_file: '{}'}}", (dir_ / "nope.ply").string()));
-  testing::expectRejected(*missing, "nope.ply' does not exist", StatusCode::kNotFound);
-  testing::expectRejected(*missing, "parameter 'mesh_file'", StatusCode::kNotFound);
-
-  const std::string bad_face = write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
-  auto sampler = make(fmt::format("{{mesh_file: '{}'}}", bad_face));
-  testing::expectRejected(*sampler, "bad.obj:4", StatusCode::kCorruptData);
-
-  const std::string truncated =
-      write("short.ply",
-            "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
-            "property float y\nproperty float z\nend_header\n\x01\x02");
-  sampler = make(fmt::format("{{mesh_file: '{}'}}", truncated));
-  testing::expectRejected(*sampler, "short.ply: byte 115: the file ends inside vertex 0",
-                          StatusCode::kCorruptData);
-
-  const std::string unknown = write("model.dae", "<COLLADA/>\n");
-  sampler = make(fmt::format("{{mesh_file: '{}'}}", unknown));
-  testing::expectRejected(*sampler, "expected .obj, .ply, .stl, .gltf or .glb");
+// A mesh file is read when the node is configured, so a missing or malformed file stops a graph
+// from starting, with the file's name and what is wrong where.
+TEST_F(MeshFiles, MissingAndMalformedFilesAreReportedAtConfiguration) {
+  const auto rejected = [](const std::string& file, const std::string& fragment, StatusCode code) {
+    auto node =
+        dfn::Registry::instance().createAs<ModelPointCloud>("ModelPointCloud", "MeshSampler");
+    ASSERT_TRUE(node.isOk()) << node.status().toString();
+    const Status s = node.value()->configure(YAML::Load(fmt::format("{{mesh_file: '{}'}}", file)));
+    EXPECT_EQ(s.code(), code) << s.toString();
+    EXPECT_NE(s.message().find(fragment), std::string::npos)
+        << "'" << fragment << "' not in: " << s.message();
+    EXPECT_NE(s.message().find("parameter 'mesh_file'"), std::string::npos) << s.message();
+  };
+  rejected((dir_ / "nope.ply").string(), "nope.ply' does not exist", StatusCode::kNotFound);
+  rejected(write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "bad.obj:4",
+           StatusCode::kCorruptData);
+  rejected(write("short.ply",
+                 "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+                 "property float y\nproperty float z\nend_header\n\x01\x02"),
+           "short.ply: byte 115: the file ends inside vertex 0", StatusCode::kCorruptData);
+  rejected(write("model.dae", "<COLLADA/>\n"), "expected .obj, .ply, .stl, .gltf or .glb",
+           StatusCode::kInvalidInput);
 }
 
 TEST(ModelPointCloudMeshSampler, BadInputsAndParametersAreReported) {
