@@ -282,6 +282,16 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       }
     }
     CDFF_RETURN_IF_ERROR(iterate(points, search, params_.max_iterations));
+    if (search.converged && grid_ready_ && params_.exact_refinement_iterations > 0) {
+      exact_ = true;
+      search.converged = false;
+      const Status refined = iterate(points, search, params_.exact_refinement_iterations);
+      exact_ = false;
+      CDFF_RETURN_IF_ERROR(refined);
+      // Refinement steps that have not shrunk below the epsilons still end at a better pose
+      // than the grid's; the registration converged with the grid already.
+      if (!search.starved) search.converged = true;
+    }
     const Eigen::Matrix3d& rotation = search.rotation;
     const Eigen::Vector3d& translation = search.translation;
     const double distance = search.distance;
@@ -505,7 +515,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     const float max_sq = static_cast<float>(distance * distance);
     // The viewpoint in the model frame: visible model points have normals facing it.
     const Eigen::Vector3f eye = r_inv * (viewpoint_ - t);
-    const bool use_grid = grid_ready_ && distance <= grid_->band();
+    const bool use_grid = grid_ready_ && !exact_ && distance <= grid_->band();
     for (std::size_t i = 0; i < points.size(); ++i) {
       const Eigen::Vector3f& p = points[i];
       const Eigen::Vector3f pm = r_inv * (p - t);
@@ -584,6 +594,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::shared_ptr<NearestGrid> grid_;  // shared like the index; null: none
   std::uint64_t grid_model_ = 0;       // shared_index_->builds the grid was built for (0: none)
   bool grid_ready_ = false;
+  bool exact_ = false;  // exact nearest points (KD-tree) in the refinement after the grid's
   // Scratch kept between calls, so that a warmed-up DFI does not allocate.
   std::vector<Eigen::Vector3f> points_;
   std::vector<Pair> pairs_;
