@@ -190,9 +190,10 @@ TEST(EdgeMatching, ContrastAdaptationFindsTheEdgesOfADimImageAndNotNoise) {
   EXPECT_LT(ratio(*plain), 0.2);
   tracking::EdgeSearchOptions adaptive = fixed;
   adaptive.relative_gradient = 0.25;
-  Result<ContourSamples> adapted = tracking::searchEdges(dim, samples, adaptive);
+  double threshold = 0;
+  Result<ContourSamples> adapted = tracking::searchEdges(dim, samples, adaptive, &threshold);
   ASSERT_OK(adapted.status());
-  EXPECT_LT(tracking::lastEdgeThreshold(), fixed.min_gradient);
+  EXPECT_LT(threshold, fixed.min_gradient);
   EXPECT_GT(ratio(*adapted), 0.9);
   std::vector<double> errors;
   for (const ContourSample& s : adapted->samples)
@@ -205,9 +206,9 @@ TEST(EdgeMatching, ContrastAdaptationFindsTheEdgesOfADimImageAndNotNoise) {
   // Noise alone (sigma 2 grey levels on black, clipped at 0): the threshold rises above its floor
   // with the noise, and almost no sample finds a candidate.
   const Image noise = render(scene, 2.0, 0.0);
-  Result<ContourSamples> in_noise = tracking::searchEdges(noise, samples, adaptive);
+  Result<ContourSamples> in_noise = tracking::searchEdges(noise, samples, adaptive, &threshold);
   ASSERT_OK(in_noise.status());
-  EXPECT_GT(tracking::lastEdgeThreshold(), 2 * adaptive.min_gradient_floor);
+  EXPECT_GT(threshold, 2 * adaptive.min_gradient_floor);
   EXPECT_LT(ratio(*in_noise), 0.05);
 
   adaptive.relative_gradient = 1.5;

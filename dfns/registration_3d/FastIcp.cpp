@@ -283,11 +283,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     }
     CDFF_RETURN_IF_ERROR(iterate(points, search, params_.max_iterations));
     if (search.converged && grid_ready_ && params_.exact_refinement_iterations > 0) {
-      exact_ = true;
       search.converged = false;
-      const Status refined = iterate(points, search, params_.exact_refinement_iterations);
-      exact_ = false;
-      CDFF_RETURN_IF_ERROR(refined);
+      CDFF_RETURN_IF_ERROR(
+          iterate(points, search, params_.exact_refinement_iterations, NearestPoints::kExact));
       // Refinement steps that have not shrunk below the epsilons still end at a better pose
       // than the grid's; the registration converged with the grid already.
       if (!search.starved) search.converged = true;
@@ -331,12 +329,17 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     Vector6d previous_step = Vector6d::Zero();
   };
 
+  /// kGridWhereItReaches: the lookup grid for correspondences within its band, else the
+  /// KD-tree; kExact: the KD-tree only.
+  enum class NearestPoints { kGridWhereItReaches, kExact };
+
   /// At most `max_iterations` more ICP iterations of `s`, until converged or starved.
-  Status iterate(const std::vector<Eigen::Vector3f>& points, Search& s, int max_iterations) {
+  Status iterate(const std::vector<Eigen::Vector3f>& points, Search& s, int max_iterations,
+                 NearestPoints nearest = NearestPoints::kGridWhereItReaches) {
     bool first = true;
     const int stop = s.iterations + max_iterations;
     for (; s.iterations < stop; ++s.iterations) {
-      if (!associate(points, s.rotation, s.translation, s.distance, first)) {
+      if (!associate(points, s.rotation, s.translation, s.distance, first, nearest)) {
         s.starved = true;
         s.last_pairs = pairs_.size();
         break;
@@ -505,7 +508,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   /// Pairs every source point with its nearest (visible) model point within `distance`; false
   /// when there are fewer than min_correspondences pairs.
   bool associate(const std::vector<Eigen::Vector3f>& points, const Eigen::Matrix3d& rotation,
-                 const Eigen::Vector3d& translation, double distance, bool first) {
+                 const Eigen::Vector3d& translation, double distance, bool first,
+                 NearestPoints nearest) {
     pairs_.clear();
     abs_residuals_.clear();
     pair_distances_.clear();
@@ -515,7 +519,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     const float max_sq = static_cast<float>(distance * distance);
     // The viewpoint in the model frame: visible model points have normals facing it.
     const Eigen::Vector3f eye = r_inv * (viewpoint_ - t);
-    const bool use_grid = grid_ready_ && !exact_ && distance <= grid_->band();
+    const bool use_grid =
+        grid_ready_ && nearest == NearestPoints::kGridWhereItReaches && distance <= grid_->band();
     for (std::size_t i = 0; i < points.size(); ++i) {
       const Eigen::Vector3f& p = points[i];
       const Eigen::Vector3f pm = r_inv * (p - t);
@@ -594,7 +599,6 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::shared_ptr<NearestGrid> grid_;  // shared like the index; null: none
   std::uint64_t grid_model_ = 0;       // shared_index_->builds the grid was built for (0: none)
   bool grid_ready_ = false;
-  bool exact_ = false;  // exact nearest points (KD-tree) in the refinement after the grid's
   // Scratch kept between calls, so that a warmed-up DFI does not allocate.
   std::vector<Eigen::Vector3f> points_;
   std::vector<Pair> pairs_;

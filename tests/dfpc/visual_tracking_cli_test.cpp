@@ -17,18 +17,14 @@
 #include <nlohmann/json.hpp>
 
 #include "support/command.hpp"
+#include "support/eval_report.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using cdff::testing::CommandResult;
+using cdff::testing::reportProduct;
 using cdff::testing::runCdff;
-
-const nlohmann::json* product(const nlohmann::json& report, const std::string& channel) {
-  for (const nlohmann::json& p : report.at("products"))
-    if (p.at("channel") == channel) return &p;
-  return nullptr;
-}
 
 TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("cdff_visual_cli_{}", ::getpid());
@@ -58,7 +54,7 @@ TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
 
   std::ifstream file(json);
   const nlohmann::json report = nlohmann::json::parse(file);
-  const nlohmann::json* pose = product(report, "/cdff/visual_tracking/pose");
+  const nlohmann::json* pose = reportProduct(report, "/cdff/visual_tracking/pose");
   ASSERT_NE(pose, nullptr) << report.dump(2);
   EXPECT_EQ(pose->at("truth_channel"), "/truth/target_pose");
   EXPECT_EQ(pose->at("transform"), "servicer_T_target");
@@ -70,7 +66,7 @@ TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
   EXPECT_LE(pose->at("angle_error_deg").at("p95").get<double>(), 0.5);
   // The camera-frame state pairs with the camera's own truth; the frames only differ by the
   // rigid mounting, so both products have the same errors up to the truth's interpolation.
-  const nlohmann::json* camera = product(report, "/cdff/visual_tracking/camera_pose");
+  const nlohmann::json* camera = reportProduct(report, "/cdff/visual_tracking/camera_pose");
   ASSERT_NE(camera, nullptr) << report.dump(2);
   EXPECT_EQ(camera->at("truth_channel"), "/truth/camera_left/target_pose");
   EXPECT_NEAR(camera->at("position_error_m").at("p95").get<double>(),

@@ -12,11 +12,13 @@
 #include <nlohmann/json.hpp>
 
 #include "support/command.hpp"
+#include "support/eval_report.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using cdff::testing::CommandResult;
+using cdff::testing::reportProduct;
 using cdff::testing::runCdff;
 
 fs::path scratch(const std::string& name) {
@@ -54,9 +56,7 @@ TEST(SimulatorDrivesDfpc, LidarTrackingOnTheMidRangeApproach) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(report));
-  const nlohmann::json* pose = nullptr;
-  for (const nlohmann::json& p : j["products"])
-    if (p["channel"] == "/cdff/lidar_tracking/pose") pose = &p;
+  const nlohmann::json* pose = reportProduct(j, "/cdff/lidar_tracking/pose");
   ASSERT_NE(pose, nullptr) << "no /cdff/lidar_tracking/pose product in " << j.dump(2);
   const nlohmann::json& p = *pose;
   RecordProperty("position_pct_range_p95",

@@ -33,16 +33,10 @@ class Bilinear {
   double max_x_, max_y_;
 };
 
-thread_local double last_threshold = 0;
-
 }  // namespace
 
-double lastEdgeThreshold() {
-  return last_threshold;
-}
-
 Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& samples,
-                                   const EdgeSearchOptions& options) {
+                                   const EdgeSearchOptions& options, double* applied_threshold) {
   CDFF_RETURN_IF_ERROR(image.validate("image", {PixelFormat::kGray8}));
   CDFF_RETURN_IF_ERROR(samples.validate("samples"));
   const CameraModel& camera = samples.contours->camera;
@@ -150,7 +144,7 @@ Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& sam
                                      options.noise_sigmas * noise, options.min_gradient_floor});
     threshold = std::min(threshold, adapted);
   }
-  last_threshold = threshold;
+  if (applied_threshold) *applied_threshold = threshold;
 
   for (std::size_t i = 0; i < n_samples; ++i) {
     ContourSample& s = out.samples[i];

@@ -32,12 +32,11 @@ struct EdgeSearchOptions {
   double min_gradient_floor = 0.5;  // grey levels per pixel
 };
 
-/// The threshold searchEdges applied in its last call on this thread (for diagnostics and tests).
-double lastEdgeThreshold();
-
 /// Fills the candidates of `samples` from the grey image `image` (8UC1, the size of the
-/// samples' camera model). The samples keep their order.
+/// samples' camera model). The samples keep their order. `applied_threshold`, when given,
+/// receives the gradient threshold the search used (min_gradient, or its contrast adaptation).
 Result<ContourSamples> searchEdges(const Image& image, const ContourSamples& samples,
-                                   const EdgeSearchOptions& options);
+                                   const EdgeSearchOptions& options,
+                                   double* applied_threshold = nullptr);
 
 }  // namespace cdff::tracking
