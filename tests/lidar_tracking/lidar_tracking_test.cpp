@@ -306,10 +306,10 @@ TEST(LidarTracking, BadScansAreReportedAndTheFilterCoasts) {
   Result<TrackingResult> r = track(*run, messages, initial, kSettle);
   ASSERT_OK(r.status());
   record("bad_scans", *r);
-  // Each bad scan is an event naming the problem: an empty scan is rejected by the filter; a
-  // scan of NaNs or with no point near the target leaves nothing after the filter (a warning)
-  // and the registration reports its empty input.
-  EXPECT_GE(countEvents(*r, dfpc::EventType::kDfnError, "filter", "input 'cloud' has no points"),
+  // Each bad scan is an event naming the problem: an empty scan is rejected by the first node
+  // that sees it (the motion compensation); a scan of NaNs or with no point near the target
+  // leaves nothing after the filter (a warning) and the registration reports its empty input.
+  EXPECT_GE(countEvents(*r, dfpc::EventType::kDfnError, "deskew", "input 'cloud' has no points"),
             9u);
   EXPECT_GE(countEvents(*r, dfpc::EventType::kDfnWarning, "filter", "passed the filters"), 19u);
   // (the registration is `icp` while tracking, `acquire` once the track is lost).
