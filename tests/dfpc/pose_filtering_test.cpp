@@ -183,6 +183,8 @@ TEST(PoseFilteringDfpc, NoMeasurementsIsANoProductFault) {
 // The graph of dfpcs/pose_filtering.yaml written in C++ (docs/dfpc.md): the same products.
 TEST(PoseFilteringDfpc, TheSameGraphBuiltInCppGivesTheSameProducts) {
   GraphBuilder g("pose_filtering");
+  RecoveryAction reinitialise;
+  reinitialise.kind = RecoveryActionKind::kReinitialise;
   g.input("pose", "PoseWithCovariance", "/chaser/target_pose_measurement");
   g.output("state", "RigidBodyState", "", "target_state");
   g.output("nis", "Double");
@@ -193,7 +195,7 @@ TEST(PoseFilteringDfpc, TheSameGraphBuiltInCppGivesTheSameProducts) {
       .on({"pose_measurement"})
       .every(0.05, "time", "ekf.state != unset")
       .divergedWhen("ekf.innovation_nis > 1000")
-      .onFault(FaultKind::kDivergence, {{RecoveryActionKind::kReinitialise}});
+      .onFault(FaultKind::kDivergence, {reinitialise});
   g.connect("pose", "ekf.pose_measurement")
       .connect("ekf.state", "state")
       .connect("ekf.innovation_nis", "nis");
