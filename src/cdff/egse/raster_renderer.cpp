@@ -272,8 +272,9 @@ void normalDotProducts(int n, const float* __restrict nx, const float* __restric
 // are plain arithmetic over arrays that GCC vectorises; the table look-ups (crinkle facets,
 // shadow-map texels, specular lobe) are separate loops of loads between them.
 struct PixelRun {
-  int first, last;     // [first, last) in the chunk
-  std::uint32_t code;  // the visibility buffer's entry
+  int first, last;                // [first, last) in the chunk
+  std::uint32_t code;             // the visibility buffer's entry
+  const ShadeMaterial* material;  // null where nothing was drawn
 };
 
 // Shadow-map points z * ray(x, y) + offset of n pixels from column x_first, with
@@ -890,14 +891,14 @@ class CpuRenderer final : public Renderer {
           const std::uint32_t code = vis[i0 + j];
           int e = j + 1;
           while (e < cn && vis[i0 + e] == code) ++e;
-          b.runs[run_count++] = {j, e, code};
+          b.runs[run_count++] = {j, e, code, nullptr};
           j = e;
         }
         std::fill(vis + i0, vis + i0 + cn, kNoSurface);
         std::fill(ibuf + i0, ibuf + i0 + cn, 0.0f);
         // Stage 1.
         for (int r = 0; r < run_count; ++r) {
-          const auto [first, last, code] = b.runs[r];
+          const auto [first, last, code, material] = b.runs[r];
           const int len = last - first;
           float* nx = b.nx.data() + first;
           float* ny = b.ny.data() + first;
@@ -922,6 +923,7 @@ class CpuRenderer final : public Renderer {
           const FrameTriangle& f = triangles[triangle_base_[o] + k];
           const ModelData& m = models_[scene.objects[o].model];
           const ShadeMaterial& mat = m.materials[f.material];
+          b.runs[r].material = &mat;
           if (!lit || (f.flat && !(f.ndl > 0))) {
             unlit();
             continue;
@@ -956,18 +958,20 @@ class CpuRenderer final : public Renderer {
                         b.f4.data(), b.f5.data(), b.shadow.data());
         else
           fillSpan(cn, 1.0f, b.shadow.data());
-        // Stage 3.
-        for (int r = 0; r < run_count; ++r) {
-          const auto [first, last, code] = b.runs[r];
+        // Stage 3, over runs of one material (neighbouring triangles often share it).
+        for (int r = 0; r < run_count;) {
+          const int first = b.runs[r].first;
+          const ShadeMaterial* mat = b.runs[r].material;
+          int e = r + 1;
+          while (e < run_count && b.runs[e].material == mat) ++e;
+          const int last = b.runs[e - 1].last;
+          r = e;
           float* c = rad + 3 * (i0 + first);
-          if (code == kNoSurface) {
+          if (mat == nullptr) {
             std::fill(c, c + 3 * (last - first), 0.0f);
             continue;
           }
-          const std::size_t o = code >> 24, k = code & 0xffffffu;
-          const FrameTriangle& f = triangles[triangle_base_[o] + k];
-          const ShadeMaterial& mat = models_[scene.objects[o].model].materials[f.material];
-          radianceSpan(last - first, mat, E, b.ndl.data() + first, b.ndh.data() + first,
+          radianceSpan(last - first, *mat, E, b.ndl.data() + first, b.ndh.data() + first,
                        b.shadow.data() + first, b.albedo_boost.data() + first, b.index.data(),
                        b.f0.data(), b.f1.data(), b.f2.data(), b.f3.data(), b.f4.data(), b.f5.data(),
                        c);
