@@ -20,6 +20,15 @@ namespace cdff::egse {
 
 namespace {
 
+// The shading loops are also compiled for AVX2 (8 floats a vector), chosen at run time where
+// the CPU has it; the baseline (SSE2) version runs everywhere else. Both do the same IEEE
+// operations (AVX2 does not bring FMA, so nothing is contracted): the same bits either way.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define CDFF_SHADING_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define CDFF_SHADING_CLONES
+#endif
+
 constexpr std::uint32_t kNoSurface = 0xffffffffu;
 constexpr double kGuardBand = 4096.0;  // pixels outside the image before clipping in 3D
 // Samples of the specular lobe between its cut-off and N.H = 1. Linear interpolation between
@@ -203,8 +212,9 @@ inline float select(std::uint32_t m, float if_set, float otherwise) {
 
 // The depth test of pixels first..last of a row: inverse depth A x + row_c, nearer wins.
 // Without branches: depth order is random.
-void depthTestSpan(int first, int last, double A, double row_c, std::uint32_t code,
-                   float* __restrict inv_depth, std::uint32_t* __restrict vis) {
+CDFF_SHADING_CLONES void depthTestSpan(int first, int last, double A, double row_c,
+                                       std::uint32_t code, float* __restrict inv_depth,
+                                       std::uint32_t* __restrict vis) {
   for (int x = first; x <= last; ++x) {
     const float value = static_cast<float>(A * x + row_c);
     const float old = inv_depth[x];
@@ -234,10 +244,12 @@ int clipPolygon(Eigen::Vector3d* poly, int count, const ClipPlane& plane, Eigen:
 
 // Shading stages over a row of n pixels (see CpuRenderer::shade), as plain loops over arrays:
 // GCC vectorises them (sqrtps, divps: the same IEEE results as scalar code).
-void viewAndHalfVectors(int n, const float* __restrict inv_depth, const float* __restrict rx,
-                        float ry, const Eigen::Vector3f& sun, float* __restrict z,
-                        float* __restrict vx, float* __restrict vy, float* __restrict vz,
-                        float* __restrict hx, float* __restrict hy, float* __restrict hz) {
+CDFF_SHADING_CLONES void viewAndHalfVectors(int n, const float* __restrict inv_depth,
+                                            const float* __restrict rx, float ry,
+                                            const Eigen::Vector3f& sun, float* __restrict z,
+                                            float* __restrict vx, float* __restrict vy,
+                                            float* __restrict vz, float* __restrict hx,
+                                            float* __restrict hy, float* __restrict hz) {
   const float ry2 = ry * ry + 1.0f, lx = sun.x(), ly = sun.y(), lz = sun.z();
   for (int j = 0; j < n; ++j) {
     z[j] = 1.0f / inv_depth[j];                              // inf where nothing was drawn (unused)
@@ -253,10 +265,11 @@ void viewAndHalfVectors(int n, const float* __restrict inv_depth, const float* _
   }
 }
 
-void normalDotProducts(int n, const float* __restrict nx, const float* __restrict ny,
-                       const float* __restrict nz, const float* __restrict hx,
-                       const float* __restrict hy, const float* __restrict hz,
-                       const Eigen::Vector3f& sun, float* __restrict ndl, float* __restrict ndh) {
+CDFF_SHADING_CLONES void normalDotProducts(int n, const float* __restrict nx,
+                                           const float* __restrict ny, const float* __restrict nz,
+                                           const float* __restrict hx, const float* __restrict hy,
+                                           const float* __restrict hz, const Eigen::Vector3f& sun,
+                                           float* __restrict ndl, float* __restrict ndh) {
   const float lx = sun.x(), ly = sun.y(), lz = sun.z();
   for (int j = 0; j < n; ++j) {
     // Unlit pixels have N = 0: the tiny term keeps them at 0 instead of NaN (and changes no
@@ -279,9 +292,10 @@ struct PixelRun {
 
 // Shadow-map points z * ray(x, y) + offset of n pixels from column x_first, with
 // ray(x, y) = dx x + row (row = dy y + d0).
-void shadowPoints(int n, int x_first, const float* __restrict z, const Eigen::Vector3f& dx,
-                  const Eigen::Vector3f& row, const Eigen::Vector3f& offset, float* __restrict sx,
-                  float* __restrict sy, float* __restrict sz) {
+CDFF_SHADING_CLONES void shadowPoints(int n, int x_first, const float* __restrict z,
+                                      const Eigen::Vector3f& dx, const Eigen::Vector3f& row,
+                                      const Eigen::Vector3f& offset, float* __restrict sx,
+                                      float* __restrict sy, float* __restrict sz) {
   const float dx0 = dx.x(), dx1 = dx.y(), dx2 = dx.z();
   const float r0 = row.x(), r1 = row.y(), r2 = row.z();
   const float o0 = offset.x(), o1 = offset.y(), o2 = offset.z();
@@ -298,8 +312,9 @@ inline void fillSpan(int n, float value, float* __restrict out) {
 }
 
 // Crinkle texels (row-major index in the tile) of n pixels of a flat triangle.
-void crinkleTexels(int n, int x_first, float fy, const float* __restrict z, const PixelAffine& pu,
-                   const PixelAffine& pv, int* __restrict texel) {
+CDFF_SHADING_CLONES void crinkleTexels(int n, int x_first, float fy, const float* __restrict z,
+                                       const PixelAffine& pu, const PixelAffine& pv,
+                                       int* __restrict texel) {
   const float ux = pu.kx, uy = pu.ky, u0 = pu.k0, uc = pu.c;
   const float vx = pv.kx, vy = pv.ky, v0 = pv.k0, vc = pv.c;
   for (int j = 0; j < n; ++j) {
@@ -312,8 +327,10 @@ void crinkleTexels(int n, int x_first, float fy, const float* __restrict z, cons
 }
 
 // The facet tilts of the texels (two loads per pixel, through the cell index).
-void facetTilts(int n, const int* __restrict texel, const std::uint8_t* __restrict cells,
-                const float* __restrict tilts, float* __restrict t0, float* __restrict t1) {
+CDFF_SHADING_CLONES void facetTilts(int n, const int* __restrict texel,
+                                    const std::uint8_t* __restrict cells,
+                                    const float* __restrict tilts, float* __restrict t0,
+                                    float* __restrict t1) {
   for (int j = 0; j < n; ++j) {
     const float* t = tilts + 2 * cells[texel[j]];
     t0[j] = t[0];
@@ -322,10 +339,11 @@ void facetTilts(int n, const int* __restrict texel, const std::uint8_t* __restri
 }
 
 // N = normal + t0 tilt_u + t1 tilt_v (not normalised).
-void tiltedNormals(int n, const Eigen::Vector3f& normal, const Eigen::Vector3f& tu,
-                   const Eigen::Vector3f& tv, const float* __restrict t0,
-                   const float* __restrict t1, float* __restrict nx, float* __restrict ny,
-                   float* __restrict nz) {
+CDFF_SHADING_CLONES void tiltedNormals(int n, const Eigen::Vector3f& normal,
+                                       const Eigen::Vector3f& tu, const Eigen::Vector3f& tv,
+                                       const float* __restrict t0, const float* __restrict t1,
+                                       float* __restrict nx, float* __restrict ny,
+                                       float* __restrict nz) {
   const float n0 = normal.x(), n1 = normal.y(), n2 = normal.z();
   const float u0 = tu.x(), u1 = tu.y(), u2 = tu.z(), v0 = tv.x(), v1 = tv.y(), v2 = tv.z();
   for (int j = 0; j < n; ++j) {
@@ -336,8 +354,9 @@ void tiltedNormals(int n, const Eigen::Vector3f& normal, const Eigen::Vector3f& 
 }
 
 // Solar-cell interconnects: the albedo boost of n pixels of a flat triangle.
-void solarCellBoost(int n, int x_first, float fy, const float* __restrict z, const PixelAffine& pu,
-                    const PixelAffine& pv, float strength, float* __restrict boost) {
+CDFF_SHADING_CLONES void solarCellBoost(int n, int x_first, float fy, const float* __restrict z,
+                                        const PixelAffine& pu, const PixelAffine& pv,
+                                        float strength, float* __restrict boost) {
   const float ux = pu.kx, uy = pu.ky, u0 = pu.k0, uc = pu.c;
   const float vx = pv.kx, vy = pv.ky, v0 = pv.k0, vc = pv.c;
   for (int j = 0; j < n; ++j) {
@@ -353,11 +372,13 @@ void solarCellBoost(int n, int x_first, float fy, const float* __restrict z, con
 // kShadowBorder texels at infinity on each side (stride size + 2 kShadowBorder, `map` at
 // texel (0, 0)), so that points at or beyond the edge need no test: outside is lit.
 constexpr int kShadowBorder = 2;
-void shadowFactors(int n, const float* __restrict sx, const float* __restrict sy,
-                   const float* __restrict sz, const float* __restrict map, int size,
-                   int* __restrict index, float* __restrict wx, float* __restrict wy,
-                   float* __restrict t00, float* __restrict t10, float* __restrict t01,
-                   float* __restrict t11, float* __restrict factor) {
+CDFF_SHADING_CLONES void shadowFactors(int n, const float* __restrict sx,
+                                       const float* __restrict sy, const float* __restrict sz,
+                                       const float* __restrict map, int size, int* __restrict index,
+                                       float* __restrict wx, float* __restrict wy,
+                                       float* __restrict t00, float* __restrict t10,
+                                       float* __restrict t01, float* __restrict t11,
+                                       float* __restrict factor) {
   const int stride = size + 2 * kShadowBorder;
   // Clamped first: far outside the map is outside (lit), and the conversion stays defined.
   const float lo = -2.0f, hi = static_cast<float>(size + 1);
@@ -388,11 +409,13 @@ void shadowFactors(int n, const float* __restrict sx, const float* __restrict sy
 // The radiance of n pixels of one material: Lambert plus the specular lobe, times the sun's
 // irradiance and the shadow factor; 0 where the sun is below the surface (ndl <= 0, which
 // includes the pixels the set-up left unlit with N = 0).
-void radianceSpan(int n, const ShadeMaterial& mat, float E, const float* __restrict ndl,
-                  const float* __restrict ndh, const float* __restrict shadow,
-                  const float* __restrict boost, int* __restrict index, float* __restrict frac,
-                  float* __restrict l0, float* __restrict l1, float* __restrict red,
-                  float* __restrict green, float* __restrict blue, float* __restrict rad) {
+CDFF_SHADING_CLONES void radianceSpan(int n, const ShadeMaterial& mat, float E,
+                                      const float* __restrict ndl, const float* __restrict ndh,
+                                      const float* __restrict shadow, const float* __restrict boost,
+                                      int* __restrict index, float* __restrict frac,
+                                      float* __restrict l0, float* __restrict l1,
+                                      float* __restrict red, float* __restrict green,
+                                      float* __restrict blue, float* __restrict rad) {
   const float cutoff = mat.lobe_cutoff, step = mat.lobe_step;
   const float top = static_cast<float>(kLobeSamples);
   for (int j = 0; j < n; ++j) {
@@ -426,6 +449,141 @@ void radianceSpan(int n, const ShadeMaterial& mat, float E, const float* __restr
     rad[3 * j] = red[j];
     rad[3 * j + 1] = green[j];
     rad[3 * j + 2] = blue[j];
+  }
+}
+
+// The constants of a smooth triangle for stage 1 (see smoothSpan): its normal (and the
+// pattern's projection) varies over the triangle, and so does the side the camera sees.
+struct SmoothTriangle {
+  PixelAffine beta, gamma;
+  Eigen::Vector3f n[3], p[3];       // vertex normals and positions, body frame
+  Eigen::Matrix3f R;                // camera <- body
+  Eigen::Vector3f L;                // towards the sun
+  Eigen::Vector3f ray_dx, ray_row;  // the shadow-map ray (ShadowLookup) at this row
+  bool shadows = false;
+  Eigen::Matrix3f S;  // to shadow-map coordinates
+  Eigen::Vector3f s0;
+  float normal_offset = 0;
+  SurfacePattern pattern = SurfacePattern::kNone;
+  float frequency = 0, strength = 0;
+};
+
+// Stage 1 of n pixels of a smooth triangle, from column x_first: the same operations, in the
+// same order, as the scalar code they replace, in loops without branches.
+CDFF_SHADING_CLONES void smoothSpan(
+    int n, int x_first, float fy, const SmoothTriangle& t, const float* __restrict z,
+    const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
+    const std::uint8_t* __restrict cells, const float* __restrict tilts, float* __restrict onx,
+    float* __restrict ony, float* __restrict onz, float* __restrict px, float* __restrict py,
+    float* __restrict pz, float* __restrict t0, float* __restrict t1, int* __restrict texel,
+    int* __restrict axis0, int* __restrict axis2, float* __restrict nx, float* __restrict ny,
+    float* __restrict nz, float* __restrict boost, float* __restrict sx, float* __restrict sy,
+    float* __restrict sz) {
+  const float bkx = t.beta.kx, bky = t.beta.ky, bk0 = t.beta.k0, bc = t.beta.c;
+  const float gkx = t.gamma.kx, gky = t.gamma.ky, gk0 = t.gamma.k0, gc = t.gamma.c;
+  const float n00 = t.n[0].x(), n01 = t.n[0].y(), n02 = t.n[0].z();
+  const float n10 = t.n[1].x(), n11 = t.n[1].y(), n12 = t.n[1].z();
+  const float n20 = t.n[2].x(), n21 = t.n[2].y(), n22 = t.n[2].z();
+  const float p00 = t.p[0].x(), p01 = t.p[0].y(), p02 = t.p[0].z();
+  const float p10 = t.p[1].x(), p11 = t.p[1].y(), p12 = t.p[1].z();
+  const float p20 = t.p[2].x(), p21 = t.p[2].y(), p22 = t.p[2].z();
+  // The body-frame normal (unit) and point.
+  for (int j = 0; j < n; ++j) {
+    const float fx = static_cast<float>(x_first + j);
+    const float beta = z[j] * (bkx * fx + bky * fy + bk0) + bc;
+    const float gamma = z[j] * (gkx * fx + gky * fy + gk0) + gc;
+    const float alpha = 1.0f - beta - gamma;
+    const float a = alpha * n00 + beta * n10 + gamma * n20;
+    const float b = alpha * n01 + beta * n11 + gamma * n21;
+    const float c = alpha * n02 + beta * n12 + gamma * n22;
+    const float inv = 1.0f / std::sqrt(a * a + b * b + c * c);
+    onx[j] = a * inv;
+    ony[j] = b * inv;
+    onz[j] = c * inv;
+    px[j] = alpha * p00 + beta * p10 + gamma * p20;
+    py[j] = alpha * p01 + beta * p11 + gamma * p21;
+    pz[j] = alpha * p02 + beta * p12 + gamma * p22;
+  }
+  const bool crinkle = t.pattern == SurfacePattern::kCrinkle;
+  if (t.pattern != SurfacePattern::kNone) {
+    // Triplanar projection on the plane of the normal's two smaller components: (y, z) when
+    // x is the largest, (x, y) when z is, (x, z) otherwise.
+    const float frequency = t.frequency, strength = t.strength;
+    for (int j = 0; j < n; ++j) {
+      const float ax = std::abs(onx[j]), ay = std::abs(ony[j]), az = std::abs(onz[j]);
+      const bool x_axis = (ax >= ay) & (ax >= az);
+      const bool z_axis = !x_axis & !(ay >= az);
+      axis0[j] = x_axis;
+      axis2[j] = z_axis;
+      const float cu = select(mask(x_axis), py[j], px[j]) * frequency;
+      const float cv = select(mask(z_axis), py[j], pz[j]) * frequency;
+      texel[j] = (floorToInt(cv) & (kCrinkleSize - 1)) * kCrinkleSize +
+                 (floorToInt(cu) & (kCrinkleSize - 1));
+      boost[j] = (fraction(cu) < kSolarCellGap) | (fraction(cv) < kSolarCellGap) && !crinkle
+                     ? strength
+                     : 0.0f;
+    }
+    if (crinkle) {
+      for (int j = 0; j < n; ++j) {
+        const float* tilt = tilts + 2 * cells[texel[j]];
+        t0[j] = tilt[0];
+        t1[j] = tilt[1];
+      }
+    }
+  } else {
+    for (int j = 0; j < n; ++j) boost[j] = 0.0f;
+  }
+  if (!crinkle) {
+    for (int j = 0; j < n; ++j) {
+      t0[j] = t1[j] = 0.0f;
+      axis0[j] = axis2[j] = 0;
+    }
+  }
+  const float r00 = t.R(0, 0), r01 = t.R(0, 1), r02 = t.R(0, 2);
+  const float r10 = t.R(1, 0), r11 = t.R(1, 1), r12 = t.R(1, 2);
+  const float r20 = t.R(2, 0), r21 = t.R(2, 1), r22 = t.R(2, 2);
+  const float s00 = t.S(0, 0), s01 = t.S(0, 1), s02 = t.S(0, 2);
+  const float s10 = t.S(1, 0), s11 = t.S(1, 1), s12 = t.S(1, 2);
+  const float s20 = t.S(2, 0), s21 = t.S(2, 1), s22 = t.S(2, 2);
+  const float o0 = t.s0.x(), o1 = t.s0.y(), o2 = t.s0.z();
+  const float lx = t.L.x(), ly = t.L.y(), lz = t.L.z();
+  const float dx0 = t.ray_dx.x(), dx1 = t.ray_dx.y(), dx2 = t.ray_dx.z();
+  const float w0 = t.ray_row.x(), w1 = t.ray_row.y(), w2 = t.ray_row.z();
+  const float offset = t.normal_offset, strength = t.strength;
+  const std::uint32_t tilted = mask(crinkle), shadows = mask(t.shadows);
+  for (int j = 0; j < n; ++j) {
+    const float a = onx[j], b = ony[j], c = onz[j];
+    // The crinkle facet tilts the shading normal's two in-plane components.
+    const std::uint32_t first_is_y = mask(axis0[j] != 0), second_is_y = mask(axis2[j] != 0);
+    const float ta = select(first_is_y, a, a + strength * t0[j]);
+    const float tb =
+        select(first_is_y, b + strength * t0[j], select(second_is_y, b + strength * t1[j], b));
+    const float tc = select(second_is_y, c, c + strength * t1[j]);
+    float gx = r00 * a + r01 * b + r02 * c;
+    float gy = r10 * a + r11 * b + r12 * c;
+    float gz = r20 * a + r21 * b + r22 * c;
+    float sx_ = select(tilted, r00 * ta + r01 * tb + r02 * tc, gx);
+    float sy_ = select(tilted, r10 * ta + r11 * tb + r12 * tc, gy);
+    float sz_ = select(tilted, r20 * ta + r21 * tb + r22 * tc, gz);
+    const std::uint32_t back = mask(gx * vx[j] + gy * vy[j] + gz * vz[j] < 0);  // two-sided
+    gx = select(back, -gx, gx);
+    gy = select(back, -gy, gy);
+    gz = select(back, -gz, gz);
+    sx_ = select(back, -sx_, sx_);
+    sy_ = select(back, -sy_, sy_);
+    sz_ = select(back, -sz_, sz_);
+    const std::uint32_t sunlit = mask(gx * lx + gy * ly + gz * lz > 0);
+    nx[j] = select(sunlit, sx_, 0.0f);
+    ny[j] = select(sunlit, sy_, 0.0f);
+    nz[j] = select(sunlit, sz_, 0.0f);
+    const float fx = static_cast<float>(x_first + j);
+    const float qx = offset * gx, qy = offset * gy, qz = offset * gz;
+    const float ex = select(shadows, (s00 * qx + s01 * qy + s02 * qz) + o0, 0.0f);
+    const float ey = select(shadows, (s10 * qx + s11 * qy + s12 * qz) + o1, 0.0f);
+    const float ez = select(shadows, (s20 * qx + s21 * qy + s22 * qz) + o2, 0.0f);
+    sx[j] = select(sunlit, z[j] * (dx0 * fx + w0) + ex, 0.0f);
+    sy[j] = select(sunlit, z[j] * (dx1 * fx + w1) + ey, 0.0f);
+    sz[j] = select(sunlit, z[j] * (dx2 * fx + w2) + ez, 0.0f);
   }
 }
 
@@ -759,77 +917,18 @@ class CpuRenderer final : public Renderer {
   struct RowBuffers {
     std::vector<float> z, vx, vy, vz, hx, hy, hz, nx, ny, nz, ndl, ndh, sx, sy, sz, shadow;
     std::vector<float> albedo_boost;  // solar-cell interconnects: added to the diffuse albedo
-    std::vector<float> f0, f1, f2, f3, f4, f5, f6;  // scratch of the look-up loops
-    std::vector<int> index;
+    std::vector<float> f0, f1, f2, f3, f4, f5, f6, f7;  // scratch of the look-up loops
+    std::vector<int> index, index2, index3;
     std::vector<PixelRun> runs;
     void resize(std::size_t n) {
-      for (auto* v : {&z,  &vx, &vy, &vz,     &hx,           &hy, &hz, &nx, &ny, &nz, &ndl, &ndh,
-                      &sx, &sy, &sz, &shadow, &albedo_boost, &f0, &f1, &f2, &f3, &f4, &f5,  &f6})
+      for (auto* v :
+           {&z,  &vx, &vy,     &vz,           &hx, &hy, &hz, &nx, &ny, &nz, &ndl, &ndh, &sx,
+            &sy, &sz, &shadow, &albedo_boost, &f0, &f1, &f2, &f3, &f4, &f5, &f6,  &f7})
         v->resize(n);
-      index.resize(n);
+      for (auto* v : {&index, &index2, &index3}) v->resize(n);
       runs.resize(n);
     }
   };
-
-  // Stage 1 for a run of a smooth triangle: the normal (and the pattern's projection) varies
-  // over the triangle, and so does the side the camera sees.
-  void smoothSpan(int first, int last, int xs, float fy, const FrameTriangle& f, const ModelData& m,
-                  std::size_t k, const ShadeMaterial& mat, const Eigen::Matrix3f& R,
-                  const Eigen::Vector3f& L, const Eigen::Vector3f& shadow_row,
-                  RowBuffers& b) const {
-    const std::uint8_t* crinkle_cells = crinkleCells().data();
-    const float* crinkle_tilts = crinkleTilts().data();
-    const auto& tri = m.triangles[k];
-    for (int j = first; j < last; ++j) {
-      const float z = b.z[j];
-      const float fx = static_cast<float>(xs + j);
-      const float beta = f.beta.at(z, fx, fy), gamma = f.gamma.at(z, fx, fy);
-      const float alpha = 1.0f - beta - gamma;
-      const Eigen::Vector3f n_o =
-          unit(alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] + gamma * m.normals[tri[2]]);
-      Eigen::Vector3f shading_n_o = n_o;
-      float boost = 0.0f;
-      if (mat.pattern != SurfacePattern::kNone) {
-        const Eigen::Vector3f p_o =
-            alpha * m.vertices[tri[0]] + beta * m.vertices[tri[1]] + gamma * m.vertices[tri[2]];
-        // Triplanar projection on the plane of the normal's two smaller components.
-        const Eigen::Vector3f an = n_o.cwiseAbs();
-        const int axis = an.x() >= an.y() && an.x() >= an.z() ? 0 : (an.y() >= an.z() ? 1 : 2);
-        const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
-        const float cu = p_o[a1] * mat.pattern_frequency, cv = p_o[a2] * mat.pattern_frequency;
-        if (mat.pattern == SurfacePattern::kCrinkle) {
-          const int tx = floorToInt(cu) & (kCrinkleSize - 1);
-          const int ty = floorToInt(cv) & (kCrinkleSize - 1);
-          const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
-          shading_n_o[a1] += mat.pattern_strength * tilt[0];
-          shading_n_o[a2] += mat.pattern_strength * tilt[1];
-        } else if (fraction(cu) < kSolarCellGap || fraction(cv) < kSolarCellGap) {
-          boost = mat.pattern_strength;
-        }
-      }
-      Eigen::Vector3f Ng = rotate(R, n_o);
-      Eigen::Vector3f N = mat.pattern == SurfacePattern::kCrinkle ? rotate(R, shading_n_o) : Ng;
-      if (Ng.x() * b.vx[j] + Ng.y() * b.vy[j] + Ng.z() * b.vz[j] < 0) {  // two-sided
-        Ng = -Ng;
-        N = -N;
-      }
-      Eigen::Vector3f shadow_point = Eigen::Vector3f::Zero();
-      if (!(Ng.dot(L) > 0)) {
-        N.setZero();
-      } else {
-        shadow_point = z * (shadow_ray_.dx * fx + shadow_row);
-        if (shadow_frame_.valid)
-          shadow_point += rotate(sun_S_camera_, shadow_normal_offset_ * Ng) + sun_s0_;
-      }
-      b.nx[j] = N.x();
-      b.ny[j] = N.y();
-      b.nz[j] = N.z();
-      b.albedo_boost[j] = boost;
-      b.sx[j] = shadow_point.x();
-      b.sy[j] = shadow_point.y();
-      b.sz[j] = shadow_point.z();
-    }
-  }
 
   void shade(const RenderScene& scene, const PinholeCamera& cam, RenderOutput& out) {
     const int W = cam.width, H = cam.height;
@@ -929,7 +1028,30 @@ class CpuRenderer final : public Renderer {
             continue;
           }
           if (!f.flat) {
-            smoothSpan(first, last, xs, fy, f, m, k, mat, rotations[o], L, shadow_row, b);
+            const auto& tri = m.triangles[k];
+            SmoothTriangle t;
+            t.beta = f.beta;
+            t.gamma = f.gamma;
+            for (int v = 0; v < 3; ++v) {
+              t.n[v] = m.normals[tri[v]];
+              t.p[v] = m.vertices[tri[v]];
+            }
+            t.R = rotations[o];
+            t.L = L;
+            t.ray_dx = shadow_ray_.dx;
+            t.ray_row = shadow_row;
+            t.shadows = shadows;
+            t.S = sun_S_camera_;
+            t.s0 = sun_s0_;
+            t.normal_offset = shadow_normal_offset_;
+            t.pattern = mat.pattern;
+            t.frequency = mat.pattern_frequency;
+            t.strength = mat.pattern_strength;
+            smoothSpan(len, xs + first, fy, t, z, b.vx.data() + first, b.vy.data() + first,
+                       b.vz.data() + first, crinkle_cells, crinkle_tilts, b.f0.data(), b.f1.data(),
+                       b.f2.data(), b.f3.data(), b.f4.data(), b.f5.data(), b.f6.data(), b.f7.data(),
+                       b.index.data(), b.index2.data(), b.index3.data(), nx, ny, nz, boost, sx, sy,
+                       sz);
             continue;
           }
           const int x_first = xs + first;
