@@ -6,7 +6,9 @@
 // The shading pass is the cost at high coverage, so everything that is constant over a
 // triangle is set up once per frame (FrameTriangle): flat triangles (boxes, panels: most of
 // a spacecraft) need no barycentrics per pixel, only a few affine functions of the pixel, and
-// the specular lobe comes from a per-material table instead of pow().
+// the specular lobe comes from a per-material table instead of pow(). Each row is then shaded
+// in runs of pixels that show the same triangle, with loops the compiler vectorises (see
+// PixelRun; figures in docs/simulator.md).
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -519,9 +521,8 @@ CDFF_SHADING_CLONES void smoothSpan(
       const float cv = select(mask(z_axis), py[j], pz[j]) * frequency;
       texel[j] = (floorToInt(cv) & (kCrinkleSize - 1)) * kCrinkleSize +
                  (floorToInt(cu) & (kCrinkleSize - 1));
-      boost[j] = (fraction(cu) < kSolarCellGap) | (fraction(cv) < kSolarCellGap) && !crinkle
-                     ? strength
-                     : 0.0f;
+      const bool gap = (fraction(cu) < kSolarCellGap) | (fraction(cv) < kSolarCellGap);
+      boost[j] = gap && !crinkle ? strength : 0.0f;
     }
     if (crinkle) {
       for (int j = 0; j < n; ++j) {
