@@ -6,9 +6,12 @@
 // The shading pass is the cost at high coverage, so everything that is constant over a
 // triangle is set up once per frame (FrameTriangle): flat triangles (boxes, panels: most of
 // a spacecraft) need no barycentrics per pixel, only a few affine functions of the pixel, and
-// the specular lobe comes from a per-material table instead of pow().
+// the specular lobe comes from a per-material table instead of pow(). Each row is then shaded
+// in runs of pixels that show the same triangle, with loops the compiler vectorises (see
+// PixelRun; figures in docs/simulator.md).
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -18,6 +21,15 @@
 namespace cdff::egse {
 
 namespace {
+
+// The shading loops are also compiled for AVX2 (8 floats a vector), chosen at run time where
+// the CPU has it; the baseline (SSE2) version runs everywhere else. Both do the same IEEE
+// operations (AVX2 does not bring FMA, so nothing is contracted): the same bits either way.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define CDFF_SHADING_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define CDFF_SHADING_CLONES
+#endif
 
 constexpr std::uint32_t kNoSurface = 0xffffffffu;
 constexpr double kGuardBand = 4096.0;  // pixels outside the image before clipping in 3D
@@ -190,6 +202,30 @@ inline Eigen::Vector3f rotate(const Eigen::Matrix3f& R, const Eigen::Vector3f& v
           R(2, 0) * v.x() + R(2, 1) * v.y() + R(2, 2) * v.z()};
 }
 
+// Selects written as bit masks: GCC turns a conditional expression in a loop into a branch
+// (jump threading runs before if-conversion), and a loop with a branch stays scalar.
+inline std::uint32_t mask(bool condition) {
+  return 0u - static_cast<std::uint32_t>(condition);
+}
+inline float select(std::uint32_t m, float if_set, float otherwise) {
+  return std::bit_cast<float>((std::bit_cast<std::uint32_t>(if_set) & m) |
+                              (std::bit_cast<std::uint32_t>(otherwise) & ~m));
+}
+
+// The depth test of pixels first..last of a row: inverse depth A x + row_c, nearer wins.
+// Without branches: depth order is random.
+CDFF_SHADING_CLONES void depthTestSpan(int first, int last, double A, double row_c,
+                                       std::uint32_t code, float* __restrict inv_depth,
+                                       std::uint32_t* __restrict vis) {
+  for (int x = first; x <= last; ++x) {
+    const float value = static_cast<float>(A * x + row_c);
+    const float old = inv_depth[x];
+    const std::uint32_t nearer = mask(value > old);
+    inv_depth[x] = select(nearer, value, old);
+    vis[x] = (code & nearer) | (vis[x] & ~nearer);
+  }
+}
+
 // Clips a camera-space polygon against planes n.p + d >= 0 (Sutherland-Hodgman).
 struct ClipPlane {
   Eigen::Vector3d n;
@@ -210,10 +246,12 @@ int clipPolygon(Eigen::Vector3d* poly, int count, const ClipPlane& plane, Eigen:
 
 // Shading stages over a row of n pixels (see CpuRenderer::shade), as plain loops over arrays:
 // GCC vectorises them (sqrtps, divps: the same IEEE results as scalar code).
-void viewAndHalfVectors(int n, const float* __restrict inv_depth, const float* __restrict rx,
-                        float ry, const Eigen::Vector3f& sun, float* __restrict z,
-                        float* __restrict vx, float* __restrict vy, float* __restrict vz,
-                        float* __restrict hx, float* __restrict hy, float* __restrict hz) {
+CDFF_SHADING_CLONES void viewAndHalfVectors(int n, const float* __restrict inv_depth,
+                                            const float* __restrict rx, float ry,
+                                            const Eigen::Vector3f& sun, float* __restrict z,
+                                            float* __restrict vx, float* __restrict vy,
+                                            float* __restrict vz, float* __restrict hx,
+                                            float* __restrict hy, float* __restrict hz) {
   const float ry2 = ry * ry + 1.0f, lx = sun.x(), ly = sun.y(), lz = sun.z();
   for (int j = 0; j < n; ++j) {
     z[j] = 1.0f / inv_depth[j];                              // inf where nothing was drawn (unused)
@@ -229,10 +267,11 @@ void viewAndHalfVectors(int n, const float* __restrict inv_depth, const float* _
   }
 }
 
-void normalDotProducts(int n, const float* __restrict nx, const float* __restrict ny,
-                       const float* __restrict nz, const float* __restrict hx,
-                       const float* __restrict hy, const float* __restrict hz,
-                       const Eigen::Vector3f& sun, float* __restrict ndl, float* __restrict ndh) {
+CDFF_SHADING_CLONES void normalDotProducts(int n, const float* __restrict nx,
+                                           const float* __restrict ny, const float* __restrict nz,
+                                           const float* __restrict hx, const float* __restrict hy,
+                                           const float* __restrict hz, const Eigen::Vector3f& sun,
+                                           float* __restrict ndl, float* __restrict ndh) {
   const float lx = sun.x(), ly = sun.y(), lz = sun.z();
   for (int j = 0; j < n; ++j) {
     // Unlit pixels have N = 0: the tiny term keeps them at 0 instead of NaN (and changes no
@@ -240,6 +279,312 @@ void normalDotProducts(int n, const float* __restrict nx, const float* __restric
     const float inv = 1.0f / std::sqrt(nx[j] * nx[j] + ny[j] * ny[j] + nz[j] * nz[j] + 1e-30f);
     ndl[j] = (nx[j] * lx + ny[j] * ly + nz[j] * lz) * inv;
     ndh[j] = (nx[j] * hx[j] + ny[j] * hy[j] + nz[j] * hz[j]) * inv;
+  }
+}
+
+// The stages below work on runs of pixels of one row that show the same triangle: everything
+// that depends on the triangle or its material is then a constant of the loop, and the loops
+// are plain arithmetic over arrays that GCC vectorises; the table look-ups (crinkle facets,
+// shadow-map texels, specular lobe) are separate loops of loads between them.
+struct PixelRun {
+  int first, last;                // [first, last) in the chunk
+  std::uint32_t code;             // the visibility buffer's entry
+  const ShadeMaterial* material;  // null where nothing was drawn
+};
+
+// Shadow-map points z * ray(x, y) + offset of n pixels from column x_first, with
+// ray(x, y) = dx x + row (row = dy y + d0).
+CDFF_SHADING_CLONES void shadowPoints(int n, int x_first, const float* __restrict z,
+                                      const Eigen::Vector3f& dx, const Eigen::Vector3f& row,
+                                      const Eigen::Vector3f& offset, float* __restrict sx,
+                                      float* __restrict sy, float* __restrict sz) {
+  const float dx0 = dx.x(), dx1 = dx.y(), dx2 = dx.z();
+  const float r0 = row.x(), r1 = row.y(), r2 = row.z();
+  const float o0 = offset.x(), o1 = offset.y(), o2 = offset.z();
+  for (int j = 0; j < n; ++j) {
+    const float fx = static_cast<float>(x_first + j);
+    sx[j] = z[j] * (dx0 * fx + r0) + o0;
+    sy[j] = z[j] * (dx1 * fx + r1) + o1;
+    sz[j] = z[j] * (dx2 * fx + r2) + o2;
+  }
+}
+
+inline void fillSpan(int n, float value, float* __restrict out) {
+  for (int j = 0; j < n; ++j) out[j] = value;
+}
+
+// Crinkle texels (row-major index in the tile) of n pixels of a flat triangle.
+CDFF_SHADING_CLONES void crinkleTexels(int n, int x_first, float fy, const float* __restrict z,
+                                       const PixelAffine& pu, const PixelAffine& pv,
+                                       int* __restrict texel) {
+  const float ux = pu.kx, uy = pu.ky, u0 = pu.k0, uc = pu.c;
+  const float vx = pv.kx, vy = pv.ky, v0 = pv.k0, vc = pv.c;
+  for (int j = 0; j < n; ++j) {
+    const float fx = static_cast<float>(x_first + j);
+    // The same operations, in the same order, as PixelAffine::at.
+    const int tx = floorToInt(z[j] * (ux * fx + uy * fy + u0) + uc) & (kCrinkleSize - 1);
+    const int ty = floorToInt(z[j] * (vx * fx + vy * fy + v0) + vc) & (kCrinkleSize - 1);
+    texel[j] = ty * kCrinkleSize + tx;
+  }
+}
+
+// The facet tilts of the texels (two loads per pixel, through the cell index).
+CDFF_SHADING_CLONES void facetTilts(int n, const int* __restrict texel,
+                                    const std::uint8_t* __restrict cells,
+                                    const float* __restrict tilts, float* __restrict t0,
+                                    float* __restrict t1) {
+  for (int j = 0; j < n; ++j) {
+    const float* t = tilts + 2 * cells[texel[j]];
+    t0[j] = t[0];
+    t1[j] = t[1];
+  }
+}
+
+// N = normal + t0 tilt_u + t1 tilt_v (not normalised).
+CDFF_SHADING_CLONES void tiltedNormals(int n, const Eigen::Vector3f& normal,
+                                       const Eigen::Vector3f& tu, const Eigen::Vector3f& tv,
+                                       const float* __restrict t0, const float* __restrict t1,
+                                       float* __restrict nx, float* __restrict ny,
+                                       float* __restrict nz) {
+  const float n0 = normal.x(), n1 = normal.y(), n2 = normal.z();
+  const float u0 = tu.x(), u1 = tu.y(), u2 = tu.z(), v0 = tv.x(), v1 = tv.y(), v2 = tv.z();
+  for (int j = 0; j < n; ++j) {
+    nx[j] = n0 + (t0[j] * u0 + t1[j] * v0);
+    ny[j] = n1 + (t0[j] * u1 + t1[j] * v1);
+    nz[j] = n2 + (t0[j] * u2 + t1[j] * v2);
+  }
+}
+
+// Solar-cell interconnects: the albedo boost of n pixels of a flat triangle.
+CDFF_SHADING_CLONES void solarCellBoost(int n, int x_first, float fy, const float* __restrict z,
+                                        const PixelAffine& pu, const PixelAffine& pv,
+                                        float strength, float* __restrict boost) {
+  const float ux = pu.kx, uy = pu.ky, u0 = pu.k0, uc = pu.c;
+  const float vx = pv.kx, vy = pv.ky, v0 = pv.k0, vc = pv.c;
+  for (int j = 0; j < n; ++j) {
+    const float fx = static_cast<float>(x_first + j);
+    const float cu = z[j] * (ux * fx + uy * fy + u0) + uc;
+    const float cv = z[j] * (vx * fx + vy * fy + v0) + vc;
+    boost[j] = (fraction(cu) < kSolarCellGap) | (fraction(cv) < kSolarCellGap) ? strength : 0.0f;
+  }
+}
+
+// Fraction of the 2x2 texel neighbourhood (bilinear weights) that sees the sun, for n points
+// in shadow-map coordinates (texel x, texel y, biased depth). The map has a border of
+// kShadowBorder texels at infinity on each side (stride size + 2 kShadowBorder, `map` at
+// texel (0, 0)), so that points at or beyond the edge need no test: outside is lit.
+constexpr int kShadowBorder = 2;
+CDFF_SHADING_CLONES void shadowFactors(int n, const float* __restrict sx,
+                                       const float* __restrict sy, const float* __restrict sz,
+                                       const float* __restrict map, int size, int* __restrict index,
+                                       float* __restrict wx, float* __restrict wy,
+                                       float* __restrict t00, float* __restrict t10,
+                                       float* __restrict t01, float* __restrict t11,
+                                       float* __restrict factor) {
+  const int stride = size + 2 * kShadowBorder;
+  // Clamped first: far outside the map is outside (lit), and the conversion stays defined.
+  const float lo = -2.0f, hi = static_cast<float>(size + 1);
+  for (int j = 0; j < n; ++j) {
+    const float tx = std::min(std::max(sx[j], lo), hi);
+    const float ty = std::min(std::max(sy[j], lo), hi);
+    const int ix = floorToInt(tx), iy = floorToInt(ty);
+    wx[j] = tx - static_cast<float>(ix);
+    wy[j] = ty - static_cast<float>(iy);
+    index[j] = iy * stride + ix;
+  }
+  for (int j = 0; j < n; ++j) {
+    const float* t = map + index[j];
+    t00[j] = t[0];
+    t10[j] = t[1];
+    t01[j] = t[stride];
+    t11[j] = t[stride + 1];
+  }
+  for (int j = 0; j < n; ++j) {
+    const float depth = sz[j];
+    const float l00 = depth <= t00[j] ? 1.0f : 0.0f, l10 = depth <= t10[j] ? 1.0f : 0.0f;
+    const float l01 = depth <= t01[j] ? 1.0f : 0.0f, l11 = depth <= t11[j] ? 1.0f : 0.0f;
+    const float x = wx[j], y = wy[j];
+    factor[j] = (1 - y) * ((1 - x) * l00 + x * l10) + y * ((1 - x) * l01 + x * l11);
+  }
+}
+
+// The radiance of n pixels of one material: Lambert plus the specular lobe, times the sun's
+// irradiance and the shadow factor; 0 where the sun is below the surface (ndl <= 0, which
+// includes the pixels the set-up left unlit with N = 0).
+CDFF_SHADING_CLONES void radianceSpan(int n, const ShadeMaterial& mat, float E,
+                                      const float* __restrict ndl, const float* __restrict ndh,
+                                      const float* __restrict shadow, const float* __restrict boost,
+                                      int* __restrict index, float* __restrict frac,
+                                      float* __restrict l0, float* __restrict l1,
+                                      float* __restrict red, float* __restrict green,
+                                      float* __restrict blue, float* __restrict rad) {
+  const float cutoff = mat.lobe_cutoff, step = mat.lobe_step;
+  const float top = static_cast<float>(kLobeSamples);
+  for (int j = 0; j < n; ++j) {
+    const float h = ndh[j], u = select(mask(0.0f < h), h, 0.0f);  // std::max(0, h)
+    const float v = (u - cutoff) * step;
+    const float w = select(mask(v < 0.0f), 0.0f, v);  // std::clamp(v, 0, top)
+    const float t = select(mask(top < w), top, w);
+    const int i = static_cast<int>(t);
+    index[j] = i;
+    frac[j] = t - static_cast<float>(i);
+  }
+  const float* lobe = mat.lobe.data();
+  for (int j = 0; j < n; ++j) {
+    l0[j] = lobe[index[j]];
+    l1[j] = lobe[index[j] + 1];
+  }
+  const float d0 = mat.diffuse.x(), d1 = mat.diffuse.y(), d2 = mat.diffuse.z();
+  const float s0 = mat.specular.x(), s1 = mat.specular.y(), s2 = mat.specular.z();
+  for (int j = 0; j < n; ++j) {
+    const float value = l0[j] + frac[j] * (l1[j] - l0[j]);
+    const float h = ndh[j], u = select(mask(0.0f < h), h, 0.0f);
+    const float lobe_value = select(mask(u > cutoff), value, 0.0f) * ndl[j];
+    const float scale = E * shadow[j];
+    const std::uint32_t on = mask(ndl[j] > 0);
+    const float b = boost[j];
+    red[j] = select(on, ((d0 + b) * ndl[j] + s0 * lobe_value) * scale, 0.0f);
+    green[j] = select(on, ((d1 + b) * ndl[j] + s1 * lobe_value) * scale, 0.0f);
+    blue[j] = select(on, ((d2 + b) * ndl[j] + s2 * lobe_value) * scale, 0.0f);
+  }
+  for (int j = 0; j < n; ++j) {  // interleaved stores do not vectorise: a loop of its own
+    rad[3 * j] = red[j];
+    rad[3 * j + 1] = green[j];
+    rad[3 * j + 2] = blue[j];
+  }
+}
+
+// The constants of a smooth triangle for stage 1 (see smoothSpan): its normal (and the
+// pattern's projection) varies over the triangle, and so does the side the camera sees.
+struct SmoothTriangle {
+  PixelAffine beta, gamma;
+  Eigen::Vector3f n[3], p[3];       // vertex normals and positions, body frame
+  Eigen::Matrix3f R;                // camera <- body
+  Eigen::Vector3f L;                // towards the sun
+  Eigen::Vector3f ray_dx, ray_row;  // the shadow-map ray (ShadowLookup) at this row
+  bool shadows = false;
+  Eigen::Matrix3f S;  // to shadow-map coordinates
+  Eigen::Vector3f s0;
+  float normal_offset = 0;
+  SurfacePattern pattern = SurfacePattern::kNone;
+  float frequency = 0, strength = 0;
+};
+
+// Stage 1 of n pixels of a smooth triangle, from column x_first: the same operations, in the
+// same order, as the scalar code they replace, in loops without branches.
+CDFF_SHADING_CLONES void smoothSpan(
+    int n, int x_first, float fy, const SmoothTriangle& t, const float* __restrict z,
+    const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
+    const std::uint8_t* __restrict cells, const float* __restrict tilts, float* __restrict onx,
+    float* __restrict ony, float* __restrict onz, float* __restrict px, float* __restrict py,
+    float* __restrict pz, float* __restrict t0, float* __restrict t1, int* __restrict texel,
+    int* __restrict axis0, int* __restrict axis2, float* __restrict nx, float* __restrict ny,
+    float* __restrict nz, float* __restrict boost, float* __restrict sx, float* __restrict sy,
+    float* __restrict sz) {
+  const float bkx = t.beta.kx, bky = t.beta.ky, bk0 = t.beta.k0, bc = t.beta.c;
+  const float gkx = t.gamma.kx, gky = t.gamma.ky, gk0 = t.gamma.k0, gc = t.gamma.c;
+  const float n00 = t.n[0].x(), n01 = t.n[0].y(), n02 = t.n[0].z();
+  const float n10 = t.n[1].x(), n11 = t.n[1].y(), n12 = t.n[1].z();
+  const float n20 = t.n[2].x(), n21 = t.n[2].y(), n22 = t.n[2].z();
+  const float p00 = t.p[0].x(), p01 = t.p[0].y(), p02 = t.p[0].z();
+  const float p10 = t.p[1].x(), p11 = t.p[1].y(), p12 = t.p[1].z();
+  const float p20 = t.p[2].x(), p21 = t.p[2].y(), p22 = t.p[2].z();
+  // The body-frame normal (unit) and point.
+  for (int j = 0; j < n; ++j) {
+    const float fx = static_cast<float>(x_first + j);
+    const float beta = z[j] * (bkx * fx + bky * fy + bk0) + bc;
+    const float gamma = z[j] * (gkx * fx + gky * fy + gk0) + gc;
+    const float alpha = 1.0f - beta - gamma;
+    const float a = alpha * n00 + beta * n10 + gamma * n20;
+    const float b = alpha * n01 + beta * n11 + gamma * n21;
+    const float c = alpha * n02 + beta * n12 + gamma * n22;
+    const float inv = 1.0f / std::sqrt(a * a + b * b + c * c);
+    onx[j] = a * inv;
+    ony[j] = b * inv;
+    onz[j] = c * inv;
+    px[j] = alpha * p00 + beta * p10 + gamma * p20;
+    py[j] = alpha * p01 + beta * p11 + gamma * p21;
+    pz[j] = alpha * p02 + beta * p12 + gamma * p22;
+  }
+  const bool crinkle = t.pattern == SurfacePattern::kCrinkle;
+  if (t.pattern != SurfacePattern::kNone) {
+    // Triplanar projection on the plane of the normal's two smaller components: (y, z) when
+    // x is the largest, (x, y) when z is, (x, z) otherwise.
+    const float frequency = t.frequency, strength = t.strength;
+    for (int j = 0; j < n; ++j) {
+      const float ax = std::abs(onx[j]), ay = std::abs(ony[j]), az = std::abs(onz[j]);
+      const bool x_axis = (ax >= ay) & (ax >= az);
+      const bool z_axis = !x_axis & !(ay >= az);
+      axis0[j] = x_axis;
+      axis2[j] = z_axis;
+      const float cu = select(mask(x_axis), py[j], px[j]) * frequency;
+      const float cv = select(mask(z_axis), py[j], pz[j]) * frequency;
+      texel[j] = (floorToInt(cv) & (kCrinkleSize - 1)) * kCrinkleSize +
+                 (floorToInt(cu) & (kCrinkleSize - 1));
+      const bool gap = (fraction(cu) < kSolarCellGap) | (fraction(cv) < kSolarCellGap);
+      boost[j] = gap && !crinkle ? strength : 0.0f;
+    }
+    if (crinkle) {
+      for (int j = 0; j < n; ++j) {
+        const float* tilt = tilts + 2 * cells[texel[j]];
+        t0[j] = tilt[0];
+        t1[j] = tilt[1];
+      }
+    }
+  } else {
+    for (int j = 0; j < n; ++j) boost[j] = 0.0f;
+  }
+  if (!crinkle) {
+    for (int j = 0; j < n; ++j) {
+      t0[j] = t1[j] = 0.0f;
+      axis0[j] = axis2[j] = 0;
+    }
+  }
+  const float r00 = t.R(0, 0), r01 = t.R(0, 1), r02 = t.R(0, 2);
+  const float r10 = t.R(1, 0), r11 = t.R(1, 1), r12 = t.R(1, 2);
+  const float r20 = t.R(2, 0), r21 = t.R(2, 1), r22 = t.R(2, 2);
+  const float s00 = t.S(0, 0), s01 = t.S(0, 1), s02 = t.S(0, 2);
+  const float s10 = t.S(1, 0), s11 = t.S(1, 1), s12 = t.S(1, 2);
+  const float s20 = t.S(2, 0), s21 = t.S(2, 1), s22 = t.S(2, 2);
+  const float o0 = t.s0.x(), o1 = t.s0.y(), o2 = t.s0.z();
+  const float lx = t.L.x(), ly = t.L.y(), lz = t.L.z();
+  const float dx0 = t.ray_dx.x(), dx1 = t.ray_dx.y(), dx2 = t.ray_dx.z();
+  const float w0 = t.ray_row.x(), w1 = t.ray_row.y(), w2 = t.ray_row.z();
+  const float offset = t.normal_offset, strength = t.strength;
+  const std::uint32_t tilted = mask(crinkle), shadows = mask(t.shadows);
+  for (int j = 0; j < n; ++j) {
+    const float a = onx[j], b = ony[j], c = onz[j];
+    // The crinkle facet tilts the shading normal's two in-plane components.
+    const std::uint32_t first_is_y = mask(axis0[j] != 0), second_is_y = mask(axis2[j] != 0);
+    const float ta = select(first_is_y, a, a + strength * t0[j]);
+    const float tb =
+        select(first_is_y, b + strength * t0[j], select(second_is_y, b + strength * t1[j], b));
+    const float tc = select(second_is_y, c, c + strength * t1[j]);
+    float gx = r00 * a + r01 * b + r02 * c;
+    float gy = r10 * a + r11 * b + r12 * c;
+    float gz = r20 * a + r21 * b + r22 * c;
+    float sx_ = select(tilted, r00 * ta + r01 * tb + r02 * tc, gx);
+    float sy_ = select(tilted, r10 * ta + r11 * tb + r12 * tc, gy);
+    float sz_ = select(tilted, r20 * ta + r21 * tb + r22 * tc, gz);
+    const std::uint32_t back = mask(gx * vx[j] + gy * vy[j] + gz * vz[j] < 0);  // two-sided
+    gx = select(back, -gx, gx);
+    gy = select(back, -gy, gy);
+    gz = select(back, -gz, gz);
+    sx_ = select(back, -sx_, sx_);
+    sy_ = select(back, -sy_, sy_);
+    sz_ = select(back, -sz_, sz_);
+    const std::uint32_t sunlit = mask(gx * lx + gy * ly + gz * lz > 0);
+    nx[j] = select(sunlit, sx_, 0.0f);
+    ny[j] = select(sunlit, sy_, 0.0f);
+    nz[j] = select(sunlit, sz_, 0.0f);
+    const float fx = static_cast<float>(x_first + j);
+    const float qx = offset * gx, qy = offset * gy, qz = offset * gz;
+    const float ex = select(shadows, (s00 * qx + s01 * qy + s02 * qz) + o0, 0.0f);
+    const float ey = select(shadows, (s10 * qx + s11 * qy + s12 * qz) + o1, 0.0f);
+    const float ez = select(shadows, (s20 * qx + s21 * qy + s22 * qz) + o2, 0.0f);
+    sx[j] = select(sunlit, z[j] * (dx0 * fx + w0) + ex, 0.0f);
+    sy[j] = select(sunlit, z[j] * (dx1 * fx + w1) + ey, 0.0f);
+    sz[j] = select(sunlit, z[j] * (dx2 * fx + w2) + ez, 0.0f);
   }
 }
 
@@ -385,19 +730,18 @@ class CpuRenderer final : public Renderer {
           d.y1 = std::max(
               d.y1, std::min(H - 1, static_cast<int>(std::ceil(std::max({sy[0], sy[1], sy[2]})))));
           rasterise(sx, sy, W, H, [&](int y, int first, int last) {
-            const double row_c = B * y + C;
-            float* __restrict depth_row = ibuf + static_cast<std::size_t>(y) * W;
-            std::uint32_t* __restrict vis_row = vis + static_cast<std::size_t>(y) * W;
-            for (int x = first; x <= last; ++x) {  // without branches: depth order is random
-              const float value = static_cast<float>(A * x + row_c);
-              const bool nearer = value > depth_row[x];
-              depth_row[x] = nearer ? value : depth_row[x];
-              vis_row[x] = nearer ? code : vis_row[x];
-            }
+            const std::size_t row = static_cast<std::size_t>(y) * W;
+            depthTestSpan(first, last, A, B * y + C, code, ibuf + row, vis + row);
           });
         }
       }
     }
+  }
+
+  // The shadow map's texel (x, y), x and y from -kShadowBorder to size - 1 + kShadowBorder.
+  float* shadowTexel(int x, int y) {
+    const std::ptrdiff_t P = shadow_frame_.size + 2 * kShadowBorder;
+    return shadow_.data() + (y + kShadowBorder) * P + x + kShadowBorder;
   }
 
   void buildShadowMap(const RenderScene& scene) {
@@ -410,19 +754,20 @@ class CpuRenderer final : public Renderer {
     shadow_frame_ = fitShadowFrame(scene.sun_direction, casters, scene.shadow_map_size);
     if (!shadow_frame_.valid) return;
     const int S = shadow_frame_.size;
+    const int P = S + 2 * kShadowBorder;  // stride: the border stays at infinity
     const float inf = std::numeric_limits<float>::infinity();
-    if (shadow_.size() != static_cast<std::size_t>(S) * S) {
-      shadow_.assign(static_cast<std::size_t>(S) * S, inf);
+    if (shadow_.size() != static_cast<std::size_t>(P) * P) {
+      shadow_.assign(static_cast<std::size_t>(P) * P, inf);
     } else if (shadow_dirty_.x0 <= shadow_dirty_.x1) {
-      for (int y = shadow_dirty_.y0; y <= shadow_dirty_.y1; ++y)
-        std::fill(shadow_.begin() + static_cast<std::ptrdiff_t>(y) * S + shadow_dirty_.x0,
-                  shadow_.begin() + static_cast<std::ptrdiff_t>(y) * S + shadow_dirty_.x1 + 1, inf);
+      for (int y = shadow_dirty_.y0; y <= shadow_dirty_.y1; ++y) {
+        float* row = shadowTexel(0, y);
+        std::fill(row + shadow_dirty_.x0, row + shadow_dirty_.x1 + 1, inf);
+      }
     }
     shadow_dirty_ = {S, S, -1, -1};
     Dirty& sd = shadow_dirty_;
     const Eigen::Matrix3d R = shadow_frame_.sun_T_camera.linear();
     const Eigen::Vector3d t = shadow_frame_.sun_T_camera.translation();
-    float* map = shadow_.data();
     for (std::size_t o = 0; o < scene.objects.size(); ++o) {
       if (!scene.objects[o].casts_shadow) continue;
       const ModelData& m = models_[scene.objects[o].model];
@@ -450,7 +795,7 @@ class CpuRenderer final : public Renderer {
         const double C = sz[0] - A * sx[0] - B * sy[0];
         rasterise(sx, sy, S, S, [&](int y, int first, int last) {
           const double row_c = B * y + C;
-          float* __restrict map_row = map + static_cast<std::size_t>(y) * S;
+          float* __restrict map_row = shadowTexel(0, y);
           for (int x = first; x <= last; ++x) {
             const float depth = static_cast<float>(A * x + row_c);
             map_row[x] = depth < map_row[x] ? depth : map_row[x];
@@ -562,57 +907,27 @@ class CpuRenderer final : public Renderer {
     }
   }
 
-  // Fraction of the 2x2 texel neighbourhood (bilinear weights) that sees the sun at a point
-  // given in shadow-map coordinates (texel x, texel y, biased depth).
-  [[gnu::always_inline]] float shadowFactor(const Eigen::Vector3f& s) const {
-    const int S = shadow_frame_.size;
-    // Clamped first: far outside the map is outside (lit), and the conversion stays defined.
-    const float tx = std::clamp(s.x(), -2.0f, static_cast<float>(S + 1));
-    const float ty = std::clamp(s.y(), -2.0f, static_cast<float>(S + 1));
-    const int ix = floorToInt(tx), iy = floorToInt(ty);
-    const float wx = tx - static_cast<float>(ix), wy = ty - static_cast<float>(iy);
-    const float depth = s.z();
-    float l00, l10, l01, l11;
-    if (ix >= 0 && iy >= 0 && ix + 1 < S && iy + 1 < S) {
-      const float* t = shadow_.data() + static_cast<std::size_t>(iy) * S + ix;
-      l00 = depth <= t[0] ? 1.0f : 0.0f;
-      l10 = depth <= t[1] ? 1.0f : 0.0f;
-      l01 = depth <= t[S] ? 1.0f : 0.0f;
-      l11 = depth <= t[S + 1] ? 1.0f : 0.0f;
-    } else {
-      auto lit = [&](int x, int y) -> float {
-        if (x < 0 || y < 0 || x >= S || y >= S) return 1.0f;
-        return depth <= shadow_[static_cast<std::size_t>(y) * S + x] ? 1.0f : 0.0f;
-      };
-      l00 = lit(ix, iy);
-      l10 = lit(ix + 1, iy);
-      l01 = lit(ix, iy + 1);
-      l11 = lit(ix + 1, iy + 1);
-    }
-    return (1 - wy) * ((1 - wx) * l00 + wx * l10) + wy * ((1 - wx) * l01 + wx * l11);
-  }
-
-  // The shading pass, one row at a time in three stages, so that the square roots and
-  // divisions (view and half vectors, normalisations, depth) run over contiguous arrays the
-  // compiler vectorises (plain IEEE operations: the same bits as one pixel at a time), while
-  // the look-ups (triangle set-up, crinkle facets, shadow map, specular lobe) stay scalar:
-  //   1. per covered pixel: the triangle's shading normal (not normalised), albedo, material
-  //      and shadow-map point;
-  //   2. over the row: normalise, N.L and N.H;
-  //   3. per covered pixel: shadow, specular lobe, the outputs.
+  // The shading pass, one row at a time in chunks whose arrays stay in the L1 cache:
+  //   0. over the chunk: depth, view and half vectors (they depend on the pixel only);
+  //   1. per run of pixels of one triangle: depth and id outputs, the shading normal (not
+  //      normalised; 0 where the sun is below the surface), the shadow-map point, the albedo
+  //      boost;
+  //   2. over the chunk: unit normals, N.L and N.H, and the shadow factor;
+  //   3. per run: the radiance, with the material's constants.
+  // The operations are the scalar code's (IEEE, no reassociation): vectorised, the same bits.
   struct RowBuffers {
-    std::vector<float> z, vx, vy, vz, hx, hy, hz, nx, ny, nz, ndl, ndh, sx, sy, sz;
+    std::vector<float> z, vx, vy, vz, hx, hy, hz, nx, ny, nz, ndl, ndh, sx, sy, sz, shadow;
     std::vector<float> albedo_boost;  // solar-cell interconnects: added to the diffuse albedo
-    std::vector<const ShadeMaterial*> material;
-    std::vector<std::uint8_t> id;   // 0: nothing drawn; the object's id otherwise
-    std::vector<std::uint8_t> lit;  // the sun is above the (geometric) surface
+    std::vector<float> f0, f1, f2, f3, f4, f5, f6, f7;  // scratch of the look-up loops
+    std::vector<int> index, index2, index3;
+    std::vector<PixelRun> runs;
     void resize(std::size_t n) {
-      for (auto* v : {&z, &vx, &vy, &vz, &hx, &hy, &hz, &nx, &ny, &nz, &ndl, &ndh, &sx, &sy, &sz,
-                      &albedo_boost})
+      for (auto* v :
+           {&z,  &vx, &vy,     &vz,           &hx, &hy, &hz, &nx, &ny, &nz, &ndl, &ndh, &sx,
+            &sy, &sz, &shadow, &albedo_boost, &f0, &f1, &f2, &f3, &f4, &f5, &f6,  &f7})
         v->resize(n);
-      material.resize(n);
-      id.resize(n);
-      lit.resize(n);
+      for (auto* v : {&index, &index2, &index3}) v->resize(n);
+      runs.resize(n);
     }
   };
 
@@ -625,8 +940,10 @@ class CpuRenderer final : public Renderer {
     const bool shadows = shadow_frame_.valid;
     const std::uint8_t* crinkle_cells = crinkleCells().data();
     const float* crinkle_tilts = crinkleTilts().data();
-    const float ifx = static_cast<float>(1.0 / cam.fx), ify = static_cast<float>(1.0 / cam.fy);
+    const float* shadow_map = shadows ? shadowTexel(0, 0) : nullptr;
+    const float ify = static_cast<float>(1.0 / cam.fy);
     const float cx = static_cast<float>(cam.cx), cy = static_cast<float>(cam.cy);
+    const float ifx = static_cast<float>(1.0 / cam.fx);
     std::vector<Eigen::Matrix3f> rotations;
     for (const RenderObject& o : scene.objects)
       rotations.push_back(o.camera_T_object.linear().cast<float>());
@@ -662,130 +979,125 @@ class CpuRenderer final : public Renderer {
       const float fy = static_cast<float>(y);
       const float ry = (fy - cy) * ify;
       const Eigen::Vector3f shadow_row = shadow_ray_.dy * fy + shadow_ray_.d0;
-      // In chunks, so that the stages' arrays stay in the L1 cache.
       for (int c0 = 0; c0 < n; c0 += kShadeChunk) {
         const int cn = std::min(kShadeChunk, n - c0), xs = x0 + c0;
-        // Stage 0, over the row: depth, V = -unit(P) and the half vector H = unit(L + V) depend
-        // on the pixel only. (Where nothing was drawn the inverse depth is 0: z = inf, unused.)
-        viewAndHalfVectors(cn, ibuf + row + xs, column_rx_.data() + c0, ry, L, b.z.data(),
-                           b.vx.data(), b.vy.data(), b.vz.data(), b.hx.data(), b.hy.data(),
-                           b.hz.data());
-        // Stage 1, per covered pixel.
-        for (int j = 0; j < cn; ++j) {
-          const std::size_t i = row + xs + j;
-          const std::uint32_t code = vis[i];
-          b.nx[j] = b.ny[j] = b.nz[j] = 0.0f;
-          b.lit[j] = 0;
+        const std::size_t i0 = row + xs;
+        // Stage 0. (Where nothing was drawn the inverse depth is 0: z = inf, unused.)
+        viewAndHalfVectors(cn, ibuf + i0, column_rx_.data() + c0, ry, L, b.z.data(), b.vx.data(),
+                           b.vy.data(), b.vz.data(), b.hx.data(), b.hy.data(), b.hz.data());
+        // The runs of equal visibility-buffer entries; the buffer is reset as it is read.
+        int run_count = 0;
+        for (int j = 0; j < cn;) {
+          const std::uint32_t code = vis[i0 + j];
+          int e = j + 1;
+          while (e < cn && vis[i0 + e] == code) ++e;
+          b.runs[run_count++] = {j, e, code, nullptr};
+          j = e;
+        }
+        std::fill(vis + i0, vis + i0 + cn, kNoSurface);
+        std::fill(ibuf + i0, ibuf + i0 + cn, 0.0f);
+        // Stage 1.
+        for (int r = 0; r < run_count; ++r) {
+          const auto [first, last, code, material] = b.runs[r];
+          const int len = last - first;
+          float* nx = b.nx.data() + first;
+          float* ny = b.ny.data() + first;
+          float* nz = b.nz.data() + first;
+          float* sx = b.sx.data() + first;
+          float* sy = b.sy.data() + first;
+          float* sz = b.sz.data() + first;
+          float* boost = b.albedo_boost.data() + first;
+          const float* z = b.z.data() + first;
+          auto unlit = [&] {
+            for (float* v : {nx, ny, nz, sx, sy, sz, boost}) fillSpan(len, 0.0f, v);
+          };
           if (code == kNoSurface) {
-            b.id[j] = 0;
+            std::fill(depth + i0 + first, depth + i0 + last, inf);
+            std::memset(ids + i0 + first, 0, static_cast<std::size_t>(len));
+            unlit();
             continue;
           }
-          // The visibility buffer is reset as it is read.
-          vis[i] = kNoSurface;
-          ibuf[i] = 0.0f;
-          const float z = b.z[j];
           const std::size_t o = code >> 24, k = code & 0xffffffu;
+          std::copy(z, z + len, depth + i0 + first);
+          std::memset(ids + i0 + first, scene.objects[o].id, static_cast<std::size_t>(len));
           const FrameTriangle& f = triangles[triangle_base_[o] + k];
           const ModelData& m = models_[scene.objects[o].model];
           const ShadeMaterial& mat = m.materials[f.material];
-          b.id[j] = scene.objects[o].id;
-          b.material[j] = &mat;
-          if (!lit) continue;
-          const float fx = static_cast<float>(xs + j);
-          const Eigen::Vector3f shadow_ray = shadow_ray_.dx * fx + shadow_row;
-          Eigen::Vector3f N, shadow_point;
-          float boost = 0.0f;
-          if (f.flat) {
-            if (!(f.ndl > 0)) continue;
-            N = f.normal;
-            if (mat.pattern == SurfacePattern::kCrinkle) {
-              const int tx = floorToInt(f.pattern_u.at(z, fx, fy)) & (kCrinkleSize - 1);
-              const int ty = floorToInt(f.pattern_v.at(z, fx, fy)) & (kCrinkleSize - 1);
-              const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
-              N += tilt[0] * f.tilt_u + tilt[1] * f.tilt_v;  // normalised in stage 2
-            } else if (mat.pattern == SurfacePattern::kSolarCell) {
-              const float cu = f.pattern_u.at(z, fx, fy), cv = f.pattern_v.at(z, fx, fy);
-              if (fraction(cu) < kSolarCellGap || fraction(cv) < kSolarCellGap)
-                boost = mat.pattern_strength;
-            }
-            shadow_point = z * shadow_ray + f.shadow;
-          } else {
-            // Smooth surfaces: the normal (and the pattern's projection) varies over the triangle.
-            const float beta = f.beta.at(z, fx, fy), gamma = f.gamma.at(z, fx, fy);
-            const float alpha = 1.0f - beta - gamma;
-            const auto& tri = m.triangles[k];
-            const Eigen::Vector3f n_o = unit(alpha * m.normals[tri[0]] + beta * m.normals[tri[1]] +
-                                             gamma * m.normals[tri[2]]);
-            Eigen::Vector3f shading_n_o = n_o;
-            if (mat.pattern != SurfacePattern::kNone) {
-              const Eigen::Vector3f p_o = alpha * m.vertices[tri[0]] + beta * m.vertices[tri[1]] +
-                                          gamma * m.vertices[tri[2]];
-              // Triplanar projection on the plane of the normal's two smaller components.
-              const Eigen::Vector3f an = n_o.cwiseAbs();
-              const int axis =
-                  an.x() >= an.y() && an.x() >= an.z() ? 0 : (an.y() >= an.z() ? 1 : 2);
-              const int a1 = axis == 0 ? 1 : 0, a2 = axis == 2 ? 1 : 2;
-              const float cu = p_o[a1] * mat.pattern_frequency,
-                          cv = p_o[a2] * mat.pattern_frequency;
-              if (mat.pattern == SurfacePattern::kCrinkle) {
-                const int tx = floorToInt(cu) & (kCrinkleSize - 1);
-                const int ty = floorToInt(cv) & (kCrinkleSize - 1);
-                const float* tilt = crinkle_tilts + 2 * crinkle_cells[ty * kCrinkleSize + tx];
-                shading_n_o[a1] += mat.pattern_strength * tilt[0];
-                shading_n_o[a2] += mat.pattern_strength * tilt[1];
-              } else if (fraction(cu) < kSolarCellGap || fraction(cv) < kSolarCellGap) {
-                boost = mat.pattern_strength;
-              }
-            }
-            const Eigen::Matrix3f& R = rotations[o];
-            Eigen::Vector3f Ng = rotate(R, n_o);
-            N = mat.pattern == SurfacePattern::kCrinkle ? rotate(R, shading_n_o) : Ng;
-            if (Ng.x() * b.vx[j] + Ng.y() * b.vy[j] + Ng.z() * b.vz[j] < 0) {  // two-sided
-              Ng = -Ng;
-              N = -N;
-            }
-            if (!(Ng.dot(L) > 0)) continue;
-            shadow_point = z * shadow_ray;
-            if (shadows)
-              shadow_point += rotate(sun_S_camera_, shadow_normal_offset_ * Ng) + sun_s0_;
+          b.runs[r].material = &mat;
+          if (!lit || (f.flat && !(f.ndl > 0))) {
+            unlit();
+            continue;
           }
-          b.lit[j] = 1;
-          b.nx[j] = N.x();
-          b.ny[j] = N.y();
-          b.nz[j] = N.z();
-          b.albedo_boost[j] = boost;
-          b.sx[j] = shadow_point.x();
-          b.sy[j] = shadow_point.y();
-          b.sz[j] = shadow_point.z();
+          if (!f.flat) {
+            const auto& tri = m.triangles[k];
+            SmoothTriangle t;
+            t.beta = f.beta;
+            t.gamma = f.gamma;
+            for (int v = 0; v < 3; ++v) {
+              t.n[v] = m.normals[tri[v]];
+              t.p[v] = m.vertices[tri[v]];
+            }
+            t.R = rotations[o];
+            t.L = L;
+            t.ray_dx = shadow_ray_.dx;
+            t.ray_row = shadow_row;
+            t.shadows = shadows;
+            t.S = sun_S_camera_;
+            t.s0 = sun_s0_;
+            t.normal_offset = shadow_normal_offset_;
+            t.pattern = mat.pattern;
+            t.frequency = mat.pattern_frequency;
+            t.strength = mat.pattern_strength;
+            smoothSpan(len, xs + first, fy, t, z, b.vx.data() + first, b.vy.data() + first,
+                       b.vz.data() + first, crinkle_cells, crinkle_tilts, b.f0.data(), b.f1.data(),
+                       b.f2.data(), b.f3.data(), b.f4.data(), b.f5.data(), b.f6.data(), b.f7.data(),
+                       b.index.data(), b.index2.data(), b.index3.data(), nx, ny, nz, boost, sx, sy,
+                       sz);
+            continue;
+          }
+          const int x_first = xs + first;
+          if (mat.pattern == SurfacePattern::kCrinkle) {
+            crinkleTexels(len, x_first, fy, z, f.pattern_u, f.pattern_v, b.index.data());
+            facetTilts(len, b.index.data(), crinkle_cells, crinkle_tilts, b.f0.data(), b.f1.data());
+            tiltedNormals(len, f.normal, f.tilt_u, f.tilt_v, b.f0.data(), b.f1.data(), nx, ny, nz);
+          } else {
+            fillSpan(len, f.normal.x(), nx);
+            fillSpan(len, f.normal.y(), ny);
+            fillSpan(len, f.normal.z(), nz);
+          }
+          if (mat.pattern == SurfacePattern::kSolarCell)
+            solarCellBoost(len, x_first, fy, z, f.pattern_u, f.pattern_v, mat.pattern_strength,
+                           boost);
+          else
+            fillSpan(len, 0.0f, boost);
+          shadowPoints(len, x_first, z, shadow_ray_.dx, shadow_row, f.shadow, sx, sy, sz);
         }
-        // Stage 2, over the row: unit shading normals, N.L and N.H.
+        // Stage 2.
         normalDotProducts(cn, b.nx.data(), b.ny.data(), b.nz.data(), b.hx.data(), b.hy.data(),
                           b.hz.data(), L, b.ndl.data(), b.ndh.data());
-        // Stage 3, per pixel: shadow, specular lobe, outputs.
-        for (int j = 0; j < cn; ++j) {
-          const std::size_t i = row + xs + j;
-          float* c = rad + 3 * i;
-          if (b.id[j] == 0) {
-            c[0] = c[1] = c[2] = 0.0f;
-            depth[i] = inf;
-            ids[i] = 0;
+        if (shadows)
+          shadowFactors(cn, b.sx.data(), b.sy.data(), b.sz.data(), shadow_map, shadow_frame_.size,
+                        b.index.data(), b.f0.data(), b.f1.data(), b.f2.data(), b.f3.data(),
+                        b.f4.data(), b.f5.data(), b.shadow.data());
+        else
+          fillSpan(cn, 1.0f, b.shadow.data());
+        // Stage 3, over runs of one material (neighbouring triangles often share it).
+        for (int r = 0; r < run_count;) {
+          const int first = b.runs[r].first;
+          const ShadeMaterial* mat = b.runs[r].material;
+          int e = r + 1;
+          while (e < run_count && b.runs[e].material == mat) ++e;
+          const int last = b.runs[e - 1].last;
+          r = e;
+          float* c = rad + 3 * (i0 + first);
+          if (mat == nullptr) {
+            std::fill(c, c + 3 * (last - first), 0.0f);
             continue;
           }
-          depth[i] = b.z[j];
-          ids[i] = b.id[j];
-          const float ndl = b.ndl[j];
-          if (!b.lit[j] || !(ndl > 0)) {
-            c[0] = c[1] = c[2] = 0.0f;
-            continue;
-          }
-          const float s = shadows ? shadowFactor(Eigen::Vector3f(b.sx[j], b.sy[j], b.sz[j])) : 1.0f;
-          const ShadeMaterial& mat = *b.material[j];
-          const float lobe = mat.specularLobe(std::max(0.0f, b.ndh[j])) * ndl;
-          const float scale = E * s;
-          const float boost = b.albedo_boost[j];
-          c[0] = ((mat.diffuse.x() + boost) * ndl + mat.specular.x() * lobe) * scale;
-          c[1] = ((mat.diffuse.y() + boost) * ndl + mat.specular.y() * lobe) * scale;
-          c[2] = ((mat.diffuse.z() + boost) * ndl + mat.specular.z() * lobe) * scale;
+          radianceSpan(last - first, *mat, E, b.ndl.data() + first, b.ndh.data() + first,
+                       b.shadow.data() + first, b.albedo_boost.data() + first, b.index.data(),
+                       b.f0.data(), b.f1.data(), b.f2.data(), b.f3.data(), b.f4.data(), b.f5.data(),
+                       c);
         }
       }
     }
