@@ -60,6 +60,11 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     options_ = o;
     depth_T_camera_ = *depth_T_camera;
     tracker_ = tracking::EdgeTracker();  // new parameters, new model tessellation
+    // The model file's tracking form is built now rather than in the first frame, which also
+    // runs the acquisition and has the same time budget as the others.
+    if (std::shared_ptr<const PolygonModel> file_model = models_.useFileModel())
+      CDFF_RETURN_IF_ERROR(
+          tracker_.setModel(*file_model, options_.model).withContext("parameter 'model_file'"));
     return Status::ok();
   }
 
@@ -82,32 +87,39 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
 
     const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
     Transform start = predicted.pose;
-    Result<bool> acquired = acquire(cameras->frames, depth, predicted, start, false);
+    std::vector<std::vector<Image>> pyramid;  // built once per frame, for both hypotheses
+    Result<bool> acquired =
+        acquire(cameras->frames, depth, predicted, start, lateral_first_, pyramid);
     if (!acquired) return acquired.status();
     Result<tracking::TrackingResult> result =
         tracker_.track(cameras->frames, depth, depth_T_camera_, start, options_);
     if (!result) return result.status();
-    if (acquisition_ran_ && lateral_first_) {
+    if (acquisition_ran_ && lateral_first_ &&
+        !(*acquired && result->status == TrackingStatus::kTracking &&
+          admittedByPrediction(*result, predicted))) {
       // Two hypotheses: neither acquisition works everywhere (the lateral-first one locks on at
-      // 8 m where the plain one diverges, and the reverse happens at 2.7 m), so both run and the
-      // full-resolution result with the higher inlier ratio is kept.
-      const std::string plain_failure = acquisition_failure_;
-      Transform lateral_start = predicted.pose;
-      Result<bool> lateral = acquire(cameras->frames, depth, predicted, lateral_start, true);
-      if (!lateral) return lateral.status();
-      if (*lateral) {
+      // 8 m where the plain one diverges, and the reverse happens at 2.7 m). The plain one runs
+      // only when the lateral-first one gave no track that is tracking and that the prediction
+      // admits (running both on every acquisition doubled its time: the first frame was over its
+      // budget); the full-resolution result with the higher inlier ratio is then kept.
+      const std::string lateral_failure = acquisition_failure_;
+      Transform plain_start = predicted.pose;
+      Result<bool> plain = acquire(cameras->frames, depth, predicted, plain_start, false, pyramid);
+      if (!plain) return plain.status();
+      if (*plain) {
         Result<tracking::TrackingResult> other =
-            tracker_.track(cameras->frames, depth, depth_T_camera_, lateral_start, options_);
+            tracker_.track(cameras->frames, depth, depth_T_camera_, plain_start, options_);
         if (!other) return other.status();
-        const bool plain_ok = *acquired && result->status != TrackingStatus::kLost;
+        const bool lateral_ok = *acquired && result->status != TrackingStatus::kLost;
         if (other->status != TrackingStatus::kLost &&
-            (!plain_ok || other->inlier_ratio > result->inlier_ratio)) {
+            (!lateral_ok || other->inlier_ratio > result->inlier_ratio)) {
           result = std::move(other);
           acquired = true;
         }
       }
       if (!*acquired)
-        acquisition_failure_ = plain_failure + "; lateral first: " + acquisition_failure_;
+        acquisition_failure_ =
+            "lateral first: " + lateral_failure + "; plain: " + acquisition_failure_;
     }
     if (!*acquired) {
       result->status = TrackingStatus::kLost;
@@ -119,14 +131,13 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     } else if (acquisition_ran_) {
       // A wide acquisition can lock onto a wrong alignment (at long range the model's image is
       // small next to the search); one the prediction's own uncertainty does not admit is lost.
-      const Eigen::Isometry3d p = predicted.pose.isometry();
-      const Eigen::Isometry3d e = result->reference_T_model.isometry();
-      Vector6d d;
-      d.head<3>() = e.translation() - p.translation();
-      d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
-      const Eigen::LDLT<Matrix6d> ldlt(predicted.covariance);
-      const double m = ldlt.info() == Eigen::Success ? d.dot(ldlt.solve(d)) : 0.0;
-      if (ldlt.info() == Eigen::Success && m > kAcquisitionGate) {
+      double m = 0;
+      if (!admittedByPrediction(*result, predicted, &m)) {
+        const Eigen::Isometry3d p = predicted.pose.isometry();
+        const Eigen::Isometry3d e = result->reference_T_model.isometry();
+        Vector6d d;
+        d.head<3>() = e.translation() - p.translation();
+        d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
         result->status = TrackingStatus::kLost;
         result->reason = fmt::format(
             "the acquired pose is {:.3f} m and {:.2f} deg from the prediction, a squared "
@@ -151,6 +162,22 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   }
 
  private:
+  // Whether the prediction's covariance admits the estimate: its squared Mahalanobis distance
+  // (written to `distance`) is at most the acquisition gate. A singular covariance admits all.
+  static bool admittedByPrediction(const tracking::TrackingResult& result,
+                                   const PoseWithCovariance& predicted,
+                                   double* distance = nullptr) {
+    const Eigen::Isometry3d p = predicted.pose.isometry();
+    const Eigen::Isometry3d e = result.reference_T_model.isometry();
+    Vector6d d;
+    d.head<3>() = e.translation() - p.translation();
+    d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
+    const Eigen::LDLT<Matrix6d> ldlt(predicted.covariance);
+    const double m = ldlt.info() == Eigen::Success ? d.dot(ldlt.solve(d)) : 0.0;
+    if (distance) *distance = m;
+    return ldlt.info() != Eigen::Success || m <= kAcquisitionGate;
+  }
+
   // How far, in pixels, the prediction's uncertainty moves the model's image in the reference
   // camera: acquisition_sigmas standard deviations of the lateral position, of the range (which
   // scales the image about its centre) and of the attitude (which swings the model's extent).
@@ -214,7 +241,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   // `start` becomes their estimate. False (acquisition_failure_ says why) when a pass lost the
   // track. The final pass at full resolution (the caller's) checks the inlier ratio.
   Result<bool> acquire(std::span<const tracking::CameraFrame> frames, const DepthMap* depth,
-                       const PoseWithCovariance& predicted, Transform& start, bool lateral_first) {
+                       const PoseWithCovariance& predicted, Transform& start, bool lateral_first,
+                       std::vector<std::vector<Image>>& pyramid) {
     acquisition_ran_ = false;
     if (frames.empty()) return true;
     std::size_t reference = 0;
@@ -242,12 +270,13 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     coarse.solver.divergence_rotation =
         std::max(options_.solver.divergence_rotation,
                  2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
-    // The pyramid of every camera's image.
-    std::vector<std::vector<Image>> pyramid(frames.size());
+    // The pyramid of every camera's image, built once per frame for both hypotheses.
+    pyramid.resize(frames.size());
     for (std::size_t i = 0; i < frames.size(); ++i) {
       if (!frames[i].image) continue;
-      pyramid[i].push_back(*frames[i].image);
-      for (int l = 1; l <= levels; ++l) pyramid[i].push_back(halve(pyramid[i].back()));
+      if (pyramid[i].empty()) pyramid[i].push_back(*frames[i].image);
+      while (static_cast<int>(pyramid[i].size()) <= levels)
+        pyramid[i].push_back(halve(pyramid[i].back()));
     }
     for (int level = levels; level >= 0; --level) {
       std::vector<tracking::CameraFrame> scaled(frames.begin(), frames.end());

@@ -36,6 +36,12 @@ class ModelSource {
     return model;
   }
   const std::string& file() const { return file_; }
+  /// The file model (null when none), taken as the one in use: a DFI that prepares it at
+  /// configure time does not see it as changed at the first select().
+  std::shared_ptr<const PolygonModel> useFileModel() {
+    last_ = file_model_.get();
+    return file_model_;
+  }
 
  private:
   std::shared_ptr<const PolygonModel> file_model_;

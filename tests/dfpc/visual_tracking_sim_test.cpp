@@ -5,6 +5,8 @@
 // motion is then five times larger than at 10 Hz, which only makes the test harder).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "simulated_approach.hpp"
 #include "support/synthetic.hpp"
 
@@ -42,8 +44,8 @@ TEST(VisualTrackingSimulated, CloseRangeApproachMono) {
   EXPECT_EQ(r->dfn_errors, 0u);
 }
 
-// Mid range, 17 m -> 2 m (issue: position p95 <= 1 % of the range, not met: see
-// docs/benchmarks.md). Acquisition from the prescribed 5 % / 5 degree initial error does not
+// Mid range, 17 m -> 2 m (issue: position p95 <= 1 % of the range from 5 % / 5 degrees, not met:
+// see docs/benchmarks.md). Acquisition from the prescribed 5 % / 5 degree initial error does not
 // succeed at 17 m (the coarse passes diverge in range, or lock onto a wrong alignment that the
 // Mahalanobis gate then rejects); the DFPC must then say LOST rather than publish a wrong pose as
 // tracked.
@@ -56,6 +58,29 @@ TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsReportedLost) 
   ASSERT_OK(r.status());
   record("mid_range_mono_5pct", *r);
   EXPECT_EQ(r->unreported_divergence, 0u);
+  EXPECT_EQ(r->dfn_errors, 0u);
+}
+
+// Mid range once acquired: from a start within the tracker's own accuracy (0.2 % of the range and
+// 0.2 degrees) the whole approach, 17 m -> 2 m in 90 s at 2 Hz, is tracked without a loss within
+// the issue's mid-range goal (position p95 <= 1 % of the range; angle p95 <= 1 degree, the
+// edge-tracking goal of the Castle-simu test). The approach's minimum-jerk profile accelerates at
+// up to 10/sqrt(3) * 15 m / (90 s)^2 = 0.011 m/s^2, which the filter's process noise (1e-3 m^2/s^3:
+// 0.022 m/s of velocity per 0.5 s frame, against 0.005 m/s from the acceleration) admits.
+TEST(VisualTrackingSimulated, MidRangeApproachIsTrackedOnceAcquired) {
+  ApproachOptions o;
+  o.scenario = "mid_range_approach";
+  o.camera_rate = 2.0;
+  o.initial_range_fraction = 0.002;
+  o.initial_angle = 0.2 * M_PI / 180;
+  Result<ApproachResult> r = runApproach(o);
+  ASSERT_OK(r.status());
+  record("mid_range_mono_acquired", *r);
+  EXPECT_GE(r->frames, 170u);
+  EXPECT_EQ(r->lost, 0u);
+  EXPECT_EQ(r->unreported_divergence, 0u);
+  EXPECT_LE(r->filtered.position_error_pct_range.p95, 1.0);
+  EXPECT_LE(r->filtered.angle_error_deg.p95, 1.0);
   EXPECT_EQ(r->dfn_errors, 0u);
 }
 

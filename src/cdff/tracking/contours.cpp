@@ -201,6 +201,19 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
   const auto clipTo = [](Interval& in, const Halfspace& h, const Eigen::Vector3d& p,
                          const Eigen::Vector3d& d) { in.clip(h.n.dot(p) - h.d, h.n.dot(d)); };
 
+  // The occluders' image boxes and faces side by side: the box test rejects most edge-occluder
+  // pairs, and scanning these compact arrays instead of the occluders themselves (their
+  // half-spaces in vectors) was most of the visibility determination's time.
+  struct OccluderBox {
+    double x0, y0, x1, y1;
+    std::int32_t face;
+  };
+  std::vector<OccluderBox> boxes;
+  boxes.reserve(occluders.size());
+  for (const Occluder& o : occluders)
+    boxes.push_back(
+        {o.pixels.min().x(), o.pixels.min().y(), o.pixels.max().x(), o.pixels.max().y(), o.face});
+
   std::vector<std::pair<double, double>> hidden;
   for (std::size_t e = 0; e < model.edges.size(); ++e) {
     const TrackingModel::Edge& edge = model.edges[e];
@@ -239,9 +252,13 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
     const Eigen::Vector2d pb = project(camera, p + range.hi * d);
     Eigen::AlignedBox2d box(pa.cwiseMin(pb), pa.cwiseMax(pb));
     hidden.clear();
-    for (const Occluder& o : occluders) {
-      if (o.face == edge.faces[0] || o.face == edge.faces[1]) continue;
-      if (!o.pixels.intersects(box)) continue;
+    const double bx0 = box.min().x(), by0 = box.min().y(), bx1 = box.max().x(), by1 = box.max().y();
+    for (std::size_t i = 0; i < boxes.size(); ++i) {
+      const OccluderBox& b = boxes[i];
+      // Eigen's AlignedBox::intersects (overlapping or touching on both axes; NaN never).
+      if (!(b.x0 <= bx1 && bx0 <= b.x1 && b.y0 <= by1 && by0 <= b.y1)) continue;
+      if (b.face == edge.faces[0] || b.face == edge.faces[1]) continue;
+      const Occluder& o = occluders[i];
       Interval in = range;
       for (const Halfspace& h : o.sides) {
         clipTo(in, h, p, d);
