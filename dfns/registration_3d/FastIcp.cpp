@@ -199,6 +199,180 @@ class NearestGrid {
   int size_[3] = {0, 0, 0};
 };
 
+// How much of the model surface that a spinning LIDAR's lasers would hit at a pose the scan
+// confirms: the free-space evidence that the fitness lacks. A sparse scan (a few rings on the
+// target at 15 m) fits a model slid along a panel, or turned by 15 degrees, as well as the
+// right pose, since every return still lies on some model surface; but such a pose puts model
+// surface where the lasers fired and saw nothing (or saw farther), which the right pose does not.
+// The lasers are cones about the source frame's z axis through the viewpoint (a VLP-16 in its
+// own frame); the rings are those the scan's returns lie on, plus, when ring_spacing > 0, the
+// rings next to them that the sensor has (within max_elevation) and that saw nothing.
+class RingVisibility {
+ public:
+  /// The rings and the returns along each, from the scan; false when it has no ring with enough
+  /// returns to measure the azimuth step.
+  bool setScan(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3f& viewpoint,
+               double ring_spacing, double max_elevation) {
+    rings_.clear();
+    viewpoint_ = viewpoint;
+    struct Return {
+      float elevation, azimuth, range;
+    };
+    std::vector<Return> returns;
+    returns.reserve(points.size());
+    for (const Eigen::Vector3f& p : points) {
+      const Eigen::Vector3f d = p - viewpoint;
+      const float range = d.norm();
+      if (!(range > 0)) continue;
+      returns.push_back(
+          {std::asin(std::clamp(d.z() / range, -1.0f, 1.0f)), std::atan2(d.y(), d.x()), range});
+    }
+    if (returns.size() < 3) return false;
+    std::sort(returns.begin(), returns.end(),
+              [](const Return& a, const Return& b) { return a.elevation < b.elevation; });
+    // Returns of one laser share its elevation to float precision (the range noise is along the
+    // ray); lasers are a degree or more apart.
+    constexpr float kSameRing = 0.25f * static_cast<float>(M_PI / 180.0);
+    std::vector<float> ranges;
+    for (std::size_t i = 0; i < returns.size();) {
+      std::size_t j = i + 1;
+      while (j < returns.size() && returns[j].elevation - returns[j - 1].elevation < kSameRing) ++j;
+      Ring ring;
+      ring.elevation = returns[(i + j) / 2].elevation;
+      std::vector<std::pair<float, float>> along;
+      for (std::size_t k = i; k < j; ++k) along.emplace_back(returns[k].azimuth, returns[k].range);
+      std::sort(along.begin(), along.end());
+      for (const auto& [az, r] : along) {
+        ring.azimuths.push_back(az);
+        ring.ranges.push_back(r);
+        ranges.push_back(r);
+      }
+      rings_.push_back(std::move(ring));
+      i = j;
+    }
+    // The azimuth step of the returns along a ring (the firing step, or the voxel grid's at
+    // close range): the bin of predicted surface, and the gap a return may be away.
+    std::vector<float> gaps;
+    for (const Ring& ring : rings_)
+      for (std::size_t k = 1; k < ring.azimuths.size(); ++k)
+        gaps.push_back(ring.azimuths[k] - ring.azimuths[k - 1]);
+    if (gaps.empty()) return false;
+    const float step = std::max(static_cast<float>(median(gaps)), 1e-4f);
+    const float range = static_cast<float>(median(ranges));
+    if (ring_spacing > 0) {
+      // The sensor's rings just above and below the observed ones saw nothing of the target.
+      const float lo = rings_.front().elevation, hi = rings_.back().elevation;
+      const auto spacing = static_cast<float>(ring_spacing);
+      const auto limit = static_cast<float>(max_elevation) + kSameRing;
+      if (lo - spacing >= -limit) rings_.insert(rings_.begin(), Ring{lo - spacing, {}, {}, 0, 0});
+      if (hi + spacing <= limit) rings_.push_back(Ring{hi + spacing, {}, {}, 0, 0});
+    }
+    offsets_.assign(1, 0);
+    for (Ring& ring : rings_) {
+      ring.bin = step;
+      ring.bins = static_cast<std::size_t>(std::ceil(2 * M_PI / step)) + 1;
+      offsets_.push_back(offsets_.back() + ring.bins);
+    }
+    nearest_.assign(offsets_.back(), std::numeric_limits<float>::infinity());
+    facing_.assign(offsets_.back(), 0);
+    range_ = range;
+    return true;
+  }
+
+  bool empty() const { return rings_.empty(); }
+
+  /// The fraction of the model's visible surface on the rings at source_T_model (R, t) that has
+  /// a return within 1.5 azimuth steps, not farther than `through` behind it (a return well
+  /// behind means the laser went through where the model has surface). 0 when no model surface
+  /// falls on a ring.
+  double evaluate(const registration::ModelIndex& model, double model_spacing,
+                  const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation,
+                  double through) {
+    if (rings_.empty()) return 0;
+    const Eigen::Matrix3f r = rotation.cast<float>();
+    const Eigen::Vector3f t = translation.cast<float>();
+    // A model point is on a laser's ring when its elevation is within half the model's point
+    // spacing (seen at the scan's range) of the laser's: the ring's strip of surface.
+    // A subsample of the model is enough to tell where its surface is (the bins are a few cm).
+    const std::size_t stride = std::max<std::size_t>(1, model.points.size() / kModelSamples);
+    const float half_band =
+        0.5f * static_cast<float>(model_spacing * std::sqrt(static_cast<double>(stride))) / range_;
+    std::vector<float> sin_lo(rings_.size()), sin_hi(rings_.size());
+    for (std::size_t k = 0; k < rings_.size(); ++k) {
+      sin_lo[k] = std::sin(rings_[k].elevation - half_band);
+      sin_hi[k] = std::sin(rings_[k].elevation + half_band);
+    }
+    touched_.clear();
+    for (std::size_t i = 0; i < model.points.size(); i += stride) {
+      const Eigen::Vector3f d = r * model.points[i].vec() + t - viewpoint_;
+      const float range2 = d.squaredNorm();
+      if (!(range2 > 0)) continue;
+      const float range = std::sqrt(range2);
+      const float s = d.z() / range;
+      if (s < sin_lo.front() || s > sin_hi.back()) continue;
+      const auto k = static_cast<std::size_t>(std::upper_bound(sin_lo.begin(), sin_lo.end(), s) -
+                                              sin_lo.begin());
+      if (k == 0 || s > sin_hi[k - 1]) continue;
+      const Ring& ring = rings_[k - 1];
+      const float azimuth = std::atan2(d.y(), d.x());
+      const auto bin = static_cast<std::size_t>((azimuth + static_cast<float>(M_PI)) / ring.bin);
+      const std::size_t cell = offsets_[k - 1] + std::min(bin, ring.bins - 1);
+      if (range < nearest_[cell]) {
+        if (std::isinf(nearest_[cell])) touched_.push_back(static_cast<std::uint32_t>(cell));
+        nearest_[cell] = range;
+        facing_[cell] = (r * model.normals[i].vec()).dot(d) < 0;
+      }
+    }
+    std::size_t predicted = 0, confirmed = 0;
+    for (const std::uint32_t cell : touched_) {
+      if (!facing_[cell]) continue;  // a hole in the near side's sampling shows the far side
+      ++predicted;
+      const auto k = static_cast<std::size_t>(
+          std::upper_bound(offsets_.begin(), offsets_.end(), std::size_t{cell}) - offsets_.begin() -
+          1);
+      const Ring& ring = rings_[k];
+      const float centre =
+          (static_cast<float>(cell - offsets_[k]) + 0.5f) * ring.bin - static_cast<float>(M_PI);
+      if (seen(ring, centre, 1.5f * ring.bin, nearest_[cell] + static_cast<float>(through)))
+        ++confirmed;
+    }
+    for (std::uint32_t cell : touched_) nearest_[cell] = std::numeric_limits<float>::infinity();
+    return predicted ? static_cast<double>(confirmed) / static_cast<double>(predicted) : 0.0;
+  }
+
+ private:
+  struct Ring {
+    float elevation = 0;
+    std::vector<float> azimuths;  // of its returns, sorted
+    std::vector<float> ranges;    // of the same returns
+    float bin = 0;                // azimuth step, rad
+    std::size_t bins = 0;
+  };
+
+  /// A return of `ring` within `tolerance` of `azimuth` (either side of the +-pi seam), nearer
+  /// than `max_range`.
+  static bool seen(const Ring& ring, float azimuth, float tolerance, float max_range) {
+    for (const float shift :
+         {0.0f, 2.0f * static_cast<float>(M_PI), -2.0f * static_cast<float>(M_PI)}) {
+      const float a = azimuth + shift;
+      auto it = std::lower_bound(ring.azimuths.begin(), ring.azimuths.end(), a - tolerance);
+      for (; it != ring.azimuths.end() && *it <= a + tolerance; ++it)
+        if (ring.ranges[static_cast<std::size_t>(it - ring.azimuths.begin())] <= max_range)
+          return true;
+    }
+    return false;
+  }
+
+  static constexpr std::size_t kModelSamples = 40000;
+  std::vector<Ring> rings_;
+  Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
+  float range_ = 1;
+  std::vector<std::size_t> offsets_;  // first bin of each ring in nearest_
+  std::vector<float> nearest_;        // range of the nearest model point in each bin
+  std::vector<std::uint8_t> facing_;  // whether that point faces the sensor
+  std::vector<std::uint32_t> touched_;
+};
+
 }  // namespace
 
 class Registration3DFastIcp final : public Registration3DFastIcpBase {
@@ -237,6 +411,17 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     }
     registration::selectSource(source, params_.max_source_points, points_);
     const std::vector<Eigen::Vector3f>& points = points_;
+    const bool visibility_check =
+        params_.visibility_check &&
+        visibility_.setScan(points, viewpoint_, params_.ring_spacing, params_.max_elevation);
+    if (visibility_check && spacing_for_ != shared_index_->builds) {
+      model_spacing_ = modelSpacing(*shared_index_);
+      spacing_for_ = shared_index_->builds;
+    }
+    auto visibility = [&](const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
+      return visibility_.evaluate(*shared_index_, model_spacing_, rotation, translation,
+                                  3.0 * params_.inlier_distance);
+    };
 
     Search search;
     search.rotation = guess->linear();
@@ -247,9 +432,12 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       // sides has local minima within the guess's error, into which a single ICP run falls.
       // Every start gets a short run; the one that explains the scan best (most inliers, then
       // the smallest inlier RMS) goes on to the full refinement.
-      std::optional<Search> best;
-      registration::Quality best_quality;
-      double best_turn = 0;
+      struct Candidate {
+        Search search;
+        registration::Quality quality;
+        double turned;
+      };
+      std::vector<Candidate> candidates;
       std::vector<Eigen::Vector3d> positions = {guess->translation()};
       if (params_.hypothesis_centroid) positions.push_back(centredPosition(points, *guess));
       for (const Eigen::Vector3d& position : positions)
@@ -268,14 +456,33 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
           at.linear() = start.rotation;
           at.translation() = start.translation;
-          const registration::Quality quality = registration::evaluate(
-              points, *shared_index_, at, params_.inlier_distance, params_.covariance_inflation);
-          if (!best || betterFit(quality, turned, best_quality, best_turn)) {
-            best = start;
-            best_quality = quality;
-            best_turn = turned;
-          }
+          candidates.push_back(
+              {start,
+               registration::evaluate(points, *shared_index_, at, params_.inlier_distance,
+                                      params_.covariance_inflation),
+               turned});
         }
+      // Every start explains the returns about as well on a sparse scan; those that also have
+      // a return wherever they put visible model surface (visibility >= min_visibility) are
+      // the candidates, the best fit among them wins. The visibility (a pass over the model)
+      // is computed only for starts whose fitness could still win.
+      std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.quality.fitness > b.quality.fitness;
+      });
+      std::optional<Search> best;
+      registration::Quality best_quality;
+      double best_turn = 0;
+      for (const Candidate& c : candidates) {
+        if (best && c.quality.fitness < best_quality.fitness - 0.02) break;
+        if (visibility_check && params_.min_visibility > 0 &&
+            visibility(c.search.rotation, c.search.translation) < params_.min_visibility)
+          continue;
+        if (!best || betterFit(c.quality, c.turned, best_quality, best_turn)) {
+          best = c.search;
+          best_quality = c.quality;
+          best_turn = c.turned;
+        }
+      }
       if (best) {
         search = *best;
         search.converged = false;
@@ -314,6 +521,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           "the scan constrains some direction of the pose poorly (degenerate geometry); its "
           "covariance is large there");
     registration::publish(out, source, model, pose, quality, converged && !starved, iterations);
+    out.visibility.set(visibility_check ? visibility(pose.linear(), pose.translation())
+                                        : std::numeric_limits<double>::quiet_NaN());
     return Status::ok();
   }
 
@@ -592,6 +801,19 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return true;
   }
 
+  /// The model's point spacing: the median distance from a sample of its points to their
+  /// nearest neighbour.
+  static double modelSpacing(const registration::ModelIndex& index) {
+    std::vector<float> distances;
+    std::vector<KdTree3f::Neighbour> found;
+    const std::size_t n = index.points.size(), samples = std::min<std::size_t>(n, 201);
+    for (std::size_t k = 0; k < samples; ++k) {
+      index.tree.kNearest(index.points[k * n / samples].vec(), 2, found);
+      if (found.size() == 2) distances.push_back(std::sqrt(found[1].squared_distance));
+    }
+    return distances.empty() ? 0.01 : median(distances);
+  }
+
   static constexpr std::uint32_t kNoMatch = ~std::uint32_t{0};
   static constexpr std::size_t kMaxGridCells = std::size_t{1} << 24;  // 64 MB of labels
   Kernel kernel_ = Kernel::kGemanMcClure;
@@ -608,6 +830,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   Eigen::Vector3d model_centroid_ = Eigen::Vector3d::Zero();
   std::uint64_t model_centroid_for_ = 0;  // shared_index_->builds it was computed for (0: none)
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
+  RingVisibility visibility_;
+  double model_spacing_ = 0.01;
+  std::uint64_t spacing_for_ = 0;  // shared_index_->builds model_spacing_ is of (0: none)
 };
 
 CDFF_REGISTER_DFI(Registration3DFastIcp);

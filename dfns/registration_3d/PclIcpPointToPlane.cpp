@@ -1,6 +1,7 @@
 // The only translation unit of this area that includes PCL's registration headers (slow to
 // compile): keep it that way.
 #include <cmath>
+#include <limits>
 
 #include <pcl/console/print.h>
 #include <pcl/registration/icp.h>
@@ -90,6 +91,7 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
           quality.inliers, points_.size(), params_.inlier_distance, params_.min_correspondences));
     registration::publish(out, source, model, pose, quality, converged && enough,
                           icp_.nr_iterations_);
+    out.visibility.set(std::numeric_limits<double>::quiet_NaN());  // FastIcp's check only
     return Status::ok();
   }
 

@@ -330,5 +330,52 @@ TEST(Registration3DFastIcp, ExactRefinementRemovesTheLookupGridsBias) {
   EXPECT_LT(worst_gap_rad, 0.05 * kDeg);
 }
 
+TEST(Registration3DFastIcp, VisibilityTellsASlidModelFromTheRightPose) {
+  // A VLP-16-like scan at 12 m (16 rings 2 degrees apart). At the true pose nearly every bit of
+  // model surface on the scan's rings has a return; the model slid by 0.6 m across the line of
+  // sight or along it, or turned by 15 degrees, puts surface where the lasers saw nothing. The pose
+  // is held where it is given (no correspondence within reach: the guess is returned) so that the
+  // visibility is that of the given pose.
+  const char* yaml =
+      "{max_correspondence_distance: 1.0e-6, min_correspondence_distance: 1.0e-6, "
+      "visibility_check: true, ring_spacing: 0.03490658503988659, "
+      "max_elevation: 0.2617993877991494}";
+  auto icp = makeFast(yaml);
+  const Eigen::Isometry3d truth = lidarTTarget(12.0);
+  const PointCloud scan = scanAt(truth, 3);
+  auto visibilityAt = [&](const Eigen::Isometry3d& pose) {
+    icp->in.source.set(scan);
+    icp->in.model.set(satelliteModel());
+    icp->in.initial_guess.set(guessOf(pose));
+    EXPECT_OK(icp->process());
+    return *icp->out.visibility;
+  };
+  const double right = visibilityAt(truth);
+  Eigen::Isometry3d slid = truth;
+  slid.translation() += Eigen::Vector3d(0, 0.6, 0);
+  Eigen::Isometry3d lifted = truth;
+  lifted.translation() += Eigen::Vector3d(0, 0, 0.6);
+  Eigen::Isometry3d turned = truth;
+  turned.linear() =
+      Eigen::AngleAxisd(15 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix() * truth.linear();
+  const double v_slid = visibilityAt(slid), v_lifted = visibilityAt(lifted),
+               v_turned = visibilityAt(turned);
+  std::printf("visibility: right %.3f, slid %.3f, lifted %.3f, turned %.3f\n", right, v_slid,
+              v_lifted, v_turned);
+  EXPECT_GE(right, 0.9);
+  EXPECT_LE(v_slid, right - 0.2);
+  EXPECT_LE(v_lifted, right - 0.2);
+  // A turn about the spin axis moves surface along the rings more than off them (measured
+  // 0.85 against 1.0).
+  EXPECT_LE(v_turned, right - 0.1);
+  // Off unless asked for, and not a PclIcpPointToPlane measure.
+  auto plain = makeFast();
+  plain->in.source.set(scan);
+  plain->in.model.set(satelliteModel());
+  plain->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(plain->process());
+  EXPECT_TRUE(std::isnan(*plain->out.visibility));
+}
+
 }  // namespace
 }  // namespace cdff::dfn

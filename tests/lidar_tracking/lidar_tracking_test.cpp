@@ -137,6 +137,78 @@ TEST(LidarTracking, TumblingTargetWithDroppedScans) {
   EXPECT_TRUE(trackChanges(*r, "LOST").empty());
 }
 
+// The track state reported with each pose product: the EKF's step publishes both, the pose
+// first, so the n-th pose product goes with the n-th track_state product.
+std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r) {
+  std::vector<Transform> poses;
+  std::vector<std::string> states;
+  for (const dfpc::Message& m : r.products) {
+    if (m.channel == "/cdff/lidar_tracking/pose")
+      if (const RigidBodyState* s = m.as<RigidBodyState>()) poses.push_back(s->pose);
+    if (m.channel == "/cdff/lidar_tracking/track_state")
+      if (const std::string* s = m.as<std::string>()) states.push_back(*s);
+  }
+  std::vector<std::pair<Transform, std::string>> out;
+  for (std::size_t i = 0; i < std::min(poses.size(), states.size()); ++i)
+    out.emplace_back(poses[i], states[i]);
+  return out;
+}
+
+// Acquisition on the tumbling target from several draws of the 10 % / 10 degree initial
+// error (the draw changes the error's direction and axis): every draw is tracked within twice the
+// mid-range targets, and no pose more than 10 degrees off is ever reported as TRACKING (a wrong
+// lock must stay ACQUIRING or go back to it). 30 s of the scenario (15 -> 11.7 m, the sparse end).
+class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(TumblingAcquisition, EveryDrawIsTrackedAndNoWrongLockIsReportedTracking) {
+  const std::uint64_t draw = GetParam();
+  double duration = 30;
+  if (const char* d = std::getenv("CDFF_TUMBLING_DURATION")) duration = std::atof(d);
+  Result<SimulatedRun> run = simulate(
+      "tumbling_target", duration,
+      "faults:\n  - {type: dropped_frames, sensor: lidar, start: 0, end: 1000, probability: 0.2}");
+  ASSERT_OK(run.status());
+  const RigidBodyState initial =
+      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, draw);
+  Result<TrackingResult> r = track(*run, run->messages, initial, kSettle);
+  ASSERT_OK(r.status());
+  record(fmt::format("tumbling_draw_{}", draw), *r);
+  // Every pose product reported TRACKING, from the initial state on, against the truth.
+  const std::vector<std::pair<Transform, std::string>> reported = posesWithTrackState(*r);
+  std::vector<eval::EstimateSample> tracking;
+  for (const auto& [pose, state] : reported)
+    if (state == "TRACKING") tracking.push_back({pose, true, {}});
+  ASSERT_GT(tracking.size(), 100u);
+  Result<eval::PoseEvaluation> whole = eval::evaluatePoses(tracking, run->truth);
+  ASSERT_OK(whole.status());
+  std::size_t wrong_tracking = 0;
+  double worst_tracking_deg = 0;
+  for (const eval::MatchedError& e : whole->errors) {
+    worst_tracking_deg = std::max(worst_tracking_deg, e.angle_error_deg);
+    if (e.angle_error_deg > 10.0) ++wrong_tracking;
+    if (std::getenv("CDFF_TEST_VERBOSE") && toSeconds(e.stamp - initial.pose.stamp) < 5.0)
+      std::cout << "  " << toSeconds(e.stamp - initial.pose.stamp) << " s TRACKING "
+                << e.position_error_m << " m " << e.angle_error_deg << " deg\n";
+  }
+  if (std::getenv("CDFF_TEST_VERBOSE"))
+    for (const dfpc::Message& m : r->products)
+      if (m.channel == "/cdff/lidar_tracking/acquisition_visibility" ||
+          m.channel == "/cdff/lidar_tracking/acquisition_fitness")
+        std::cout << "  " << toSeconds(m.stamp - initial.pose.stamp) << " s " << m.channel << " "
+                  << *m.as<double>() << "\n";
+  std::cout << "draw " << draw << ": worst angle reported TRACKING " << worst_tracking_deg
+            << " deg\n";
+  EXPECT_EQ(wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
+  EXPECT_LE(r->evaluation.position_error_pct_range.p95, 2 * 0.5);
+  EXPECT_LE(r->evaluation.angle_error_deg.p95, 2 * 1.0);
+  EXPECT_GE(r->tracked_fraction, 0.99);
+}
+
+// Disabled: the target, not met yet (docs/lidar-tracking.md, Limits, gives each draw's
+// figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*' (about 15 s).
+INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisition,
+                         ::testing::Values(21, 22, 23, 24, 25, 26));
+
 TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
   // 10-13 s: scans with no point on the target (it is out of view). The track goes LOST after
   // 1 s without a fused registration, the filter coasts, and the target is re-acquired from the
