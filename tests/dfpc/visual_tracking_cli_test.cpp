@@ -58,9 +58,10 @@ TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
   ASSERT_NE(pose, nullptr) << report.dump(2);
   EXPECT_EQ(pose->at("truth_channel"), "/truth/target_pose");
   EXPECT_EQ(pose->at("transform"), "servicer_T_target");
-  // 60 s at 2 Hz, every frame tracked (the first pose is the initial state).
+  // 60 s at 2 Hz, every frame tracked but the first two poses: the initial state, and the first
+  // image's acquisition, ACQUIRING until the second image confirms it (119 of 121).
   EXPECT_GE(pose->at("valid_frames").get<int>(), 118);
-  EXPECT_GE(pose->at("tracked_fraction").get<double>(), 0.99);
+  EXPECT_GE(pose->at("tracked_fraction").get<double>(), 0.98);
   // The visual tracking issue's close-range goal: p95 <= 10 mm and <= 0.5 degrees.
   EXPECT_LE(pose->at("position_error_m").at("p95").get<double>(), 0.010);
   EXPECT_LE(pose->at("angle_error_deg").at("p95").get<double>(), 0.5);
