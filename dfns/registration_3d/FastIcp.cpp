@@ -390,34 +390,19 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   }
 
   Status onProcess() override {
-    const PointCloud& source = *in.source;
     const PointCloud& model = *in.model;
+    CDFF_RETURN_IF_ERROR(prepareModel(model));
+    // Without a new scan the call only prepares the model (see the DFN's `source`).
+    if (!in.source.isFresh()) return Status::ok();
+    const PointCloud& source = *in.source;
     Result<Eigen::Isometry3d> guess =
         registration::checkInputs(source, model, in.initial_guess.get());
     if (!guess) return guess.status();
-    Result<std::shared_ptr<const registration::ModelIndex>> shared =
-        registration::sharedIndex(model, shared_index_);
-    if (!shared) return shared.status();
-    shared_index_ = std::move(shared).value();
-    if (grid_model_ != shared_index_->builds) {
-      grid_model_ = shared_index_->builds;
-      grid_ = sharedGrid();
-      grid_ready_ = grid_ != nullptr;
-      if (params_.lookup_grid_cell > 0 && !grid_ready_)
-        warn(
-            fmt::format("the model's lookup grid would need more than {} cells of {} m; only "
-                        "the KD-tree is used (a larger lookup_grid_cell would allow it)",
-                        kMaxGridCells, params_.lookup_grid_cell));
-    }
     registration::selectSource(source, params_.max_source_points, points_);
     const std::vector<Eigen::Vector3f>& points = points_;
     const bool visibility_check =
         params_.visibility_check &&
         visibility_.setScan(points, viewpoint_, params_.ring_spacing, params_.max_elevation);
-    if (visibility_check && spacing_for_ != shared_index_->builds) {
-      model_spacing_ = modelSpacing(*shared_index_);
-      spacing_for_ = shared_index_->builds;
-    }
     auto visibility = [&](const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation) {
       return visibility_.evaluate(*shared_index_, model_spacing_, rotation, translation,
                                   3.0 * params_.inlier_distance);
@@ -527,6 +512,30 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   }
 
  private:
+  // The search structures over the model (shared with every instance registering against the
+  // same buffer), built when the buffer is new.
+  Status prepareModel(const PointCloud& model) {
+    Result<std::shared_ptr<const registration::ModelIndex>> shared =
+        registration::sharedIndex(model, shared_index_);
+    if (!shared) return shared.status();
+    shared_index_ = std::move(shared).value();
+    if (grid_model_ != shared_index_->builds) {
+      grid_model_ = shared_index_->builds;
+      grid_ = sharedGrid();
+      grid_ready_ = grid_ != nullptr;
+      if (params_.lookup_grid_cell > 0 && !grid_ready_)
+        warn(
+            fmt::format("the model's lookup grid would need more than {} cells of {} m; only "
+                        "the KD-tree is used (a larger lookup_grid_cell would allow it)",
+                        kMaxGridCells, params_.lookup_grid_cell));
+    }
+    if (params_.visibility_check && spacing_for_ != shared_index_->builds) {
+      model_spacing_ = modelSpacing(*shared_index_);
+      spacing_for_ = shared_index_->builds;
+    }
+    return Status::ok();
+  }
+
   /// The state of one ICP run, carried over when a run continues (acquisition).
   struct Search {
     Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();

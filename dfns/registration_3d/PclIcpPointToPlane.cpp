@@ -31,11 +31,7 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
   }
 
   Status onProcess() override {
-    const PointCloud& source = *in.source;
     const PointCloud& model = *in.model;
-    Result<Eigen::Isometry3d> guess =
-        registration::checkInputs(source, model, in.initial_guess.get());
-    if (!guess) return guess.status();
     if (!index_.holds(model)) {
       CDFF_RETURN_IF_ERROR(index_.update(model));
       Result<pcl::PointCloud<pcl::PointNormal>::Ptr> target = toPclWithNormals(model);
@@ -46,6 +42,12 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
       icp_.setInputTarget(target_);
       icp_.setSearchMethodTarget(tree_, true);  // built once, here
     }
+    // Without a new scan the call only prepares the model (see the DFN's `source`).
+    if (!in.source.isFresh()) return Status::ok();
+    const PointCloud& source = *in.source;
+    Result<Eigen::Isometry3d> guess =
+        registration::checkInputs(source, model, in.initial_guess.get());
+    if (!guess) return guess.status();
     registration::selectSource(source, 0, points_);
     auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
     scan->resize(points_.size());

@@ -117,10 +117,41 @@ TYPED_TEST(Registration3DTest, ANewModelBufferIsUsedNotTheCachedOne) {
   PointCloud moved = satelliteModel();
   moved.points = Buffer<Point4f>::fromVector(std::move(shifted));
   icp->in.model.set(moved);
+  icp->in.source.set(scan);
   icp->in.initial_guess.set(guessOf(truth));
   ASSERT_OK(icp->process());
   const Eigen::Isometry3d expected = truth * Eigen::Translation3d(-0.1, 0, 0);
   EXPECT_LT(testing::poseError(icp->out.transform->isometry(), expected).translation, 0.01);
+}
+
+TYPED_TEST(Registration3DTest, ACallWithoutAScanPreparesTheModelAndChangesNoOutput) {
+  // A DFPC passes the model before the first scan: that call builds the search structures and
+  // publishes nothing; the next call registers the scan. A repeated call without a new scan
+  // does not register the old one again.
+  auto icp = this->make("{max_correspondence_distance: 0.3}");
+  icp->in.model.set(satelliteModel());
+  ASSERT_OK(icp->process());
+  for (const dfn::OutputPortBase* out : icp->outputs())
+    EXPECT_FALSE(out->hasValue()) << "output '" << out->name() << "' set without a scan";
+
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  icp->in.source.set(scanAt(truth, 11));
+  icp->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(icp->process());
+  ASSERT_TRUE(icp->out.transform.hasValue());
+  EXPECT_LT(testing::poseError(icp->out.transform->isometry(), truth).translation, 0.01);
+
+  const void* registered = icp->out.transform.anyValue().get();
+  icp->in.model.set(satelliteModel());
+  icp->in.initial_guess.set(guessOf(truth));
+  ASSERT_OK(icp->process());
+  EXPECT_EQ(icp->out.transform.anyValue().get(), registered);
+
+  // A bad model is still reported without a scan.
+  PointCloud bare = satelliteModel();
+  bare.normals = {};
+  icp->in.model.set(bare);
+  testing::expectRejected(*icp, "has no normals");
 }
 
 TYPED_TEST(Registration3DTest, NoOverlapIsReportedAsNotConvergedAndKeepsTheGuess) {
@@ -176,15 +207,18 @@ TYPED_TEST(Registration3DTest, BadInputsAreReported) {
   icp->in.model.set(satelliteModel());
   Transform nan_guess = guessOf(truth);
   nan_guess.translation.z() = std::nan("");
+  icp->in.source.set(scan);
   icp->in.initial_guess.set(nan_guess);
   testing::expectRejected(*icp, "initial_guess");
 
   Transform wrong = guessOf(truth);
   wrong.parent_frame = "camera";
+  icp->in.source.set(scan);
   icp->in.initial_guess.set(wrong);
   testing::expectRejected(*icp, "expected source_T_model = lidar_T_target");
 
   // Still works afterwards.
+  icp->in.source.set(scan);
   icp->in.initial_guess.set(guessOf(truth));
   ASSERT_OK(icp->process());
   EXPECT_TRUE(*icp->out.converged);
