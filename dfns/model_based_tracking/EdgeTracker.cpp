@@ -143,11 +143,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       // small next to the search); one the prediction's own uncertainty does not admit is lost.
       double m = 0;
       if (!admittedByPrediction(*result, predicted, &m)) {
-        const Eigen::Isometry3d p = predicted.pose.isometry();
-        const Eigen::Isometry3d e = result->reference_T_model.isometry();
-        Vector6d d;
-        d.head<3>() = e.translation() - p.translation();
-        d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
+        const Vector6d d = differenceFromPrediction(*result, predicted);
         result->status = TrackingStatus::kLost;
         result->reason = fmt::format(
             "the acquired pose is {:.3f} m and {:.2f} deg from the prediction, a squared "
@@ -237,16 +233,24 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     return gate;
   }
 
-  // Whether the prediction's covariance admits the estimate: its squared Mahalanobis distance
-  // (written to `distance`) is at most the acquisition gate. A singular covariance admits all.
-  static bool admittedByPrediction(const tracking::TrackingResult& result,
-                                   const PoseWithCovariance& predicted,
-                                   double* distance = nullptr) {
+  // The estimate minus the prediction: [translation, rotation vector], both in the reference
+  // frame (the covariance's perturbation convention).
+  static Vector6d differenceFromPrediction(const tracking::TrackingResult& result,
+                                           const PoseWithCovariance& predicted) {
     const Eigen::Isometry3d p = predicted.pose.isometry();
     const Eigen::Isometry3d e = result.reference_T_model.isometry();
     Vector6d d;
     d.head<3>() = e.translation() - p.translation();
     d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
+    return d;
+  }
+
+  // Whether the prediction's covariance admits the estimate: its squared Mahalanobis distance
+  // (written to `distance`) is at most the acquisition gate. A singular covariance admits all.
+  static bool admittedByPrediction(const tracking::TrackingResult& result,
+                                   const PoseWithCovariance& predicted,
+                                   double* distance = nullptr) {
+    const Vector6d d = differenceFromPrediction(result, predicted);
     const Eigen::LDLT<Matrix6d> ldlt(predicted.covariance);
     const double m = ldlt.info() == Eigen::Success ? d.dot(ldlt.solve(d)) : 0.0;
     if (distance) *distance = m;
