@@ -408,6 +408,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
                                   3.0 * params_.inlier_distance);
     };
 
+    bool ambiguous = false;
     Search search;
     search.rotation = guess->linear();
     search.translation = guess->translation();
@@ -417,11 +418,6 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       // sides has local minima within the guess's error, into which a single ICP run falls.
       // Every start gets a short run; the one that explains the scan best (most inliers, then
       // the smallest inlier RMS) goes on to the full refinement.
-      struct Candidate {
-        Search search;
-        registration::Quality quality;
-        double turned;
-      };
       std::vector<Candidate> candidates;
       std::vector<Eigen::Vector3d> positions = {guess->translation()};
       if (params_.hypothesis_centroid) positions.push_back(centredPosition(points, *guess));
@@ -457,6 +453,11 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       std::optional<Search> best;
       registration::Quality best_quality;
       double best_turn = 0;
+      if (params_.confirmation_scans > 0) {
+        CDFF_RETURN_IF_ERROR(confirm(points, source.stamp, *guess, candidates, visibility_check,
+                                     visibility, best, ambiguous));
+        candidates.clear();
+      }
       for (const Candidate& c : candidates) {
         if (best && c.quality.fitness < best_quality.fitness - 0.02) break;
         if (visibility_check && params_.min_visibility > 0 &&
@@ -506,6 +507,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           "the scan constrains some direction of the pose poorly (degenerate geometry); its "
           "covariance is large there");
     registration::publish(out, source, model, pose, quality, converged && !starved, iterations);
+    out.ambiguous.set(ambiguous);
     out.visibility.set(visibility_check ? visibility(pose.linear(), pose.translation())
                                         : std::numeric_limits<double>::quiet_NaN());
     return Status::ok();
@@ -546,6 +548,119 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     std::size_t last_pairs = 0;
     Vector6d previous_step = Vector6d::Zero();
   };
+
+  /// A start's short run in the multi-start search.
+  struct Candidate {
+    Search search;
+    registration::Quality quality;
+    double turned;
+  };
+
+  /// An acquisition hypothesis followed over consecutive scans (confirmation_scans).
+  struct Hypothesis {
+    Search search;
+    Eigen::Isometry3d from_guess;  // pose * guess^-1: how it moves with the next guesses
+    double misfit = 0;             // summed over the scans it was followed through
+  };
+
+  /// How badly `pose` explains the scan, in squared noise units (noise sigma = inlier_distance
+  /// / 3): the inliers' point-to-plane residuals, every unmatched return as one at the inlier
+  /// distance, and the fraction of the visible model surface without a return as that fraction
+  /// of the returns unmatched. Additive over scans: a negative log-likelihood up to a constant.
+  double misfit(std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& pose,
+                double visibility) const {
+    const registration::Quality q =
+        registration::evaluate(points, *shared_index_, pose, params_.inlier_distance, 1.0);
+    const double sigma = params_.inlier_distance / 3.0;
+    const double unmatched_cost = 9.0;  // (inlier_distance / sigma)^2
+    const double n = static_cast<double>(points.size());
+    double cost = static_cast<double>(n - static_cast<double>(q.inliers)) * unmatched_cost;
+    if (q.inliers > 0)
+      cost += static_cast<double>(q.inliers) * q.inlier_rms * q.inlier_rms / (sigma * sigma);
+    if (std::isfinite(visibility)) cost += (1.0 - visibility) * n * unmatched_cost;
+    return cost;
+  }
+
+  /// The multi-scan choice among acquisition hypotheses: a new set (the best distinct
+  /// `candidates` of this scan's multi-start search) when there is none or it is stale, else
+  /// each kept hypothesis followed into this scan; the one with the least accumulated misfit is
+  /// returned, `ambiguous` until confirmation_scans scans are scored and every other one's
+  /// misfit exceeds it by confirmation_margin.
+  template <typename Visibility>
+  Status confirm(const std::vector<Eigen::Vector3f>& points, Timestamp stamp,
+                 const Eigen::Isometry3d& guess, const std::vector<Candidate>& candidates,
+                 bool visibility_check, Visibility&& visibility, std::optional<Search>& best,
+                 bool& ambiguous) {
+    auto isometry = [](const Search& s) {
+      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+      at.linear() = s.rotation;
+      at.translation() = s.translation;
+      return at;
+    };
+    auto scoreOf = [&](const Search& s) {
+      return misfit(points, isometry(s),
+                    visibility_check ? visibility(s.rotation, s.translation)
+                                     : std::numeric_limits<double>::quiet_NaN());
+    };
+    const bool stale = hypotheses_.empty() || stamp <= hypotheses_stamp_ ||
+                       toSeconds(stamp - hypotheses_stamp_) > params_.confirmation_timeout ||
+                       hypotheses_scans_ >= 4 * params_.confirmation_scans;
+    if (stale) {
+      hypotheses_.clear();
+      hypotheses_scans_ = 0;
+      for (const Candidate& c : candidates)
+        hypotheses_.push_back({c.search, isometry(c.search) * guess.inverse(), scoreOf(c.search)});
+    } else {
+      // A hypothesis that finds no overlap any more explains nothing of the scan.
+      const double unexplained = 2.0 * 9.0 * static_cast<double>(points.size());
+      for (Hypothesis& h : hypotheses_) {
+        const Eigen::Isometry3d start = h.from_guess * guess;
+        Search s;
+        s.rotation = start.linear();
+        s.translation = start.translation();
+        s.distance = params_.max_correspondence_distance;
+        CDFF_RETURN_IF_ERROR(iterate(points, s, params_.hypothesis_iterations));
+        if (s.starved) {
+          h.misfit += unexplained;
+          h.search.rotation = start.linear();
+          h.search.translation = start.translation();
+        } else {
+          h.misfit += scoreOf(s);
+          h.search = s;
+        }
+        h.from_guess = isometry(h.search) * guess.inverse();
+      }
+    }
+    hypotheses_stamp_ = stamp;
+    ++hypotheses_scans_;
+    // Followed hypotheses that ended in the same minimum are one hypothesis.
+    std::sort(hypotheses_.begin(), hypotheses_.end(),
+              [](const Hypothesis& a, const Hypothesis& b) { return a.misfit < b.misfit; });
+    std::vector<Hypothesis> distinct;
+    for (const Hypothesis& h : hypotheses_) {
+      bool duplicate = false;
+      for (const Hypothesis& d : distinct)
+        duplicate =
+            duplicate ||
+            ((h.search.translation - d.search.translation).norm() < kSameHypothesisDistance &&
+             Eigen::AngleAxisd(h.search.rotation * d.search.rotation.transpose()).angle() <
+                 kSameHypothesisAngle);
+      if (!duplicate && static_cast<int>(distinct.size()) < params_.kept_hypotheses)
+        distinct.push_back(h);
+    }
+    hypotheses_ = std::move(distinct);
+    if (hypotheses_.empty()) {
+      ambiguous = true;
+      return Status::ok();
+    }
+    const double margin = hypotheses_.size() > 1 ? hypotheses_[1].misfit - hypotheses_[0].misfit
+                                                 : std::numeric_limits<double>::infinity();
+    ambiguous =
+        hypotheses_scans_ < params_.confirmation_scans || margin < params_.confirmation_margin;
+    best = hypotheses_.front().search;
+    if (!ambiguous) hypotheses_.clear();  // decided: a later acquisition starts a new set
+    return Status::ok();
+  }
 
   /// kGridWhereItReaches: the lookup grid for correspondences within its band, else the
   /// KD-tree; kExact: the KD-tree only.
@@ -836,6 +951,11 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::vector<float> abs_residuals_, pair_distances_;
   std::vector<std::uint32_t> previous_;
   std::vector<Eigen::Matrix3d> turns_;  // hypothesisTurns(), for params_.hypotheses
+  std::vector<Hypothesis> hypotheses_;  // confirm()'s followed hypotheses, best first
+  Timestamp hypotheses_stamp_ = 0;      // the scan they were last followed into
+  int hypotheses_scans_ = 0;            // scans scored since the set was made
+  static constexpr double kSameHypothesisDistance = 0.05;           // m
+  static constexpr double kSameHypothesisAngle = 2.0 * M_PI / 180;  // rad
   Eigen::Vector3d model_centroid_ = Eigen::Vector3d::Zero();
   std::uint64_t model_centroid_for_ = 0;  // shared_index_->builds it was computed for (0: none)
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();

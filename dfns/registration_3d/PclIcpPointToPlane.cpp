@@ -93,6 +93,7 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
           quality.inliers, points_.size(), params_.inlier_distance, params_.min_correspondences));
     registration::publish(out, source, model, pose, quality, converged && enough,
                           icp_.nr_iterations_);
+    out.ambiguous.set(false);
     out.visibility.set(std::numeric_limits<double>::quiet_NaN());  // FastIcp's check only
     return Status::ok();
   }

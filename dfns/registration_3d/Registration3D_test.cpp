@@ -411,5 +411,46 @@ TEST(Registration3DFastIcp, VisibilityTellsASlidModelFromTheRightPose) {
   EXPECT_TRUE(std::isnan(*plain->out.visibility));
 }
 
+TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
+  // Acquisition from 10 degrees off at 12 m with confirmation_scans 3: the pose is reported
+  // ambiguous until three scans are scored, then, the scans being dense enough to single one
+  // hypothesis out, not ambiguous and close to the truth; the set is then dropped, so that a
+  // later scan starts a new one (ambiguous again). Without confirmation it is never ambiguous.
+  const char* yaml =
+      "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
+      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
+      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+  auto icp = makeFast(yaml);
+  const Eigen::Isometry3d truth = lidarTTarget(12.0);
+  const Transform guess = guessOf(testing::perturb(truth, 0.3, 10.0 * kDeg, 31));
+  std::vector<bool> ambiguous;
+  Eigen::Isometry3d confirmed = Eigen::Isometry3d::Identity();
+  for (std::uint32_t k = 0; k < 4; ++k) {
+    PointCloud scan = scanAt(truth, 40 + k);
+    scan.stamp = fromSeconds(0.1 * k);
+    icp->in.source.set(scan);
+    icp->in.model.set(satelliteModel());
+    icp->in.initial_guess.set(guess);
+    ASSERT_OK(icp->process());
+    ambiguous.push_back(*icp->out.ambiguous);
+    if (k == 2) confirmed = icp->out.transform->isometry();
+  }
+  EXPECT_TRUE(ambiguous[0]);
+  EXPECT_TRUE(ambiguous[1]);
+  EXPECT_FALSE(ambiguous[2]);
+  EXPECT_TRUE(ambiguous[3]);  // a new set after the decision
+  const testing::PoseError error = testing::poseError(confirmed, truth);
+  std::printf("confirmed pose: %.4f m, %.3f deg off\n", error.translation, error.rotation / kDeg);
+  // The mid-range target (1 % of the range, 1 degree).
+  EXPECT_LT(error.translation, 0.12);
+  EXPECT_LT(error.rotation, 1.0 * kDeg);
+  auto plain = makeFast("{hypotheses: 24}");
+  plain->in.source.set(scanAt(truth, 40));
+  plain->in.model.set(satelliteModel());
+  plain->in.initial_guess.set(guess);
+  ASSERT_OK(plain->process());
+  EXPECT_FALSE(*plain->out.ambiguous);
+}
+
 }  // namespace
 }  // namespace cdff::dfn

@@ -75,18 +75,21 @@ RigidBodyState perturbedInitialState(const std::vector<Transform>& truth, Timest
   return state ? std::move(state).value() : RigidBodyState{};
 }
 
-Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file) {
+Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
+                                              const GraphEdit& edit) {
   Result<dfpc::GraphSpec> spec =
       dfpc::loadGraphFile(std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml");
   if (!spec) return spec.status();
   for (dfpc::InstanceSpec& instance : spec->instances)
     if (instance.name == "model") instance.parameters["mesh_file"] = mesh_file.string();
+  if (edit) edit(*spec);
   return dfpc::Dfpc::create(*spec);
 }
 
 Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message> messages,
-                             const RigidBodyState& initial, double settle_s) {
-  Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file);
+                             const RigidBodyState& initial, double settle_s,
+                             const GraphEdit& edit) {
+  Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file, edit);
   if (!graph) return graph.status();
   // The initial state comes just before the scan it was made for.
   auto at = std::find_if(messages.begin(), messages.end(), [&](const dfpc::Message& m) {

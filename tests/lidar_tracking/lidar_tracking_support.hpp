@@ -3,11 +3,13 @@
 // only) and evaluates its products against the simulator's ground truth with cdff::eval. Shared
 // by the end-to-end tests and the DFPC benchmark.
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/stream.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/types/geometry.hpp"
@@ -38,8 +40,12 @@ RigidBodyState perturbedInitialState(const std::vector<Transform>& truth, Timest
                                      double position_fraction, double angle_rad,
                                      std::uint64_t seed);
 
+/// A change to the graph's specification before it is created (e.g. a parameter of an instance).
+using GraphEdit = std::function<void(dfpc::GraphSpec&)>;
+
 /// The graph, loaded from dfpcs/lidar_tracking.yaml, with its model read from `mesh_file`.
-Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file);
+Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
+                                              const GraphEdit& edit = {});
 
 struct TrackingResult {
   eval::PoseEvaluation evaluation;  // the pose products after `settle_s`
@@ -53,6 +59,7 @@ struct TrackingResult {
 /// Runs the DFPC over `messages` (plus the initial state), evaluating from `settle_s` after the
 /// first scan on.
 Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message> messages,
-                             const RigidBodyState& initial, double settle_s);
+                             const RigidBodyState& initial, double settle_s,
+                             const GraphEdit& edit = {});
 
 }  // namespace cdff::lidar_tracking

@@ -155,13 +155,15 @@ std::vector<std::pair<Transform, std::string>> posesWithTrackState(const Trackin
 }
 
 // Acquisition on the tumbling target from several draws of the 10 % / 10 degree initial
-// error (the draw changes the error's direction and axis): every draw is tracked within twice the
-// mid-range targets, and no pose more than 10 degrees off is ever reported as TRACKING (a wrong
-// lock must stay ACQUIRING or go back to it). 30 s of the scenario (15 -> 11.7 m, the sparse end).
-class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
+// error (the draw changes the error's direction and axis). 30 s of the scenario (15 -> 11.7 m,
+// the sparse end), 20 % of the scans dropped.
+struct DrawRun {
+  TrackingResult result;
+  std::size_t wrong_tracking = 0;  // pose products more than 10 degrees off reported TRACKING
+  double worst_tracking_deg = 0;
+};
 
-TEST_P(TumblingAcquisition, EveryDrawIsTrackedAndNoWrongLockIsReportedTracking) {
-  const std::uint64_t draw = GetParam();
+void runDraw(std::uint64_t draw, DrawRun& out, const GraphEdit& edit = {}) {
   double duration = 30;
   if (const char* d = std::getenv("CDFF_TUMBLING_DURATION")) duration = std::atof(d);
   Result<SimulatedRun> run = simulate(
@@ -170,9 +172,9 @@ TEST_P(TumblingAcquisition, EveryDrawIsTrackedAndNoWrongLockIsReportedTracking) 
   ASSERT_OK(run.status());
   const RigidBodyState initial =
       perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, draw);
-  Result<TrackingResult> r = track(*run, run->messages, initial, kSettle);
+  Result<TrackingResult> r = track(*run, run->messages, initial, kSettle, edit);
   ASSERT_OK(r.status());
-  record(fmt::format("tumbling_draw_{}", draw), *r);
+  record(fmt::format("tumbling_draw_{}{}", draw, edit ? "_edited" : ""), *r);
   // Every pose product reported TRACKING, from the initial state on, against the truth.
   const std::vector<std::pair<Transform, std::string>> reported = posesWithTrackState(*r);
   std::vector<eval::EstimateSample> tracking;
@@ -181,11 +183,9 @@ TEST_P(TumblingAcquisition, EveryDrawIsTrackedAndNoWrongLockIsReportedTracking) 
   ASSERT_GT(tracking.size(), 100u);
   Result<eval::PoseEvaluation> whole = eval::evaluatePoses(tracking, run->truth);
   ASSERT_OK(whole.status());
-  std::size_t wrong_tracking = 0;
-  double worst_tracking_deg = 0;
   for (const eval::MatchedError& e : whole->errors) {
-    worst_tracking_deg = std::max(worst_tracking_deg, e.angle_error_deg);
-    if (e.angle_error_deg > 10.0) ++wrong_tracking;
+    out.worst_tracking_deg = std::max(out.worst_tracking_deg, e.angle_error_deg);
+    if (e.angle_error_deg > 10.0) ++out.wrong_tracking;
     if (std::getenv("CDFF_TEST_VERBOSE") && toSeconds(e.stamp - initial.pose.stamp) < 5.0)
       std::cout << "  " << toSeconds(e.stamp - initial.pose.stamp) << " s TRACKING "
                 << e.position_error_m << " m " << e.angle_error_deg << " deg\n";
@@ -196,17 +196,48 @@ TEST_P(TumblingAcquisition, EveryDrawIsTrackedAndNoWrongLockIsReportedTracking) 
           m.channel == "/cdff/lidar_tracking/acquisition_fitness")
         std::cout << "  " << toSeconds(m.stamp - initial.pose.stamp) << " s " << m.channel << " "
                   << *m.as<double>() << "\n";
-  std::cout << "draw " << draw << ": worst angle reported TRACKING " << worst_tracking_deg
+  std::cout << "draw " << draw << ": worst angle reported TRACKING " << out.worst_tracking_deg
             << " deg\n";
-  EXPECT_EQ(wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
-  EXPECT_LE(r->evaluation.position_error_pct_range.p95, 2 * 0.5);
-  EXPECT_LE(r->evaluation.angle_error_deg.p95, 2 * 1.0);
-  EXPECT_GE(r->tracked_fraction, 0.99);
+  out.result = std::move(r).value();
 }
 
-// Disabled: the target, not met yet (docs/lidar-tracking.md, Limits, gives each draw's
-// figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*' (about 15 s).
-INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisition,
+// With the acquisition's multi-scan confirmation on (`acquire`'s confirmation_scans 3; off in the
+// committed graph, which it would make worse elsewhere: docs/lidar-tracking.md, Limits), a wrong
+// lock stays ACQUIRING (the hypotheses are scored over consecutive scans; the pose is fused only
+// once one explains them clearly best): no pose more than 10 degrees off is ever reported as
+// TRACKING, and the draw is tracked for most of the run.
+void confirmOverThreeScans(dfpc::GraphSpec& spec) {
+  for (dfpc::InstanceSpec& instance : spec.instances)
+    if (instance.name == "acquire") instance.parameters["confirmation_scans"] = 3;
+}
+
+class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(TumblingAcquisition, WithConfirmationNoWrongLockIsReportedTracking) {
+  DrawRun d;
+  ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d, confirmOverThreeScans));
+  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
+  EXPECT_GE(d.result.tracked_fraction, 0.85);
+}
+
+INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisition, ::testing::Values(21, 22, 23, 24, 25, 26));
+
+// Every draw tracked within twice the mid-range targets.
+class TumblingAcquisitionAccuracy : public ::testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(TumblingAcquisitionAccuracy, EveryDrawIsTrackedWithinTwiceTheMidRangeTargets) {
+  DrawRun d;
+  ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d));
+  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
+  EXPECT_LE(d.result.evaluation.position_error_pct_range.p95, 2 * 0.5);
+  EXPECT_LE(d.result.evaluation.angle_error_deg.p95, 2 * 1.0);
+  EXPECT_GE(d.result.tracked_fraction, 0.99);
+}
+
+// Disabled: the target, not met yet for every draw (docs/lidar-tracking.md, Limits, gives
+// each draw's figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*'
+// (about 15 s).
+INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisitionAccuracy,
                          ::testing::Values(21, 22, 23, 24, 25, 26));
 
 TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
