@@ -5,7 +5,11 @@
 #include <optional>
 #include <span>
 
+#include <opencv2/imgproc.hpp>
+
 #include "ModelBasedTracking.gen.hpp"
+#include "cdff/tracking/contours.hpp"
+#include "cdff/types/opencv.hpp"
 #include "tracking_common.hpp"
 
 namespace cdff::dfn {
@@ -50,6 +54,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     acquisition_sigmas_ = p.acquisition_sigmas;
     acquisition_max_search_ = p.acquisition_max_search_distance;
     lateral_first_ = p.acquisition_lateral_first;
+    coarse_search_ = p.acquisition_coarse_search;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -97,6 +102,12 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
 
     const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
     Transform start = predicted.pose;
+    if (coarse_search_ && !cameras->frames.empty()) {
+      Result<Transform> aligned = coarseAlign(cameras->frames, predicted);
+      if (!aligned) return aligned.status();
+      start = *aligned;
+    }
+    const Transform coarse_start = start;
     std::vector<std::vector<Image>> pyramid;  // built once per frame, for both hypotheses
     Result<bool> acquired =
         acquire(cameras->frames, depth, predicted, start, lateral_first_, pyramid);
@@ -113,7 +124,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       // admits (running both on every acquisition doubled its time: the first frame was over its
       // budget); the full-resolution result with the higher inlier ratio is then kept.
       const std::string lateral_failure = acquisition_failure_;
-      Transform plain_start = predicted.pose;
+      Transform plain_start = coarse_start;
       Result<bool> plain = acquire(cameras->frames, depth, predicted, plain_start, false, pyramid);
       if (!plain) return plain.status();
       if (*plain) {
@@ -388,6 +399,130 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     return true;
   }
 
+  // Coarse alignment before the acquisition: at 17 m a 5 % / 5 degree initial error moves the
+  // model's image by more than the 1D edge searches reach, so the passes lock onto wrong edges.
+  // The model's contours at the prediction are slid and scaled over a truncated distance transform
+  // of the image's Canny edges (a chamfer score) on a pyramid level where the model is kMinModelPx
+  // or more across; the best shift and scale move the prediction across the line of sight and in
+  // range (the attitude is left to the passes). Only when the acquisition would run.
+  Result<Transform> coarseAlign(std::span<const tracking::CameraFrame> frames,
+                                const PoseWithCovariance& predicted) const {
+    std::size_t reference = 0;
+    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    const tracking::CameraFrame& frame = frames[reference];
+    if (!frame.image || !tracker_.hasModel()) return predicted.pose;
+    const double spread = predictionSpreadPx(frame, predicted);
+    if (spread <= options_.search.search_distance) return predicted.pose;
+    const double model_px = modelSizePx(frame, predicted);
+    int level = 0;
+    while (level < 3 && model_px / (2 << level) >= kMinModelPx) ++level;
+    CameraModel camera = frame.camera;
+    for (int l = 0; l < level; ++l) camera = halve(camera);
+    cv::Mat full = toMat(*frame.image), small, edges, distance;
+    cv::resize(full, small, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
+    cv::Canny(small, edges, coarse_canny_low_, 3 * coarse_canny_low_);
+    // The gradient direction of each pixel's nearest edge pixel, for the orientation term.
+    cv::Mat gx, gy, labels;
+    cv::Sobel(small, gx, CV_32F, 1, 0);
+    cv::Sobel(small, gy, CV_32F, 0, 1);
+    cv::Mat not_edges;
+    cv::bitwise_not(edges, not_edges);
+    cv::distanceTransform(not_edges, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                          cv::DIST_LABEL_PIXEL);
+    std::vector<cv::Vec2f> label_direction(1, cv::Vec2f(0, 0));
+    for (int y = 0; y < edges.rows; ++y)
+      for (int x = 0; x < edges.cols; ++x)
+        if (edges.at<std::uint8_t>(y, x)) {
+          const float a = gx.at<float>(y, x), b = gy.at<float>(y, x);
+          const float n = std::max(1e-6f, std::hypot(a, b));
+          label_direction.push_back(cv::Vec2f(a / n, b / n));
+        }
+    cv::Mat direction(labels.size(), CV_32FC2);
+    for (int y = 0; y < labels.rows; ++y)
+      for (int x = 0; x < labels.cols; ++x) {
+        const int l = labels.at<int>(y, x);
+        direction.at<cv::Vec2f>(y, x) = l >= 0 && l < static_cast<int>(label_direction.size())
+                                            ? label_direction[l]
+                                            : cv::Vec2f(0, 0);
+      }
+    const Eigen::Isometry3d c_T_r = frame.camera_T_reference.isometry();
+    const Eigen::Isometry3d c_T_m = c_T_r * predicted.pose.isometry();
+    Result<ModelContours> contours = tracking::computeContours(
+        tracker_.model(), camera, Transform::fromIsometry(c_T_m, "c", "m"),
+        frame.camera_T_reference, options_.visibility);
+    if (!contours) return contours.status();
+    tracking::SamplingOptions sampling;
+    sampling.step = 2;
+    sampling.max_samples = 600;
+    const ContourSamples samples =
+        tracking::sampleContours(std::make_shared<const ModelContours>(*contours), sampling);
+    if (samples.samples.size() < 20) return predicted.pose;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (const ContourSample& s : samples.samples) mean += s.pixel;
+    mean /= static_cast<double>(samples.samples.size());
+    const Matrix6d& c = predicted.covariance;
+    const Eigen::Vector3d centre = c_T_m * tracker_.model().centre;
+    const double z = centre.z();
+    const double lateral =
+        acquisition_sigmas_ * std::sqrt(std::max(0.0, c(0, 0) + c(1, 1))) * camera.fx / z;
+    const double range = acquisition_sigmas_ * std::sqrt(std::max(0.0, c(2, 2))) / z;
+    const int reach = std::clamp(static_cast<int>(std::ceil(lateral)), 1, 200);
+    const double truncation = 6;
+    const auto score = [&](double s, double dx, double dy) {
+      double total = 0;
+      for (const ContourSample& q : samples.samples) {
+        const double u = mean.x() + s * (q.pixel.x() - mean.x()) + dx;
+        const double v = mean.y() + s * (q.pixel.y() - mean.y()) + dy;
+        const int x = static_cast<int>(std::lround(u)), y = static_cast<int>(std::lround(v));
+        total +=
+            x < 0 || y < 0 || x >= distance.cols || y >= distance.rows
+                ? truncation
+                : std::min<double>(truncation, distance.at<float>(y, x)) +
+                      truncation * (1 - std::abs(direction.at<cv::Vec2f>(y, x)[0] * q.normal.x() +
+                                                 direction.at<cv::Vec2f>(y, x)[1] * q.normal.y()));
+      }
+      return total;
+    };
+    // A grid as coarse as the truncation allows (the score still falls towards the minimum
+    // within it), then finer grids around the best.
+    double best = score(1, 0, 0), best_s = 1, best_x = 0, best_y = 0;
+    const int scale_steps = 4;
+    const double scale_step = std::min(range, 0.3) / scale_steps;
+    const int grid = 5;
+    for (int k = -scale_steps; k <= scale_steps; ++k) {
+      const double s = 1 + scale_step * k;
+      for (int dy = -reach; dy <= reach; dy += grid)
+        for (int dx = -reach; dx <= reach; dx += grid) {
+          const double v = score(s, dx, dy);
+          if (v < best) best = v, best_s = s, best_x = dx, best_y = dy;
+        }
+    }
+    for (double step = 2; step >= 0.5; step /= 2) {
+      const double s0 = best_s, x0 = best_x, y0 = best_y;
+      for (int k = -1; k <= 1; ++k)
+        for (int dy = -2; dy <= 2; ++dy)
+          for (int dx = -2; dx <= 2; ++dx) {
+            const double s = s0 + k * scale_step * step / grid;
+            const double v = score(s, x0 + dx * step, y0 + dy * step);
+            if (v < best) best = v, best_s = s, best_x = x0 + dx * step, best_y = y0 + dy * step;
+          }
+    }
+    // The model's centre moves with the contours' image; its depth scales inversely.
+    const Eigen::Vector2d centre_px(camera.fx * centre.x() / z + camera.cx,
+                                    camera.fy * centre.y() / z + camera.cy);
+    const Eigen::Vector2d moved_px =
+        mean + best_s * (centre_px - mean) + Eigen::Vector2d(best_x, best_y);
+    const double moved_z = z / best_s;
+    const Eigen::Vector3d moved((moved_px.x() - camera.cx) / camera.fx * moved_z,
+                                (moved_px.y() - camera.cy) / camera.fy * moved_z, moved_z);
+    Eigen::Isometry3d aligned = c_T_m;
+    aligned.pretranslate(moved - centre);
+    return Transform::fromIsometry(c_T_r.inverse() * aligned, predicted.pose.parent_frame,
+                                   predicted.pose.child_frame, predicted.pose.stamp);
+  }
+
+  bool coarse_search_ = false;
+  double coarse_canny_low_ = 20;
   double acquisition_sigmas_ = 3;
   int acquisition_max_search_ = 64;
   bool lateral_first_ = true;

@@ -44,20 +44,26 @@ TEST(VisualTrackingSimulated, CloseRangeApproachMono) {
   EXPECT_EQ(r->dfn_errors, 0u);
 }
 
-// Mid range, 17 m -> 2 m (issue: position p95 <= 1 % of the range from 5 % / 5 degrees, not met:
-// see docs/benchmarks.md). Acquisition from the prescribed 5 % / 5 degree initial error does not
-// succeed at 17 m (the coarse passes diverge in range, or lock onto a wrong alignment that the
-// Mahalanobis gate then rejects); the DFPC must then say LOST rather than publish a wrong pose as
-// tracked.
-TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsReportedLost) {
+// Mid range, 17 m -> 2 m, from the prescribed 5 % / 5 degree initial error (issue: position p95
+// <= 1 % of the range; angle p95 <= 1 degree, the edge-tracking goal of the Castle-simu test). At
+// 17 m that error moves the model's image beyond the edge searches; the DFI's coarse alignment
+// (acquisition_coarse_search, an oriented chamfer search over image shift and scale) brings it
+// within them, and the whole approach is then tracked without a loss.
+TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsAcquiredAndTracked) {
   ApproachOptions o;
   o.scenario = "mid_range_approach";
-  o.camera_rate = 1.0;
-  o.duration = 6;
+  o.camera_rate = 2.0;
+  // Not yet on in dfpcs/visual_tracking.yaml: the `cdff run` close-range chain of
+  // test_dfpc_visual_tracking_cli has no valid pose with it (docs/visual-tracking.md).
+  o.dfi_parameters = "{acquisition_coarse_search: true}";
   Result<ApproachResult> r = runApproach(o);
   ASSERT_OK(r.status());
-  record("mid_range_mono_5pct", *r);
+  record("mid_range_mono_5pct_full", *r);
+  EXPECT_GE(r->frames, 170u);
+  EXPECT_EQ(r->lost, 0u);
   EXPECT_EQ(r->unreported_divergence, 0u);
+  EXPECT_LE(r->filtered.position_error_pct_range.p95, 1.0);
+  EXPECT_LE(r->filtered.angle_error_deg.p95, 1.0);
   EXPECT_EQ(r->dfn_errors, 0u);
 }
 
