@@ -414,6 +414,10 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     const double spread = predictionSpreadPx(frame, predicted);
     if (spread <= options_.search.search_distance) return predicted.pose;
     const double model_px = modelSizePx(frame, predicted);
+    // A model wider than the image is seen in part: the chamfer score of its clipped contours is
+    // biased towards whatever edges lie inside, and the coarse-to-fine passes reach far enough
+    // there.
+    if (model_px >= std::min(frame.camera.width, frame.camera.height)) return predicted.pose;
     int level = 0;
     while (level < 3 && model_px / (2 << level) >= kMinModelPx) ++level;
     CameraModel camera = frame.camera;

@@ -53,8 +53,7 @@ TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsAcquiredAndTra
   ApproachOptions o;
   o.scenario = "mid_range_approach";
   o.camera_rate = 2.0;
-  // Not yet on in dfpcs/visual_tracking.yaml: the `cdff run` close-range chain of
-  // test_dfpc_visual_tracking_cli has no valid pose with it (docs/visual-tracking.md).
+  // On in dfpcs/visual_tracking.yaml too; set here so that the test keeps asking for it.
   o.dfi_parameters = "{acquisition_coarse_search: true}";
   Result<ApproachResult> r = runApproach(o);
   ASSERT_OK(r.status());
