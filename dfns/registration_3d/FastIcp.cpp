@@ -434,12 +434,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           const double turned =
               Eigen::AngleAxisd(start.rotation * guess->linear().transpose()).angle();
           if (start.starved || turned > params_.hypothesis_max_turn) continue;
-          Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-          at.linear() = start.rotation;
-          at.translation() = start.translation;
           candidates.push_back(
               {start,
-               registration::evaluate(points, *shared_index_, at, params_.inlier_distance,
+               registration::evaluate(points, *shared_index_, start.pose(), params_.inlier_distance,
                                       params_.covariance_inflation),
                turned});
         }
@@ -547,6 +544,13 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     int iterations = 0;
     std::size_t last_pairs = 0;
     Vector6d previous_step = Vector6d::Zero();
+
+    Eigen::Isometry3d pose() const {
+      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+      at.linear() = rotation;
+      at.translation() = translation;
+      return at;
+    }
   };
 
   /// A start's short run in the multi-start search.
@@ -572,12 +576,11 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     const registration::Quality q =
         registration::evaluate(points, *shared_index_, pose, params_.inlier_distance, 1.0);
     const double sigma = params_.inlier_distance / 3.0;
-    const double unmatched_cost = 9.0;  // (inlier_distance / sigma)^2
     const double n = static_cast<double>(points.size());
-    double cost = static_cast<double>(n - static_cast<double>(q.inliers)) * unmatched_cost;
+    double cost = (n - static_cast<double>(q.inliers)) * kUnmatchedCost;
     if (q.inliers > 0)
       cost += static_cast<double>(q.inliers) * q.inlier_rms * q.inlier_rms / (sigma * sigma);
-    if (std::isfinite(visibility)) cost += (1.0 - visibility) * n * unmatched_cost;
+    if (std::isfinite(visibility)) cost += (1.0 - visibility) * n * kUnmatchedCost;
     return cost;
   }
 
@@ -591,14 +594,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
                  const Eigen::Isometry3d& guess, const std::vector<Candidate>& candidates,
                  bool visibility_check, Visibility&& visibility, std::optional<Search>& best,
                  bool& ambiguous) {
-    auto isometry = [](const Search& s) {
-      Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
-      at.linear() = s.rotation;
-      at.translation() = s.translation;
-      return at;
-    };
     auto scoreOf = [&](const Search& s) {
-      return misfit(points, isometry(s),
+      return misfit(points, s.pose(),
                     visibility_check ? visibility(s.rotation, s.translation)
                                      : std::numeric_limits<double>::quiet_NaN());
     };
@@ -609,10 +606,10 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       hypotheses_.clear();
       hypotheses_scans_ = 0;
       for (const Candidate& c : candidates)
-        hypotheses_.push_back({c.search, isometry(c.search) * guess.inverse(), scoreOf(c.search)});
+        hypotheses_.push_back({c.search, c.search.pose() * guess.inverse(), scoreOf(c.search)});
     } else {
       // A hypothesis that finds no overlap any more explains nothing of the scan.
-      const double unexplained = 2.0 * 9.0 * static_cast<double>(points.size());
+      const double unexplained = 2.0 * kUnmatchedCost * static_cast<double>(points.size());
       for (Hypothesis& h : hypotheses_) {
         const Eigen::Isometry3d start = h.from_guess * guess;
         Search s;
@@ -628,7 +625,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
           h.misfit += scoreOf(s);
           h.search = s;
         }
-        h.from_guess = isometry(h.search) * guess.inverse();
+        h.from_guess = h.search.pose() * guess.inverse();
       }
     }
     hypotheses_stamp_ = stamp;
@@ -956,6 +953,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   int hypotheses_scans_ = 0;            // scans scored since the set was made
   static constexpr double kSameHypothesisDistance = 0.05;           // m
   static constexpr double kSameHypothesisAngle = 2.0 * M_PI / 180;  // rad
+  // misfit()'s cost of an unmatched return: (inlier_distance / sigma)^2 with sigma a third of it.
+  static constexpr double kUnmatchedCost = 9.0;
   Eigen::Vector3d model_centroid_ = Eigen::Vector3d::Zero();
   std::uint64_t model_centroid_for_ = 0;  // shared_index_->builds it was computed for (0: none)
   Eigen::Vector3f viewpoint_ = Eigen::Vector3f::Zero();
