@@ -14,10 +14,16 @@ namespace {
 
 void printList() {
   const auto& registry = dfn::Registry::instance();
+  std::size_t name_width = 0, area_width = 0;
+  for (const dfn::DfnDescription* d : registry.descriptions()) {
+    name_width = std::max(name_width, d->name.size());
+    area_width = std::max(area_width, d->area.size());
+  }
   for (const dfn::DfnDescription* d : registry.descriptions()) {
     std::vector<std::string> dfis;
     for (const auto& impl : d->implementations) dfis.push_back(impl.name);
-    fmt::print("{:<24} {:<24} {}\n", d->name, d->area, fmt::join(dfis, " "));
+    fmt::print("{:<{}} {:<{}} {}\n", d->name, name_width, d->area, area_width,
+               fmt::join(dfis, " "));
   }
 }
 

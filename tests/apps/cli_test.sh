@@ -36,5 +36,13 @@ for dfn in ImageUndistortion EdgeDetection FeaturesExtraction2D FeaturesMatching
   check "list-$dfn" 0 "^$dfn " -- "$cdff" dfn list
 done
 check list-one-per-line 0 '^EdgeDetection +edge_detection +Canny Sobel$' -- "$cdff" dfn list
+# The area column starts at the same offset on every line, however long the longest name.
+area_columns=$("$cdff" dfn list | awk '{ print index($0, " " $2 " ") }' | sort -u | wc -l)
+if [ "$area_columns" -eq 1 ]; then
+  echo "ok   list-columns-aligned"
+else
+  echo "FAIL list-columns-aligned: the area column starts at $area_columns different offsets"
+  failures=$((failures + 1))
+fi
 echo "$failures failed"
 [ "$failures" -eq 0 ]
