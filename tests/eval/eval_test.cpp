@@ -2,7 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+
+#include <Eigen/Cholesky>
 
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/eval/report.hpp"
@@ -128,6 +131,85 @@ TEST(EvaluatePoses, EstimatesWithoutTruthAreUnmatchedNotErrors) {
   EXPECT_EQ(r->matched_frames, 1u);
 }
 
+// 3000 estimates at 20 Hz whose errors are drawn from N(0, covariance) (correlated across
+// position and attitude), each carrying `reported` as its covariance.
+std::vector<EstimateSample> drawnFrom(const Matrix6d& covariance, const Matrix6d& reported) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal;
+  const Eigen::LLT<Matrix6d> llt(covariance);
+  std::vector<EstimateSample> estimates;
+  for (int i = 0; i < 3000; ++i) {
+    Vector6d z;
+    for (int k = 0; k < 6; ++k) z[k] = normal(rng);
+    const Vector6d error = llt.matrixL() * z;  // truth = estimate + error (conventions)
+    EstimateSample e;
+    e.pose = truthPose(fromSeconds(0.025 + 0.05 * i));
+    e.pose.translation -= error.head<3>();
+    e.pose.rotation = (expSO3(-error.tail<3>()) * e.pose.rotation).normalized();
+    e.covariance = reported;
+    estimates.push_back(e);
+  }
+  return estimates;
+}
+
+Matrix6d correlatedCovariance() {
+  Vector6d sigma;
+  sigma << 0.02, 0.01, 0.03, 0.3 * kDegToRad, 0.5 * kDegToRad, 0.2 * kDegToRad;
+  Matrix6d correlation = Matrix6d::Identity();
+  correlation(0, 4) = correlation(4, 0) = 0.6;  // a lateral shift traded for a turn
+  correlation(1, 2) = correlation(2, 1) = -0.4;
+  return sigma.asDiagonal() * correlation * sigma.asDiagonal();
+}
+
+TEST(EvaluatePoses, TheNeesOfAnHonestCovarianceAveragesItsDegreesOfFreedom) {
+  const Matrix6d c = correlatedCovariance();
+  const Result<PoseEvaluation> honest = evaluatePoses(drawnFrom(c, c), truthSeries());
+  ASSERT_TRUE(honest.isOk()) << honest.status().toString();
+  const CovarianceConsistency& h = honest->covariance;
+  EXPECT_EQ(h.count, 3000u);
+  EXPECT_EQ(h.rejected, 0u);
+  // Over 3000 chi-square(6) draws the mean has a standard deviation of sqrt(12 / 3000) = 0.06
+  // and the fraction within the 95 % bound one of 0.004: the tolerances are about 5 of them.
+  EXPECT_NEAR(h.nees_mean, 6.0, 0.3);
+  EXPECT_NEAR(h.position_nees_mean, 3.0, 0.25);
+  EXPECT_NEAR(h.attitude_nees_mean, 3.0, 0.25);
+  EXPECT_NEAR(h.within_95_fraction, 0.95, 0.02);
+  EXPECT_NEAR(h.nees_p95, CovarianceConsistency::kChiSquare6Dof95, 1.0);
+
+  // Reported four times too large in variance: the NEES averages 6 / 4; four times too small:
+  // 6 x 4, and most errors fall outside the bound.
+  const Result<PoseEvaluation> pessimistic = evaluatePoses(drawnFrom(c, 4 * c), truthSeries());
+  ASSERT_TRUE(pessimistic.isOk());
+  EXPECT_NEAR(pessimistic->covariance.nees_mean, 1.5, 0.1);
+  EXPECT_GT(pessimistic->covariance.within_95_fraction, 0.99);
+  const Result<PoseEvaluation> optimistic = evaluatePoses(drawnFrom(c, c / 4), truthSeries());
+  ASSERT_TRUE(optimistic.isOk());
+  EXPECT_NEAR(optimistic->covariance.nees_mean, 24.0, 1.2);
+  EXPECT_LT(optimistic->covariance.within_95_fraction, 0.4);
+}
+
+TEST(EvaluatePoses, EstimatesWithoutAUsableCovarianceAreLeftOutOfTheNees) {
+  const std::vector<Transform> truth = truthSeries(10.0);
+  std::vector<EstimateSample> estimates;
+  for (int i = 0; i < 4; ++i) estimates.push_back(estimateAt(fromSeconds(1.0 + i), 0.01, 0.1));
+  estimates[1].covariance = Matrix6d::Identity() * 1e-4;
+  estimates[2].covariance = -Matrix6d::Identity();  // not positive definite
+  estimates[3].covariance = Matrix6d::Identity();
+  (*estimates[3].covariance)(2, 2) = std::numeric_limits<double>::quiet_NaN();
+  const Result<PoseEvaluation> r = evaluatePoses(estimates, truth);
+  ASSERT_TRUE(r.isOk());
+  EXPECT_EQ(r->covariance.count, 1u);
+  EXPECT_EQ(r->covariance.rejected, 2u);
+  // 1 cm and 0.1 deg under a 1 cm / 0.57 deg sigma.
+  EXPECT_NEAR(r->covariance.nees_mean, 1.0 + std::pow(0.1 * kDegToRad / 1e-2, 2), 1e-6);
+  EXPECT_TRUE(std::isnan(r->errors[0].nees));
+
+  const Result<PoseEvaluation> none = evaluatePoses({estimateAt(fromSeconds(1.0), 0, 0)}, truth);
+  ASSERT_TRUE(none.isOk());
+  EXPECT_EQ(none->covariance.count, 0u);
+  EXPECT_TRUE(std::isnan(none->covariance.nees_mean));
+}
+
 std::vector<EstimateSample> approach(double position_error, double angle_error_deg) {
   std::vector<EstimateSample> estimates;
   for (int i = 0; i < 150; ++i)
@@ -207,7 +289,8 @@ TEST(Report, JsonHasTheDocumentedKeysAndHtmlIsSelfContained) {
       EXPECT_TRUE(product.at(key).at(stat).is_number()) << key << "." << stat;
   EXPECT_TRUE(product.at("tracked_fraction").is_number());
   EXPECT_TRUE(product.at("rate_hz").is_number());
-  EXPECT_TRUE(product.at("latency_ms").at("p95").is_null());  // no latency was recorded
+  EXPECT_TRUE(product.at("latency_ms").at("p95").is_null());    // no latency was recorded
+  EXPECT_TRUE(product.at("covariance_consistency").is_null());  // no covariance either
   for (const nlohmann::json& v : json.at("requirements")) {
     for (const char* key : {"id", "verdict", "measured", "threshold"})
       EXPECT_TRUE(v.contains(key)) << key;
@@ -220,6 +303,21 @@ TEST(Report, JsonHasTheDocumentedKeysAndHtmlIsSelfContained) {
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org/2000/svg"));  // no remote asset
   EXPECT_EQ(html.find("<script src"), std::string::npos);
   EXPECT_NE(toText(report).find("SR_DFPC_0102"), std::string::npos);
+  EXPECT_EQ(toText(report).find("NEES"), std::string::npos);
+
+  const Matrix6d c = correlatedCovariance();
+  Result<PoseEvaluation> with_covariance = evaluatePoses(drawnFrom(c, c), truth);
+  ASSERT_TRUE(with_covariance.isOk());
+  report.products = {*with_covariance};
+  const nlohmann::json with_covariance_json = toJson(report);
+  const nlohmann::json& consistency =
+      with_covariance_json.at("products").at(0).at("covariance_consistency");
+  for (const char* key : {"nees_mean", "nees_p95", "within_95_fraction", "position_nees_mean",
+                          "attitude_nees_mean", "bound_95"})
+    EXPECT_TRUE(consistency.at(key).is_number()) << key;
+  EXPECT_EQ(consistency.at("count"), 3000u);
+  EXPECT_NE(toText(report).find("NEES mean"), std::string::npos);
+  EXPECT_NE(toHtml(report).find("NEES"), std::string::npos);
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+
+#include <Eigen/Cholesky>
 #include <limits>
 
 namespace cdff::eval {
@@ -39,6 +41,58 @@ Status checkSorted(const std::vector<T>& series, StampOf stamp_of, const char* w
           "expected samples in time order",
           what, i, stamp_of(series[i]), stamp_of(series[i - 1]));
   return Status::ok();
+}
+
+// e^T C^-1 e, NaN when C is not positive definite.
+template <int N>
+double normalisedSquare(const Eigen::Matrix<double, N, N>& c,
+                        const Eigen::Matrix<double, N, 1>& e) {
+  const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(c);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::quiet_NaN();
+  return e.dot(llt.solve(e));
+}
+
+// Fills the NEES fields of `m`; false when the covariance is not finite and positive definite.
+bool normalisedErrors(const Transform& estimate, const Transform& truth, const Matrix6d& covariance,
+                      MatchedError& m) {
+  if (!covariance.allFinite()) return false;
+  Vector6d error;
+  error << truth.translation - estimate.translation,
+      logSO3((truth.rotation * estimate.rotation.conjugate()).normalized());
+  const Matrix6d c = 0.5 * (covariance + covariance.transpose());
+  m.nees = normalisedSquare<6>(c, error);
+  if (!std::isfinite(m.nees)) return false;
+  m.position_nees = normalisedSquare<3>(c.topLeftCorner<3, 3>(), error.head<3>());
+  m.attitude_nees = normalisedSquare<3>(c.bottomRightCorner<3, 3>(), error.tail<3>());
+  return true;
+}
+
+CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std::size_t rejected) {
+  CovarianceConsistency c;
+  c.rejected = rejected;
+  std::vector<double> nees;
+  double position = 0, attitude = 0;
+  for (const MatchedError& e : errors) {
+    if (!std::isfinite(e.nees)) continue;
+    nees.push_back(e.nees);
+    position += e.position_nees;
+    attitude += e.attitude_nees;
+  }
+  c.count = nees.size();
+  if (nees.empty()) return c;
+  const double n = static_cast<double>(nees.size());
+  double sum = 0, within = 0;
+  for (double v : nees) {
+    sum += v;
+    if (v <= CovarianceConsistency::kChiSquare6Dof95) ++within;
+  }
+  c.nees_mean = sum / n;
+  c.within_95_fraction = within / n;
+  c.position_nees_mean = position / n;
+  c.attitude_nees_mean = attitude / n;
+  std::sort(nees.begin(), nees.end());
+  c.nees_p95 = percentile(nees, 0.95);
+  return c;
 }
 
 }  // namespace
@@ -112,6 +166,7 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
   }
 
   std::vector<double> position, percent, angle, latency;
+  std::size_t rejected_covariances = 0;
   Timestamp first_valid = 0, last_valid = 0, longest_gap = 0;
   result.frames = estimates.size();
   for (const EstimateSample& e : estimates) {
@@ -132,6 +187,8 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
     position.push_back(m.position_error_m);
     angle.push_back(m.angle_error_deg);
     if (m.range_m > 0) percent.push_back(100.0 * m.position_error_m / m.range_m);
+    if (e.covariance && !normalisedErrors(e.pose, *reference, *e.covariance, m))
+      ++rejected_covariances;
     result.errors.push_back(m);
   }
   result.matched_frames = result.errors.size();
@@ -141,6 +198,7 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
   result.position_error_pct_range = ErrorStatistics::of(std::move(percent));
   result.angle_error_deg = ErrorStatistics::of(std::move(angle));
   result.latency_s = ErrorStatistics::of(std::move(latency));
+  result.covariance = consistencyOf(result.errors, rejected_covariances);
 
   if (result.valid_frames >= 2 && last_valid > first_valid) {
     result.rate_hz =

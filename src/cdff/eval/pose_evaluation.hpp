@@ -6,7 +6,14 @@
 // (linear in translation, slerp in rotation) when two truth samples bracket it within
 // `max_truth_gap`; otherwise the estimate has no truth and is counted as unmatched, not as an
 // error. Every statistic is over matched estimates that the DFPC reported as valid (tracking).
+//
+// Where an estimate carries a pose covariance, its error is also normalised by it (the NEES,
+// normalised estimation error squared): over many estimates of an honest covariance the 6-dof
+// NEES averages 6 and 95 % of the values lie below the chi-square bound 12.59. A mean well below
+// 6 means the covariance is pessimistic, well above 6 optimistic (a filter that trusts it gates
+// out good measurements, a planner that trusts it takes risks it does not know of).
 
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +30,9 @@ struct EstimateSample {
   Transform pose;  // parent_T_child at pose.stamp
   bool valid = true;
   std::optional<double> latency_s;
+  /// The pose's covariance, [dt, dtheta] in the parent frame (docs/conventions.md), when the
+  /// product carries one.
+  std::optional<Matrix6d> covariance;
 };
 
 /// RMSE, 95th percentile and maximum of a set of non-negative errors; all NaN when empty.
@@ -39,6 +49,25 @@ struct MatchedError {
   double range_m = 0;           // |translation| of the truth pose
   double position_error_m = 0;  // |t_est - t_true|
   double angle_error_deg = 0;   // angle of R_est R_true^T
+  /// e^T C^-1 e of the error e = [t_true - t_est, log(R_true R_est^T)] under the estimate's
+  /// covariance C, in all 6 dof and in position and attitude alone; NaN when the estimate has
+  /// no covariance or one that is not positive definite.
+  double nees = std::numeric_limits<double>::quiet_NaN();
+  double position_nees = std::numeric_limits<double>::quiet_NaN();
+  double attitude_nees = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// How well the estimates' covariances describe their errors (over the matched valid estimates
+/// with a positive-definite covariance; NaN statistics when there is none).
+struct CovarianceConsistency {
+  static constexpr double kChiSquare6Dof95 = 12.592;  // 95 % quantile of chi-square, 6 dof
+  std::size_t count = 0;                              // estimates with a usable covariance
+  std::size_t rejected = 0;  // estimates whose covariance is not positive definite
+  double nees_mean = std::numeric_limits<double>::quiet_NaN();           // 6 when honest
+  double nees_p95 = std::numeric_limits<double>::quiet_NaN();            // 12.59 when honest
+  double within_95_fraction = std::numeric_limits<double>::quiet_NaN();  // 0.95 when honest
+  double position_nees_mean = std::numeric_limits<double>::quiet_NaN();  // 3 when honest
+  double attitude_nees_mean = std::numeric_limits<double>::quiet_NaN();  // 3 when honest
 };
 
 struct PoseEvaluationOptions {
@@ -65,6 +94,7 @@ struct PoseEvaluation {
   ErrorStatistics position_error_pct_range;
   ErrorStatistics angle_error_deg;
   ErrorStatistics latency_s;  // count 0 when the DFPC recorded no latency
+  CovarianceConsistency covariance;
 
   /// Valid estimates per second over the span from the first to the last one.
   double rate_hz = 0;

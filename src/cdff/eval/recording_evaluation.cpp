@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include "cdff/io/replay.hpp"
@@ -16,20 +17,30 @@ bool isPoseType(std::string_view type) {
   return type == "PoseWithCovariance" || type == "RigidBodyState" || type == "Transform";
 }
 
-Result<Transform> decodePose(const io::ReplayMessage& m) {
+struct DecodedPose {
+  Transform pose;
+  std::optional<Matrix6d> covariance;  // none for a Transform or an all-zero covariance (truth)
+};
+
+std::optional<Matrix6d> covarianceOf(const Matrix6d& c) {
+  if (c.isZero(0)) return std::nullopt;
+  return c;
+}
+
+Result<DecodedPose> decodePose(const io::ReplayMessage& m) {
   if (m.cdffType() == "Transform") {
     Result<std::shared_ptr<const Transform>> t = m.decode<Transform>();
     if (!t) return t.status();
-    return **t;
+    return DecodedPose{**t, std::nullopt};
   }
   if (m.cdffType() == "PoseWithCovariance") {
     Result<std::shared_ptr<const PoseWithCovariance>> p = m.decode<PoseWithCovariance>();
     if (!p) return p.status();
-    return (*p)->pose;
+    return DecodedPose{(*p)->pose, covarianceOf((*p)->covariance)};
   }
   Result<std::shared_ptr<const RigidBodyState>> s = m.decode<RigidBodyState>();
   if (!s) return s.status();
-  return (*s)->pose;
+  return DecodedPose{(*s)->pose, covarianceOf((*s)->covariance.topLeftCorner<6, 6>())};
 }
 
 bool isFinite(const Transform& t) {
@@ -47,6 +58,7 @@ std::string dfpcOf(const std::string& channel) {
 
 struct Series {
   std::vector<Transform> poses;
+  std::vector<std::optional<Matrix6d>> covariances;
   // For products: how many track-state changes of their DFPC the recording held before each pose.
   std::vector<std::size_t> changes_before;
   std::string type;
@@ -110,11 +122,12 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
     } else if (isPoseType(m.cdffType()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
       const bool is_truth = dfpc.empty();
-      Result<Transform> pose = decodePose(m);
-      if (!pose) return pose.status();
+      Result<DecodedPose> decoded = decodePose(m);
+      if (!decoded) return decoded.status();
       Series& s = (is_truth ? truths : products)[channel];
       s.type = std::string(m.cdffType());
-      s.poses.push_back(*pose);
+      s.poses.push_back(decoded->pose);
+      s.covariances.push_back(decoded->covariance);
       if (!is_truth) {
         const auto states = track_states.find(dfpc);
         s.changes_before.push_back(states == track_states.end() ? 0 : states->second.size() - 1);
@@ -185,6 +198,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       const Transform& pose = product.poses[i];
       EstimateSample e;
       e.pose = pose;
+      e.covariance = product.covariances[i];
       e.valid = isFinite(pose);
       if (!states.empty()) {
         const std::string& state = states[product.changes_before[i]];

@@ -49,6 +49,33 @@ std::string formatValue(double value, const char* format = "{:.4g}") {
 }
 
 // A "nice" step (1, 2 or 5 times a power of ten) giving about `count` ticks over `span`.
+// null when no estimate carried a usable covariance.
+nlohmann::json consistencyJson(const CovarianceConsistency& c) {
+  if (c.count == 0 && c.rejected == 0) return nullptr;
+  return {{"count", c.count},
+          {"rejected", c.rejected},
+          {"nees_mean", number(c.nees_mean)},
+          {"nees_p95", number(c.nees_p95)},
+          {"within_95_fraction", number(c.within_95_fraction)},
+          {"position_nees_mean", number(c.position_nees_mean)},
+          {"attitude_nees_mean", number(c.attitude_nees_mean)},
+          {"dof", 6},
+          {"bound_95", CovarianceConsistency::kChiSquare6Dof95}};
+}
+
+// One line on the covariance's honesty, empty when the product carries none.
+std::string consistencyText(const CovarianceConsistency& c) {
+  if (c.count == 0 && c.rejected == 0) return {};
+  std::string text = fmt::format(
+      "covariance: NEES mean {} (6 if honest; position {}, attitude {}, 3 each), p95 {}, {} % "
+      "within the 95 % bound {:g}",
+      formatValue(c.nees_mean, "{:.3g}"), formatValue(c.position_nees_mean, "{:.3g}"),
+      formatValue(c.attitude_nees_mean, "{:.3g}"), formatValue(c.nees_p95, "{:.3g}"),
+      formatValue(100.0 * c.within_95_fraction, "{:.1f}"), CovarianceConsistency::kChiSquare6Dof95);
+  if (c.rejected) text += fmt::format("; {} not positive definite", c.rejected);
+  return text;
+}
+
 double niceStep(double span, int count) {
   const double raw = span / count;
   const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
@@ -151,6 +178,7 @@ nlohmann::json toJson(const EvaluationReport& report) {
         {"position_error_pct_range", statisticsJson(p.position_error_pct_range)},
         {"angle_error_deg", statisticsJson(p.angle_error_deg)},
         {"latency_ms", statisticsJson(p.latency_s, 1e3)},
+        {"covariance_consistency", consistencyJson(p.covariance)},
         {"rate_hz", number(p.rate_hz)},
         {"min_rate_hz", number(p.min_rate_hz)},
         {"range_m", {{"min", number(p.min_range_m)}, {"max", number(p.max_range_m)}}},
@@ -200,6 +228,7 @@ std::string toText(const EvaluationReport& report) {
     row("position [% range]", p.position_error_pct_range, 1.0);
     row("angle [deg]", p.angle_error_deg, 1.0);
     if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
+    if (const std::string c = consistencyText(p.covariance); !c.empty()) text += "  " + c + "\n";
     // Each product's verdicts right under its statistics.
     for (const RequirementVerdict& v : report.requirements) {
       if (v.channel != p.channel) continue;
@@ -266,8 +295,10 @@ th:first-child, td:first-child { text-align: left; }
     row("angle [deg]", p.angle_error_deg, 1.0);
     if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
     html += "</table>\n";
+    if (const std::string c = consistencyText(p.covariance); !c.empty())
+      html += fmt::format("<p>The product's {}.</p>\n", escapeHtml(c));
 
-    Series position, angle, percent_by_range;
+    Series position, angle, percent_by_range, nees;
     const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
     for (const MatchedError& e : p.errors) {
       const double t = toSeconds(e.stamp - t0);
@@ -275,6 +306,10 @@ th:first-child, td:first-child { text-align: left; }
       position.y.push_back(e.position_error_m);
       angle.x.push_back(t);
       angle.y.push_back(e.angle_error_deg);
+      if (std::isfinite(e.nees)) {
+        nees.x.push_back(t);
+        nees.y.push_back(e.nees);
+      }
       if (e.range_m > 0) {
         percent_by_range.x.push_back(e.range_m);
         percent_by_range.y.push_back(100.0 * e.position_error_m / e.range_m);
@@ -294,6 +329,10 @@ th:first-child, td:first-child { text-align: left; }
                     angle, oneThreshold("angle_error_deg"));
     html += svgPlot("Position error over range", "true range [m]", "position error [% of range]",
                     percent_by_range, NAN, false);
+    if (!nees.x.empty())
+      html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
+                      "time since first estimate [s]", "NEES (6 dof)", nees,
+                      CovarianceConsistency::kChiSquare6Dof95);
     html += "</div>\n";
   }
   html += "</body></html>\n";
