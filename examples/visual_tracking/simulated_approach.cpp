@@ -154,12 +154,15 @@ Result<eval::PoseEvaluation> evaluate(const std::vector<dfpc::Message>& messages
   std::vector<eval::EstimateSample> estimates;
   for (std::size_t i = skip; i < messages.size(); ++i) {
     eval::EstimateSample e;
-    if (const RigidBodyState* s = messages[i].as<RigidBodyState>())
+    if (const RigidBodyState* s = messages[i].as<RigidBodyState>()) {
       e.pose = s->pose;
-    else if (const PoseWithCovariance* p = messages[i].as<PoseWithCovariance>())
+      e.covariance = s->covariance.topLeftCorner<6, 6>();
+    } else if (const PoseWithCovariance* p = messages[i].as<PoseWithCovariance>()) {
       e.pose = p->pose;
-    else
+      e.covariance = p->covariance;
+    } else {
       continue;
+    }
     estimates.push_back(e);
   }
   return eval::evaluatePoses(estimates, truth);

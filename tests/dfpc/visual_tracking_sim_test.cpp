@@ -26,6 +26,13 @@ void record(const std::string& tag, const ApproachResult& r) {
   ::testing::Test::RecordProperty(tag + "_cpu_per_frame_ms",
                                   std::to_string(r.mean_cpu_per_frame_s * 1e3));
   std::printf("%s\n", summaryLine(tag, r).c_str());
+  const eval::CovarianceConsistency& m = r.measurement.covariance;
+  const eval::CovarianceConsistency& f = r.filtered.covariance;
+  std::printf(
+      "  NEES mean (6 if honest): measurement %.2f (position %.2f, attitude %.2f, %.1f %% "
+      "within the 95 %% bound), filtered pose %.2f (%.1f %%)\n",
+      m.nees_mean, m.position_nees_mean, m.attitude_nees_mean, 100 * m.within_95_fraction,
+      f.nees_mean, 100 * f.within_95_fraction);
 }
 
 // Close range, 2 m -> 0.5 m from the adapter ring (issue: position p95 <= 10 mm, angle p95 <=

@@ -115,7 +115,7 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
   std::vector<eval::EstimateSample> estimates;
   for (const dfpc::Message& m : sink.messages("/cdff/lidar_tracking/pose"))
     if (const RigidBodyState* s = m.as<RigidBodyState>(); s && m.stamp >= from)
-      estimates.push_back({s->pose, true, std::nullopt});
+      estimates.push_back({s->pose, true, std::nullopt, s->covariance.topLeftCorner<6, 6>()});
   for (const PointCloud& scan : run.scans)
     if (scan.stamp >= from) ++result.scans;
   // Scans whose registration passed the DFPC's checks and that the EKF fused (a prediction tick

@@ -32,7 +32,10 @@ void record(const std::string& name, const TrackingResult& r) {
   std::cout << name << ": " << e.position_error_m.p95 << " m p95 ("
             << e.position_error_pct_range.p95 << " % of range), " << e.angle_error_deg.p95
             << " deg p95, max " << e.position_error_m.max << " m / " << e.angle_error_deg.max
-            << " deg, tracked " << r.accepted << "/" << r.scans << "\n";
+            << " deg, tracked " << r.accepted << "/" << r.scans << "; NEES mean "
+            << e.covariance.nees_mean << " (6 if honest; position "
+            << e.covariance.position_nees_mean << ", attitude " << e.covariance.attitude_nees_mean
+            << "), " << 100 * e.covariance.within_95_fraction << " % within the 95 % bound\n";
   std::map<std::string, int> events;
   for (const dfpc::Event& ev : r.events) {
     if (ev.type == dfpc::EventType::kTrackStateChanged)
@@ -79,6 +82,16 @@ std::pair<double, double> p95After(const TrackingResult& r, Timestamp from) {
   return {eval::ErrorStatistics::of(pct).p95, eval::ErrorStatistics::of(angle).p95};
 }
 
+// The pose product's covariance describes its errors: the mean NEES is within a factor of 4 of
+// the 6 an honest covariance gives, i.e. the covariance's scale is within a factor of 2 (in
+// sigma) of the errors' spread. The EKF gates the registrations with it and a user plans with
+// it; over an approach the errors are correlated, so a tighter band would test luck.
+void expectHonestCovariance(const TrackingResult& r) {
+  EXPECT_GT(r.evaluation.covariance.count, 100u);
+  EXPECT_GE(r.evaluation.covariance.nees_mean, 6.0 / 4);
+  EXPECT_LE(r.evaluation.covariance.nees_mean, 6.0 * 4);
+}
+
 // The first second after the initial state is the acquisition (the ICP pulls the 10 %, 10 degree
 // error in over a few scans); the targets apply to tracking.
 constexpr double kSettle = 1.0;
@@ -97,6 +110,7 @@ TEST(LidarTracking, MidRangeApproach) {
   EXPECT_LE(r->evaluation.angle_error_deg.p95, 1.0);
   EXPECT_GE(r->tracked_fraction, 0.99);
   EXPECT_EQ(countEvents(*r, dfpc::EventType::kReinitialise, "ekf"), 0u);
+  expectHonestCovariance(*r);
 }
 
 TEST(LidarTracking, CloseRangeApproach) {
@@ -110,6 +124,7 @@ TEST(LidarTracking, CloseRangeApproach) {
   EXPECT_LE(r->evaluation.position_error_m.p95, 0.01);
   EXPECT_LE(r->evaluation.angle_error_deg.p95, 0.5);
   EXPECT_GE(r->tracked_fraction, 0.99);
+  expectHonestCovariance(*r);
 }
 
 TEST(LidarTracking, TumblingTargetWithDroppedScans) {
@@ -135,6 +150,7 @@ TEST(LidarTracking, TumblingTargetWithDroppedScans) {
   // Acquired once, then tracked throughout (dropped scans are shorter than the 1 s loss limit).
   EXPECT_EQ(trackChanges(*r, "TRACKING").size(), 1u);
   EXPECT_TRUE(trackChanges(*r, "LOST").empty());
+  expectHonestCovariance(*r);
 }
 
 // The track state reported with each pose product: the EKF's step publishes both, the pose
