@@ -73,6 +73,11 @@ void writeRun(const fs::path& path) {
     x.pose.rotation =
         Eigen::Quaterniond(Eigen::AngleAxisd(kOffsetDeg * kDegToRad, Eigen::Vector3d::UnitX())) *
         x.pose.rotation;
+    // Sigmas of 1 cm and kOffsetDeg: the constructed errors' NEES is (2 cm / 1 cm)^2 + 1 = 5.
+    x.covariance = Matrix12d::Identity() * 1e-2;
+    x.covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-4;
+    x.covariance.block<3, 3>(3, 3) =
+        Eigen::Matrix3d::Identity() * std::pow(kOffsetDeg * kDegToRad, 2);
     ASSERT_OK_STATUS(rec.write("/cdff/trk/pose", x));
     for (const char* dfn : {"icp", "ekf"})
       ASSERT_OK_STATUS(rec.writeJson("/cdff/trk/timing", stamp,
@@ -99,6 +104,12 @@ TEST(RecordingEvaluation, PairsByFramesAndUsesTrackStateAndTiming) {
   EXPECT_NEAR(p.position_error_m.max, kOffsetM, 1e-9);  // the 5 m errors while LOST excluded
   EXPECT_NEAR(p.position_error_m.rmse, kOffsetM, 1e-9);
   EXPECT_NEAR(p.angle_error_deg.max, kOffsetDeg, 1e-6);
+  // The pose block of the states' covariance, read back from the recording (the truth's
+  // all-zero covariance is none).
+  EXPECT_EQ(p.covariance.count, 280u);
+  EXPECT_NEAR(p.covariance.nees_mean, 5.0, 1e-6);
+  EXPECT_NEAR(p.covariance.position_nees_mean, 4.0, 1e-6);
+  EXPECT_NEAR(p.covariance.attitude_nees_mean, 1.0, 1e-6);
   ASSERT_EQ(p.latency_s.count, 280u);
   EXPECT_NEAR(p.latency_s.max, kStepWallS, 1e-12);
   // The worst interval between valid products is the 2.1 s loss.
