@@ -48,7 +48,6 @@ std::string formatValue(double value, const char* format = "{:.4g}") {
   return std::isfinite(value) ? fmt::format(fmt::runtime(format), value) : "—";
 }
 
-// A "nice" step (1, 2 or 5 times a power of ten) giving about `count` ticks over `span`.
 // null when no estimate carried a usable covariance.
 nlohmann::json consistencyJson(const CovarianceConsistency& c) {
   if (c.count == 0 && c.rejected == 0) return nullptr;
@@ -76,6 +75,7 @@ std::string consistencyText(const CovarianceConsistency& c) {
   return text;
 }
 
+// A "nice" step (1, 2 or 5 times a power of ten) giving about `count` ticks over `span`.
 double niceStep(double span, int count) {
   const double raw = span / count;
   const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
