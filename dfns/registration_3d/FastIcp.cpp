@@ -421,6 +421,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       std::vector<Candidate> candidates;
       std::vector<Eigen::Vector3d> positions = {guess->translation()};
       if (params_.hypothesis_centroid) positions.push_back(centredPosition(points, *guess));
+      // Hypotheses being followed need no new starts (the search is most of the cost).
+      if (following(source.stamp)) positions.clear();
       for (const Eigen::Vector3d& position : positions)
         for (const Eigen::Matrix3d& turn : hypothesisTurns()) {
           Search start;
@@ -631,6 +633,15 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return best;
   }
 
+  /// Whether a scan at `stamp` follows the kept hypotheses (else it starts a new set): there
+  /// are some, from an earlier scan less than confirmation_timeout ago, and the set has not
+  /// been followed for long without a decision.
+  bool following(Timestamp stamp) const {
+    return params_.confirmation_scans > 0 && !hypotheses_.empty() && stamp > hypotheses_stamp_ &&
+           toSeconds(stamp - hypotheses_stamp_) <= params_.confirmation_timeout &&
+           hypotheses_scans_ < 4 * params_.confirmation_scans;
+  }
+
   /// The multi-scan choice among acquisition hypotheses: a new set (the best distinct
   /// `candidates` of this scan's multi-start search) when there is none or it is stale, else
   /// each kept hypothesis followed into this scan; the one with the least accumulated misfit is
@@ -646,9 +657,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
                     visibility_check ? visibility(s.rotation, s.translation)
                                      : std::numeric_limits<double>::quiet_NaN());
     };
-    const bool stale = hypotheses_.empty() || stamp <= hypotheses_stamp_ ||
-                       toSeconds(stamp - hypotheses_stamp_) > params_.confirmation_timeout ||
-                       hypotheses_scans_ >= 4 * params_.confirmation_scans;
+    const bool stale = !following(stamp);
     // Hypotheses that ended in the same minimum (starts, or followed ones) are one: the
     // kept_hypotheses best distinct ones are kept, best first.
     auto keepDistinct = [&] {
