@@ -421,6 +421,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       std::vector<Candidate> candidates;
       std::vector<Eigen::Vector3d> positions = {guess->translation()};
       if (params_.hypothesis_centroid) positions.push_back(centredPosition(points, *guess));
+      // Hypotheses being followed need no new starts (the search is most of the cost).
+      if (following(source.stamp)) positions.clear();
       for (const Eigen::Vector3d& position : positions)
         for (const Eigen::Matrix3d& turn : hypothesisTurns()) {
           Search start;
@@ -544,6 +546,20 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     int iterations = 0;
     std::size_t last_pairs = 0;
     Vector6d previous_step = Vector6d::Zero();
+    // A Gaussian prior on the pose (a hypothesis followed into the next scan, which a sparse
+    // scan alone lets slide along its poorly constrained directions): the offset from `anchor`
+    // ([dt, dtheta], as the steps) weighted by `anchor_precision`, in the residuals' squared
+    // units. Zero: none.
+    Eigen::Isometry3d anchor = Eigen::Isometry3d::Identity();
+    Vector6d anchor_precision = Vector6d::Zero();
+
+    /// The offset from the anchor, [dt, dtheta].
+    Vector6d fromAnchor() const {
+      Vector6d d;
+      d.head<3>() = translation - anchor.translation();
+      d.tail<3>() = logSO3(Eigen::Quaterniond(rotation * anchor.linear().transpose()));
+      return d;
+    }
 
     Eigen::Isometry3d pose() const {
       Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
@@ -584,6 +600,48 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return cost;
   }
 
+  /// `s` moved to a local minimum of `cost` (its misfit) by a pattern search along the six pose
+  /// axes, with steps halving from 4 cm and 2 degrees: the ICP minimises the residuals alone,
+  /// which on a sparse scan leave some directions loose by several degrees; the misfit's
+  /// visibility term (surface put where the lasers saw nothing) is what constrains them, and it
+  /// has no gradient. Returns the cost at the minimum.
+  template <typename Cost>
+  static double descend(Search& s, Cost&& cost) {
+    double best = cost(s);
+    double shift = 0.04, turn = 2.0 * M_PI / 180;
+    for (int level = 0; level < 3; ++level, shift /= 2, turn /= 2)
+      for (int pass = 0; pass < 4; ++pass) {
+        bool moved = false;
+        for (int axis = 0; axis < 6; ++axis)
+          for (const double sign : {-1.0, 1.0}) {
+            Search trial = s;
+            if (axis < 3)
+              trial.translation[axis] += sign * shift;
+            else
+              trial.rotation = Eigen::AngleAxisd(sign * turn, Eigen::Vector3d::Unit(axis - 3))
+                                   .toRotationMatrix() *
+                               trial.rotation;
+            const double c = cost(trial);
+            if (c < best) {
+              best = c;
+              s = trial;
+              moved = true;
+            }
+          }
+        if (!moved) break;
+      }
+    return best;
+  }
+
+  /// Whether a scan at `stamp` follows the kept hypotheses (else it starts a new set): there
+  /// are some, from an earlier scan less than confirmation_timeout ago, and the set has not
+  /// been followed for long without a decision.
+  bool following(Timestamp stamp) const {
+    return params_.confirmation_scans > 0 && !hypotheses_.empty() && stamp > hypotheses_stamp_ &&
+           toSeconds(stamp - hypotheses_stamp_) <= params_.confirmation_timeout &&
+           hypotheses_scans_ < 4 * params_.confirmation_scans;
+  }
+
   /// The multi-scan choice among acquisition hypotheses: a new set (the best distinct
   /// `candidates` of this scan's multi-start search) when there is none or it is stale, else
   /// each kept hypothesis followed into this scan; the one with the least accumulated misfit is
@@ -599,30 +657,73 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
                     visibility_check ? visibility(s.rotation, s.translation)
                                      : std::numeric_limits<double>::quiet_NaN());
     };
-    const bool stale = hypotheses_.empty() || stamp <= hypotheses_stamp_ ||
-                       toSeconds(stamp - hypotheses_stamp_) > params_.confirmation_timeout ||
-                       hypotheses_scans_ >= 4 * params_.confirmation_scans;
+    const bool stale = !following(stamp);
+    // Hypotheses that ended in the same minimum (starts, or followed ones) are one: the
+    // kept_hypotheses best distinct ones are kept, best first.
+    auto keepDistinct = [&] {
+      std::sort(hypotheses_.begin(), hypotheses_.end(),
+                [](const Hypothesis& a, const Hypothesis& b) { return a.misfit < b.misfit; });
+      std::vector<Hypothesis> distinct;
+      for (const Hypothesis& h : hypotheses_) {
+        bool duplicate = false;
+        for (const Hypothesis& d : distinct)
+          duplicate =
+              duplicate ||
+              ((h.search.translation - d.search.translation).norm() < kSameHypothesisDistance &&
+               Eigen::AngleAxisd(h.search.rotation * d.search.rotation.transpose()).angle() <
+                   kSameHypothesisAngle);
+        if (!duplicate && static_cast<int>(distinct.size()) < params_.kept_hypotheses)
+          distinct.push_back(h);
+      }
+      hypotheses_ = std::move(distinct);
+    };
     if (stale) {
       hypotheses_.clear();
       hypotheses_scans_ = 0;
       for (const Candidate& c : candidates)
         hypotheses_.push_back({c.search, c.search.pose() * guess.inverse(), scoreOf(c.search)});
+      // Only the kept ones are moved to their misfit's minimum (the search costs about a
+      // hundred misfit evaluations each).
+      keepDistinct();
+      for (Hypothesis& h : hypotheses_) {
+        h.misfit = descend(h.search, scoreOf);
+        h.from_guess = h.search.pose() * guess.inverse();
+      }
     } else {
       // A hypothesis that finds no overlap any more explains nothing of the scan.
       const double unexplained = 2.0 * kUnmatchedCost * static_cast<double>(points.size());
+      // Each hypothesis moves with the guess, and by what the target's own motion since the
+      // last scan can add (the prior; the guess, an acquisition's prediction, may not know the
+      // motion yet): a damped run that keeps it in its own minimum instead of sliding along
+      // the directions the sparse scan leaves loose into another's. Its move is part of the
+      // misfit (the prior's negative log-likelihood, in the same units).
+      const double dt = toSeconds(stamp - hypotheses_stamp_);
+      const double shift_sigma = std::max(1e-6, params_.follow_shift_sigma * dt);
+      const double turn_sigma = std::max(1e-9, params_.follow_turn_sigma * dt);
+      Vector6d prior;
+      prior << Eigen::Vector3d::Constant(1.0 / (shift_sigma * shift_sigma)),
+          Eigen::Vector3d::Constant(1.0 / (turn_sigma * turn_sigma));
+      const double noise = params_.inlier_distance / 3.0;
       for (Hypothesis& h : hypotheses_) {
         const Eigen::Isometry3d start = h.from_guess * guess;
         Search s;
         s.rotation = start.linear();
         s.translation = start.translation();
-        s.distance = params_.max_correspondence_distance;
+        s.distance =
+            std::clamp(params_.inlier_distance + 3.0 * shift_sigma,
+                       params_.min_correspondence_distance, params_.max_correspondence_distance);
+        s.anchor = start;
+        s.anchor_precision = noise * noise * prior;
         CDFF_RETURN_IF_ERROR(iterate(points, s, params_.hypothesis_iterations));
         if (s.starved) {
           h.misfit += unexplained;
           h.search.rotation = start.linear();
           h.search.translation = start.translation();
         } else {
-          h.misfit += scoreOf(s);
+          h.misfit += descend(s, [&](const Search& at) {
+            const Vector6d moved = at.fromAnchor();
+            return scoreOf(at) + moved.dot(prior.cwiseProduct(moved));
+          });
           h.search = s;
         }
         h.from_guess = h.search.pose() * guess.inverse();
@@ -630,30 +731,17 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     }
     hypotheses_stamp_ = stamp;
     ++hypotheses_scans_;
-    // Followed hypotheses that ended in the same minimum are one hypothesis.
-    std::sort(hypotheses_.begin(), hypotheses_.end(),
-              [](const Hypothesis& a, const Hypothesis& b) { return a.misfit < b.misfit; });
-    std::vector<Hypothesis> distinct;
-    for (const Hypothesis& h : hypotheses_) {
-      bool duplicate = false;
-      for (const Hypothesis& d : distinct)
-        duplicate =
-            duplicate ||
-            ((h.search.translation - d.search.translation).norm() < kSameHypothesisDistance &&
-             Eigen::AngleAxisd(h.search.rotation * d.search.rotation.transpose()).angle() <
-                 kSameHypothesisAngle);
-      if (!duplicate && static_cast<int>(distinct.size()) < params_.kept_hypotheses)
-        distinct.push_back(h);
-    }
-    hypotheses_ = std::move(distinct);
+    keepDistinct();
     if (hypotheses_.empty()) {
       ambiguous = true;
       return Status::ok();
     }
+    // A single distinct hypothesis left (every start, or every followed one, ended in the same
+    // minimum) has no rival for more scans to rule out: it is decided at once.
     const double margin = hypotheses_.size() > 1 ? hypotheses_[1].misfit - hypotheses_[0].misfit
                                                  : std::numeric_limits<double>::infinity();
-    ambiguous =
-        hypotheses_scans_ < params_.confirmation_scans || margin < params_.confirmation_margin;
+    ambiguous = hypotheses_.size() > 1 && (hypotheses_scans_ < params_.confirmation_scans ||
+                                           margin < params_.confirmation_margin);
     best = hypotheses_.front().search;
     if (!ambiguous) hypotheses_.clear();  // decided: a later acquisition starts a new set
     return Status::ok();
@@ -707,6 +795,10 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         }
       }
       h = h.selfadjointView<Eigen::Lower>();
+      if (!s.anchor_precision.isZero()) {
+        h.diagonal() += s.anchor_precision;
+        g += s.anchor_precision.cwiseProduct(s.fromAnchor());
+      }
       // A relative ridge keeps the step finite when the scan leaves a direction unconstrained
       // (e.g. one flat face): that direction then stays at the guess instead of jumping.
       h.diagonal().array() += 1e-9 * h.diagonal().maxCoeff() + 1e-12;

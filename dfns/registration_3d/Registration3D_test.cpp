@@ -452,5 +452,27 @@ TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
   EXPECT_FALSE(*plain->out.ambiguous);
 }
 
+TEST(Registration3DFastIcp, ConfirmationDecidesAtOnceWhenEveryStartEndsInOneMinimum) {
+  // A re-acquisition from a small error (the coasted state, 2 cm and 1 degree off) on a scan
+  // that constrains the pose: every start ends in the same minimum, there is no rival for more
+  // scans to rule out, so the first scan's pose is not ambiguous (a DFPC fuses it at once
+  // instead of coasting two more scans).
+  const char* yaml =
+      "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
+      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
+      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+  auto icp = makeFast(yaml);
+  const Eigen::Isometry3d truth = lidarTTarget(5.0);
+  icp->in.source.set(scanAt(truth, 40));
+  icp->in.model.set(satelliteModel());
+  icp->in.initial_guess.set(guessOf(testing::perturb(truth, 0.02, 1.0 * kDeg, 32)));
+  ASSERT_OK(icp->process());
+  EXPECT_FALSE(*icp->out.ambiguous);
+  const testing::PoseError error = testing::poseError(icp->out.transform->isometry(), truth);
+  std::printf("decided pose: %.4f m, %.3f deg off\n", error.translation, error.rotation / kDeg);
+  EXPECT_LT(error.translation, 0.01 * 5.0);
+  EXPECT_LT(error.rotation, 1.0 * kDeg);
+}
+
 }  // namespace
 }  // namespace cdff::dfn

@@ -217,28 +217,10 @@ void runDraw(std::uint64_t draw, DrawRun& out, const GraphEdit& edit = {}) {
   out.result = std::move(r).value();
 }
 
-// With the acquisition's multi-scan confirmation on (`acquire`'s confirmation_scans 3; off in the
-// committed graph, which it would make worse elsewhere: docs/lidar-tracking.md, Limits), a wrong
-// lock stays ACQUIRING (the hypotheses are scored over consecutive scans; the pose is fused only
-// once one explains them clearly best): no pose more than 10 degrees off is ever reported as
-// TRACKING, and the draw is tracked for most of the run.
-void confirmOverThreeScans(dfpc::GraphSpec& spec) {
-  for (dfpc::InstanceSpec& instance : spec.instances)
-    if (instance.name == "acquire") instance.parameters["confirmation_scans"] = 3;
-}
-
-class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
-
-TEST_P(TumblingAcquisition, WithConfirmationNoWrongLockIsReportedTracking) {
-  DrawRun d;
-  ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d, confirmOverThreeScans));
-  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
-  EXPECT_GE(d.result.tracked_fraction, 0.85);
-}
-
-INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisition, ::testing::Values(21, 22, 23, 24, 25, 26));
-
-// Every draw tracked within twice the mid-range targets.
+// Every draw tracked within twice the mid-range targets, and no pose more than 10 degrees off
+// ever reported TRACKING: the acquisition's multi-scan confirmation (`acquire`'s
+// confirmation_scans) keeps a wrong lock ACQUIRING until one hypothesis explains the scans
+// clearly best.
 class TumblingAcquisitionAccuracy : public ::testing::TestWithParam<std::uint64_t> {};
 
 TEST_P(TumblingAcquisitionAccuracy, EveryDrawIsTrackedWithinTwiceTheMidRangeTargets) {
@@ -250,11 +232,22 @@ TEST_P(TumblingAcquisitionAccuracy, EveryDrawIsTrackedWithinTwiceTheMidRangeTarg
   EXPECT_GE(d.result.tracked_fraction, 0.99);
 }
 
-// Disabled: the target, not met yet for every draw (docs/lidar-tracking.md, Limits, gives
-// each draw's figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*'
-// (about 15 s).
-INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisitionAccuracy,
-                         ::testing::Values(21, 22, 23, 24, 25, 26));
+INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisitionAccuracy, ::testing::Values(21, 22, 24, 25, 26));
+// Disabled: draw 23 misses the targets (docs/lidar-tracking.md, Limits, gives each draw's
+// figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*' (about 40 s).
+INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisitionAccuracy, ::testing::Values(23));
+
+// What draw 23 meets: no wrong lock reported TRACKING, and tracked for most of the run.
+class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
+
+TEST_P(TumblingAcquisition, NoWrongLockIsReportedTracking) {
+  DrawRun d;
+  ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d));
+  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
+  EXPECT_GE(d.result.tracked_fraction, 0.85);
+}
+
+INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisition, ::testing::Values(23));
 
 TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
   // 10-13 s: scans with no point on the target (it is out of view). The track goes LOST after
