@@ -105,6 +105,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     // Built once per frame, for the coarse alignment and both hypotheses.
     std::vector<std::vector<Image>> pyramid;
     bool coarse_placed = false;
+    coarse_note_.clear();
     if (coarse_search_ && !cameras->frames.empty()) {
       Result<std::optional<Transform>> aligned = coarseAlign(cameras->frames, predicted, pyramid);
       if (!aligned) return aligned.status();
@@ -154,6 +155,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (!*acquired) {
       result->status = TrackingStatus::kLost;
       result->reason = "acquisition from the initial pose failed: " + acquisition_failure_;
+      if (!coarse_note_.empty()) result->reason += " (" + coarse_note_ + ")";
       result->reference_T_model = predicted.pose;
       result->covariance = tracking::noInformationCovariance();
     } else if (result->status == TrackingStatus::kLost) {
@@ -498,7 +500,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   // it did not run or found nothing to align with.
   Result<std::optional<Transform>> coarseAlign(std::span<const tracking::CameraFrame> frames,
                                                const PoseWithCovariance& predicted,
-                                               std::vector<std::vector<Image>>& pyramid) const {
+                                               std::vector<std::vector<Image>>& pyramid) {
     std::size_t reference = 0;
     while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
     const tracking::CameraFrame& frame = frames[reference];
@@ -560,7 +562,17 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
         cv::Rect(0, 0, camera.width, camera.height);
     const ChamferMap map =
         chamferMap(pyramidLevel(frames, reference, level, pyramid), window, truncation);
-    if (map.edge_pixels == 0) return std::optional<Transform>();
+    // The contour is sampled every 2 px: with fewer edge pixels in the whole window than samples,
+    // no placement can put even half of it on edges, and the search would only pick the least bad
+    // clutter (a back-lit target against black space: LOST on every frame, and the search paid on
+    // each).
+    if (map.edge_pixels < static_cast<int>(samples.samples.size())) {
+      coarse_note_ = fmt::format(
+          "coarse alignment skipped: {} edge pixels in its {}x{} px search window at pyramid level "
+          "{}, fewer than the {} samples of the model's contour",
+          map.edge_pixels, window.width, window.height, level, samples.samples.size());
+      return std::optional<Transform>();
+    }
 
     // Any scale and shift, with the nearest pixel of each sample.
     const auto score = [&](double s, double dx, double dy) {
@@ -630,6 +642,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   }
 
   bool coarse_search_ = false;
+  std::string coarse_note_;  // why this frame's coarse alignment did not run, for the LOST reason
   double coarse_canny_low_ = 20;
   double acquisition_sigmas_ = 3;
   int acquisition_max_search_ = 64;
