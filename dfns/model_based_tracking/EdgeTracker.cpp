@@ -55,6 +55,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     acquisition_max_search_ = p.acquisition_max_search_distance;
     lateral_first_ = p.acquisition_lateral_first;
     coarse_search_ = p.acquisition_coarse_search;
+    coarse_canny_low_ = p.acquisition_canny_low;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -155,7 +156,6 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (!*acquired) {
       result->status = TrackingStatus::kLost;
       result->reason = "acquisition from the initial pose failed: " + acquisition_failure_;
-      if (!coarse_note_.empty()) result->reason += " (" + coarse_note_ + ")";
       result->reference_T_model = predicted.pose;
       result->covariance = tracking::noInformationCovariance();
     } else if (result->status == TrackingStatus::kLost) {
@@ -177,6 +177,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       }
     }
     confirmAcquisition(*result, predicted);
+    if (acquisition_ran_ && !coarse_note_.empty()) result->reason += " (" + coarse_note_ + ")";
     if (result->status != TrackingStatus::kTracking)
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
 
@@ -643,7 +644,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
 
   bool coarse_search_ = false;
   std::string coarse_note_;  // why this frame's coarse alignment did not run, for the LOST reason
-  double coarse_canny_low_ = 20;
+  double coarse_canny_low_ = 20;  // acquisition_canny_low
   double acquisition_sigmas_ = 3;
   int acquisition_max_search_ = 64;
   bool lateral_first_ = true;

@@ -487,6 +487,49 @@ TEST(ModelBasedTracking, ExactlyOnePredictionIsExpected) {
   testing::expectRejected(*node, "both 'predicted_pose' and 'predicted_state' are set");
 }
 
+// The coarse alignment's Canny threshold: a threshold of 0 would make every pixel with any
+// gradient an edge, one above 680 (the high threshold above the largest 3x3 Sobel L1 norm of an
+// 8-bit image) no pixel; both are refused at configure time with the value and the bounds.
+TEST(ModelBasedTracking, ACoarseSearchCannyThresholdOutOfRangeIsRejected) {
+  auto node =
+      dfn::Registry::instance().createAs<ModelBasedTracking>("ModelBasedTracking", "EdgeTracker");
+  ASSERT_TRUE(node.isOk()) << node.status().toString();
+  for (const std::string value : {"0", "681", "-5"}) {
+    const Status s = node.value()->configure(
+        YAML::Load("{acquisition_coarse_search: true, acquisition_canny_low: " + value + "}"));
+    EXPECT_EQ(s.code(), StatusCode::kInvalidParameter) << s.toString();
+    EXPECT_NE(s.message().find("'acquisition_canny_low' = " + value +
+                               " is out of range; expected "
+                               "[1, 680]"),
+              std::string::npos)
+        << s.message();
+  }
+  EXPECT_TRUE(node.value()
+                  ->configure(YAML::Load("{acquisition_coarse_search: true, "
+                                         "acquisition_canny_low: 35}"))
+                  .isOk());
+  // The threshold is the search's: at the largest one the lit image of an uncertain start has no
+  // edges left to align with, and the search is skipped (see the test below at the default, 20).
+  const Sequence seq;
+  const Eigen::Isometry3d truth = seq.truth(0);
+  const double offset = 0.05 * truth.translation().norm();
+  Eigen::Isometry3d start = truth;
+  start.translation() += Eigen::Vector3d(0.6, -0.8, 0).normalized() * offset;
+  PoseWithCovariance p = prediction(start);
+  p.covariance.diagonal() << Eigen::Vector3d::Constant(offset * offset),
+      Eigen::Vector3d::Constant(std::pow(5.0 * M_PI / 180, 2));
+  auto strict =
+      make("EdgeTracker", "{acquisition_coarse_search: true, acquisition_canny_low: 680}");
+  strict->in.model.set(seq.model);
+  strict->in.predicted_pose.set(p);
+  strict->in.image.set(seq.image(truth, 0));
+  ASSERT_OK(strict->process());
+  bool skipped = false;
+  for (const std::string& w : strict->diagnostics().warnings)
+    skipped = skipped || w.find("coarse alignment skipped: 0 edge pixels") != std::string::npos;
+  EXPECT_TRUE(skipped) << "the acquisition frame's reason does not name the skipped search";
+}
+
 TEST(ModelBasedTracking, VispMbtNeedsTheDepthItsModeUses) {
   const Sequence seq;
   auto node = make("VispMbt", "{mode: edges_depth}");
