@@ -69,6 +69,10 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     tracker_ = tracking::EdgeTracker();  // new parameters, new model tessellation
     awaiting_confirmation_ = false;
     reacquisition_covariance_.reset();
+    // OpenCV's first Canny and distance transform calls initialise the library (8 ms of the
+    // stereo graph's first frame, where no undistortion has called OpenCV before): done now
+    // rather than in the first frame, the acquisition's, whose budget is that of every frame.
+    if (coarse_search_) warmUpCoarseSearch();
     // The model file's tracking form is built now rather than in the first frame, which also
     // runs the acquisition and has the same time budget as the others.
     if (std::shared_ptr<const PolygonModel> file_model = models_.useFileModel())
@@ -414,6 +418,15 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     if (levels.empty()) levels.push_back(*frames[i].image);
     while (static_cast<int>(levels.size()) <= level) levels.push_back(halve(levels.back()));
     return levels[static_cast<std::size_t>(level)];
+  }
+
+  void warmUpCoarseSearch() const {
+    cv::Mat image(64, 64, CV_8UC1, cv::Scalar(0)), edges, distance, labels;
+    cv::rectangle(image, cv::Rect(16, 16, 32, 32), cv::Scalar(255), cv::FILLED);
+    cv::Canny(image, edges, coarse_canny_low_, 3 * coarse_canny_low_);
+    cv::bitwise_not(edges, edges);
+    cv::distanceTransform(edges, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                          cv::DIST_LABEL_PIXEL);
   }
 
   // The oriented chamfer cost of a contour sample at each pixel of a window of the image:
