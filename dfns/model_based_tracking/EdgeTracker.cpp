@@ -55,6 +55,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     acquisition_max_search_ = p.acquisition_max_search_distance;
     lateral_first_ = p.acquisition_lateral_first;
     coarse_search_ = p.acquisition_coarse_search;
+    coarse_canny_low_ = p.acquisition_canny_low;
     o.min_inlier_ratio = p.min_inlier_ratio;
     o.degraded_inlier_ratio = p.degraded_inlier_ratio;
     o.min_camera_match_ratio = p.min_camera_match_ratio;
@@ -68,6 +69,10 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     tracker_ = tracking::EdgeTracker();  // new parameters, new model tessellation
     awaiting_confirmation_ = false;
     reacquisition_covariance_.reset();
+    // OpenCV's first Canny and distance transform calls initialise the library (8 ms of the
+    // stereo graph's first frame, where no undistortion has called OpenCV before): done now
+    // rather than in the first frame, the acquisition's, whose budget is that of every frame.
+    if (coarse_search_) warmUpCoarseSearch();
     // The model file's tracking form is built now rather than in the first frame, which also
     // runs the acquisition and has the same time budget as the others.
     if (std::shared_ptr<const PolygonModel> file_model = models_.useFileModel())
@@ -102,27 +107,37 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
 
     const DepthMap* depth = in.depth.hasValue() ? in.depth.get() : nullptr;
     Transform start = predicted.pose;
+    // Built once per frame, for the coarse alignment and both hypotheses.
+    std::vector<std::vector<Image>> pyramid;
+    bool coarse_placed = false;
+    coarse_note_.clear();
     if (coarse_search_ && !cameras->frames.empty()) {
-      Result<Transform> aligned = coarseAlign(cameras->frames, predicted);
+      Result<std::optional<Transform>> aligned = coarseAlign(cameras->frames, predicted, pyramid);
       if (!aligned) return aligned.status();
-      start = *aligned;
+      coarse_placed = aligned->has_value();
+      if (coarse_placed) start = **aligned;
     }
     const Transform coarse_start = start;
-    std::vector<std::vector<Image>> pyramid;  // built once per frame, for both hypotheses
     Result<bool> acquired =
         acquire(cameras->frames, depth, predicted, start, lateral_first_, pyramid);
     if (!acquired) return acquired.status();
     Result<tracking::TrackingResult> result =
         tracker_.track(cameras->frames, depth, depth_T_camera_, start, options_);
     if (!result) return result.status();
-    if (acquisition_ran_ && lateral_first_ &&
-        !(*acquired && result->status == TrackingStatus::kTracking &&
-          admittedByPrediction(*result, predicted))) {
+    // After a coarse placement the lateral offset comes from the image's edges, and the
+    // lateral-first acquisition from it is kept when it is not lost and the prediction admits it
+    // (at long range it is DEGRADED, its inlier ratio below 0.5 as for any track there; the plain
+    // one never did better at 8 or 17 m and doubled the acquisition frame's time).
+    const bool lateral_accepted = *acquired && result->status != TrackingStatus::kLost &&
+                                  (coarse_placed || result->status == TrackingStatus::kTracking) &&
+                                  admittedByPrediction(*result, predicted);
+    if (acquisition_ran_ && lateral_first_ && !lateral_accepted) {
       // Two hypotheses: neither acquisition works everywhere (the lateral-first one locks on at
       // 8 m where the plain one diverges, and the reverse happens at 2.7 m). The plain one runs
-      // only when the lateral-first one gave no track that is tracking and that the prediction
-      // admits (running both on every acquisition doubled its time: the first frame was over its
-      // budget); the full-resolution result with the higher inlier ratio is then kept.
+      // only when the lateral-first one gave no track that is tracking (or, after a coarse
+      // placement, not lost) and that the prediction admits (running both on every acquisition
+      // doubled its time: the first frame was over its budget); the full-resolution result with
+      // the higher inlier ratio is then kept.
       const std::string lateral_failure = acquisition_failure_;
       Transform plain_start = coarse_start;
       Result<bool> plain = acquire(cameras->frames, depth, predicted, plain_start, false, pyramid);
@@ -166,6 +181,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       }
     }
     confirmAcquisition(*result, predicted);
+    if (acquisition_ran_ && !coarse_note_.empty()) result->reason += " (" + coarse_note_ + ")";
     if (result->status != TrackingStatus::kTracking)
       warn(fmt::format("{}: {}", toString(result->status), result->reason));
 
@@ -360,14 +376,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     coarse.solver.divergence_rotation =
         std::max(options_.solver.divergence_rotation,
                  2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
-    // The pyramid of every camera's image, built once per frame for both hypotheses.
-    pyramid.resize(frames.size());
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      if (!frames[i].image) continue;
-      if (pyramid[i].empty()) pyramid[i].push_back(*frames[i].image);
-      while (static_cast<int>(pyramid[i].size()) <= levels)
-        pyramid[i].push_back(halve(pyramid[i].back()));
-    }
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      if (frames[i].image) pyramidLevel(frames, i, levels, pyramid);
     for (int level = levels; level >= 0; --level) {
       std::vector<tracking::CameraFrame> scaled(frames.begin(), frames.end());
       for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -399,56 +409,128 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     return true;
   }
 
+  // The image of camera `i` at pyramid `level` (2x2 averaging per level), each level built once
+  // per frame for the coarse alignment and both acquisition hypotheses.
+  static const Image& pyramidLevel(std::span<const tracking::CameraFrame> frames, std::size_t i,
+                                   int level, std::vector<std::vector<Image>>& pyramid) {
+    if (pyramid.size() < frames.size()) pyramid.resize(frames.size());
+    std::vector<Image>& levels = pyramid[i];
+    if (levels.empty()) levels.push_back(*frames[i].image);
+    while (static_cast<int>(levels.size()) <= level) levels.push_back(halve(levels.back()));
+    return levels[static_cast<std::size_t>(level)];
+  }
+
+  void warmUpCoarseSearch() const {
+    cv::Mat image(64, 64, CV_8UC1, cv::Scalar(0)), edges, distance, labels;
+    cv::rectangle(image, cv::Rect(16, 16, 32, 32), cv::Scalar(255), cv::FILLED);
+    cv::Canny(image, edges, coarse_canny_low_, 3 * coarse_canny_low_);
+    cv::bitwise_not(edges, edges);
+    cv::distanceTransform(edges, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                          cv::DIST_LABEL_PIXEL);
+  }
+
+  // The oriented chamfer cost of a contour sample at each pixel of a window of the image:
+  // min(truncation, distance to the nearest edge pixel) + truncation * (1 - |cos|) of the angle
+  // between the sample's normal and that edge pixel's gradient, stored as `base` - |a . normal|
+  // so that the score's inner loop has no branch but the window's bound. Outside the window
+  // (beyond the image) a sample costs `truncation`.
+  struct ChamferMap {
+    struct Cell {
+      float base, ax, ay;
+    };
+    cv::Rect window;
+    std::vector<Cell> cells;
+    float truncation = 6;
+    int edge_pixels = 0;
+
+    float cost(int x, int y, float nx, float ny) const {
+      if (static_cast<unsigned>(x) >= static_cast<unsigned>(window.width) ||
+          static_cast<unsigned>(y) >= static_cast<unsigned>(window.height))
+        return truncation;
+      const Cell& c = cells[static_cast<std::size_t>(y) * window.width + x];
+      return c.base - std::abs(c.ax * nx + c.ay * ny);
+    }
+  };
+
+  // Canny edges, their distance transform and the gradient direction of each pixel's nearest
+  // edge pixel (distanceTransform's labels), in `window` of `image` only: the part of the image
+  // that the search can reach.
+  ChamferMap chamferMap(const Image& image, cv::Rect window, float truncation) const {
+    ChamferMap map;
+    map.window = window;
+    map.truncation = truncation;
+    const cv::Mat full = toMat(image);
+    const cv::Mat part = full(window);
+    cv::Mat edges, not_edges, distance, labels;
+    cv::Canny(part, edges, coarse_canny_low_, 3 * coarse_canny_low_);
+    map.edge_pixels = cv::countNonZero(edges);
+    map.cells.assign(static_cast<std::size_t>(window.area()), {2 * truncation, 0.f, 0.f});
+    if (map.edge_pixels == 0) return map;
+    cv::bitwise_not(edges, not_edges);
+    cv::distanceTransform(not_edges, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
+                          cv::DIST_LABEL_PIXEL);
+    // Labels number the edge pixels from 1 in raster order; each gets its Sobel gradient
+    // direction, from the whole image so that the window's border does not bias it.
+    const auto pixel = [&](int x, int y) {
+      return static_cast<float>(
+          full.at<std::uint8_t>(std::clamp(y, 0, full.rows - 1), std::clamp(x, 0, full.cols - 1)));
+    };
+    std::vector<cv::Vec2f> label_direction(1, cv::Vec2f(0, 0));
+    label_direction.reserve(static_cast<std::size_t>(map.edge_pixels) + 1);
+    for (int y = 0; y < edges.rows; ++y) {
+      const std::uint8_t* e = edges.ptr<std::uint8_t>(y);
+      for (int x = 0; x < edges.cols; ++x) {
+        if (!e[x]) continue;
+        const int u = x + window.x, v = y + window.y;
+        const float gx = pixel(u + 1, v - 1) + 2 * pixel(u + 1, v) + pixel(u + 1, v + 1) -
+                         pixel(u - 1, v - 1) - 2 * pixel(u - 1, v) - pixel(u - 1, v + 1);
+        const float gy = pixel(u - 1, v + 1) + 2 * pixel(u, v + 1) + pixel(u + 1, v + 1) -
+                         pixel(u - 1, v - 1) - 2 * pixel(u, v - 1) - pixel(u + 1, v - 1);
+        const float n = std::max(1e-6f, std::hypot(gx, gy));
+        label_direction.push_back(cv::Vec2f(gx / n, gy / n));
+      }
+    }
+    for (int y = 0; y < window.height; ++y) {
+      const float* d = distance.ptr<float>(y);
+      const int* l = labels.ptr<int>(y);
+      ChamferMap::Cell* cell = &map.cells[static_cast<std::size_t>(y) * window.width];
+      for (int x = 0; x < window.width; ++x) {
+        const cv::Vec2f dir = l[x] >= 0 && l[x] < static_cast<int>(label_direction.size())
+                                  ? label_direction[static_cast<std::size_t>(l[x])]
+                                  : cv::Vec2f(0, 0);
+        cell[x] = {std::min(truncation, d[x]) + truncation, truncation * dir[0],
+                   truncation * dir[1]};
+      }
+    }
+    return map;
+  }
+
   // Coarse alignment before the acquisition: at 17 m a 5 % / 5 degree initial error moves the
   // model's image by more than the 1D edge searches reach, so the passes lock onto wrong edges.
   // The model's contours at the prediction are slid and scaled over a truncated distance transform
   // of the image's Canny edges (a chamfer score) on a pyramid level where the model is kMinModelPx
   // or more across; the best shift and scale move the prediction across the line of sight and in
-  // range (the attitude is left to the passes). Only when the acquisition would run.
-  Result<Transform> coarseAlign(std::span<const tracking::CameraFrame> frames,
-                                const PoseWithCovariance& predicted) const {
+  // range (the attitude is left to the passes). Only when the acquisition would run; no value when
+  // it did not run or found nothing to align with.
+  Result<std::optional<Transform>> coarseAlign(std::span<const tracking::CameraFrame> frames,
+                                               const PoseWithCovariance& predicted,
+                                               std::vector<std::vector<Image>>& pyramid) {
     std::size_t reference = 0;
     while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
     const tracking::CameraFrame& frame = frames[reference];
-    if (!frame.image || !tracker_.hasModel()) return predicted.pose;
+    if (!frame.image || !tracker_.hasModel()) return std::optional<Transform>();
     const double spread = predictionSpreadPx(frame, predicted);
-    if (spread <= options_.search.search_distance) return predicted.pose;
+    if (spread <= options_.search.search_distance) return std::optional<Transform>();
     const double model_px = modelSizePx(frame, predicted);
     // A model wider than the image is seen in part: the chamfer score of its clipped contours is
     // biased towards whatever edges lie inside, and the coarse-to-fine passes reach far enough
     // there.
-    if (model_px >= std::min(frame.camera.width, frame.camera.height)) return predicted.pose;
+    if (model_px >= std::min(frame.camera.width, frame.camera.height))
+      return std::optional<Transform>();
     int level = 0;
     while (level < 3 && model_px / (2 << level) >= kMinModelPx) ++level;
     CameraModel camera = frame.camera;
     for (int l = 0; l < level; ++l) camera = halve(camera);
-    cv::Mat full = toMat(*frame.image), small, edges, distance;
-    cv::resize(full, small, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
-    cv::Canny(small, edges, coarse_canny_low_, 3 * coarse_canny_low_);
-    // The gradient direction of each pixel's nearest edge pixel, for the orientation term.
-    cv::Mat gx, gy, labels;
-    cv::Sobel(small, gx, CV_32F, 1, 0);
-    cv::Sobel(small, gy, CV_32F, 0, 1);
-    cv::Mat not_edges;
-    cv::bitwise_not(edges, not_edges);
-    cv::distanceTransform(not_edges, distance, labels, cv::DIST_L2, cv::DIST_MASK_5,
-                          cv::DIST_LABEL_PIXEL);
-    std::vector<cv::Vec2f> label_direction(1, cv::Vec2f(0, 0));
-    for (int y = 0; y < edges.rows; ++y)
-      for (int x = 0; x < edges.cols; ++x)
-        if (edges.at<std::uint8_t>(y, x)) {
-          const float a = gx.at<float>(y, x), b = gy.at<float>(y, x);
-          const float n = std::max(1e-6f, std::hypot(a, b));
-          label_direction.push_back(cv::Vec2f(a / n, b / n));
-        }
-    cv::Mat direction(labels.size(), CV_32FC2);
-    for (int y = 0; y < labels.rows; ++y)
-      for (int x = 0; x < labels.cols; ++x) {
-        const int l = labels.at<int>(y, x);
-        direction.at<cv::Vec2f>(y, x) = l >= 0 && l < static_cast<int>(label_direction.size())
-                                            ? label_direction[l]
-                                            : cv::Vec2f(0, 0);
-      }
     const Eigen::Isometry3d c_T_r = frame.camera_T_reference.isometry();
     const Eigen::Isometry3d c_T_m = c_T_r * predicted.pose.isometry();
     Result<ModelContours> contours = tracking::computeContours(
@@ -460,9 +542,13 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     sampling.max_samples = 600;
     const ContourSamples samples =
         tracking::sampleContours(std::make_shared<const ModelContours>(*contours), sampling);
-    if (samples.samples.size() < 20) return predicted.pose;
+    if (samples.samples.size() < 20) return std::optional<Transform>();
     Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-    for (const ContourSample& s : samples.samples) mean += s.pixel;
+    Eigen::AlignedBox2d box;
+    for (const ContourSample& s : samples.samples) {
+      mean += s.pixel;
+      box.extend(s.pixel);
+    }
     mean /= static_cast<double>(samples.samples.size());
     const Matrix6d& c = predicted.covariance;
     const Eigen::Vector3d centre = c_T_m * tracker_.model().centre;
@@ -471,34 +557,77 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
         acquisition_sigmas_ * std::sqrt(std::max(0.0, c(0, 0) + c(1, 1))) * camera.fx / z;
     const double range = acquisition_sigmas_ * std::sqrt(std::max(0.0, c(2, 2))) / z;
     const int reach = std::clamp(static_cast<int>(std::ceil(lateral)), 1, 200);
-    const double truncation = 6;
-    const auto score = [&](double s, double dx, double dy) {
-      double total = 0;
-      for (const ContourSample& q : samples.samples) {
-        const double u = mean.x() + s * (q.pixel.x() - mean.x()) + dx;
-        const double v = mean.y() + s * (q.pixel.y() - mean.y()) + dy;
-        const int x = static_cast<int>(std::lround(u)), y = static_cast<int>(std::lround(v));
-        total +=
-            x < 0 || y < 0 || x >= distance.cols || y >= distance.rows
-                ? truncation
-                : std::min<double>(truncation, distance.at<float>(y, x)) +
-                      truncation * (1 - std::abs(direction.at<cv::Vec2f>(y, x)[0] * q.normal.x() +
-                                                 direction.at<cv::Vec2f>(y, x)[1] * q.normal.y()));
-      }
-      return total;
-    };
-    // A grid as coarse as the truncation allows (the score still falls towards the minimum
-    // within it), then finer grids around the best.
-    double best = score(1, 0, 0), best_s = 1, best_x = 0, best_y = 0;
+    const float truncation = 6;
     const int scale_steps = 4;
     const double scale_step = std::min(range, 0.3) / scale_steps;
     const int grid = 5;
+    // The window the search can reach: the contours scaled about their mean by the largest scale
+    // (the grid's and the refinements' 0.7 step more), shifted by the reach and the refinements'
+    // 7 px, plus the truncation so that distances up to it are those of the whole image.
+    const double max_scale = 1 + (scale_steps + 0.7) * scale_step;
+    const Eigen::Vector2d low = mean + max_scale * (box.min() - mean);
+    const Eigen::Vector2d high = mean + max_scale * (box.max() - mean);
+    const int margin = reach + 7 + static_cast<int>(truncation) + 2;
+    const cv::Rect window =
+        cv::Rect(cv::Point(static_cast<int>(std::floor(low.x())) - margin,
+                           static_cast<int>(std::floor(low.y())) - margin),
+                 cv::Point(static_cast<int>(std::ceil(high.x())) + margin + 1,
+                           static_cast<int>(std::ceil(high.y())) + margin + 1)) &
+        cv::Rect(0, 0, camera.width, camera.height);
+    const ChamferMap map =
+        chamferMap(pyramidLevel(frames, reference, level, pyramid), window, truncation);
+    // The contour is sampled every 2 px: with fewer edge pixels in the whole window than samples,
+    // no placement can put even half of it on edges, and the search would only pick the least bad
+    // clutter (a back-lit target against black space: LOST on every frame, and the search paid on
+    // each).
+    if (map.edge_pixels < static_cast<int>(samples.samples.size())) {
+      coarse_note_ = fmt::format(
+          "coarse alignment skipped: {} edge pixels in its {}x{} px search window at pyramid level "
+          "{}, fewer than the {} samples of the model's contour",
+          map.edge_pixels, window.width, window.height, level, samples.samples.size());
+      return std::optional<Transform>();
+    }
+
+    // Any scale and shift, with the nearest pixel of each sample.
+    const auto score = [&](double s, double dx, double dy) {
+      float total = 0;
+      for (const ContourSample& q : samples.samples) {
+        const double u = mean.x() + s * (q.pixel.x() - mean.x()) + dx;
+        const double v = mean.y() + s * (q.pixel.y() - mean.y()) + dy;
+        total += map.cost(static_cast<int>(std::lround(u)) - window.x,
+                          static_cast<int>(std::lround(v)) - window.y,
+                          static_cast<float>(q.normal.x()), static_cast<float>(q.normal.y()));
+      }
+      return static_cast<double>(total);
+    };
+    // A grid as coarse as the truncation allows (the score still falls towards the minimum
+    // within it), then finer grids around the best. On the grid the shifts are whole pixels, so
+    // each sample's pixel is rounded once per scale; a shift stops being scored once its partial
+    // sum reaches the best (the costs are not negative).
+    double best = score(1, 0, 0), best_s = 1, best_x = 0, best_y = 0;
+    struct Placed {
+      int x, y;
+      float nx, ny;
+    };
+    std::vector<Placed> placed(samples.samples.size());
     for (int k = -scale_steps; k <= scale_steps; ++k) {
       const double s = 1 + scale_step * k;
+      for (std::size_t i = 0; i < samples.samples.size(); ++i) {
+        const ContourSample& q = samples.samples[i];
+        placed[i] = {
+            static_cast<int>(std::lround(mean.x() + s * (q.pixel.x() - mean.x()))) - window.x,
+            static_cast<int>(std::lround(mean.y() + s * (q.pixel.y() - mean.y()))) - window.y,
+            static_cast<float>(q.normal.x()), static_cast<float>(q.normal.y())};
+      }
       for (int dy = -reach; dy <= reach; dy += grid)
         for (int dx = -reach; dx <= reach; dx += grid) {
-          const double v = score(s, dx, dy);
-          if (v < best) best = v, best_s = s, best_x = dx, best_y = dy;
+          float total = 0;
+          const float bound = static_cast<float>(best);
+          for (const Placed& p : placed) {
+            total += map.cost(p.x + dx, p.y + dy, p.nx, p.ny);
+            if (total >= bound) break;
+          }
+          if (total < bound) best = total, best_s = s, best_x = dx, best_y = dy;
         }
     }
     for (double step = 2; step >= 0.5; step /= 2) {
@@ -521,12 +650,14 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
                                 (moved_px.y() - camera.cy) / camera.fy * moved_z, moved_z);
     Eigen::Isometry3d aligned = c_T_m;
     aligned.pretranslate(moved - centre);
-    return Transform::fromIsometry(c_T_r.inverse() * aligned, predicted.pose.parent_frame,
-                                   predicted.pose.child_frame, predicted.pose.stamp);
+    return std::optional<Transform>(
+        Transform::fromIsometry(c_T_r.inverse() * aligned, predicted.pose.parent_frame,
+                                predicted.pose.child_frame, predicted.pose.stamp));
   }
 
   bool coarse_search_ = false;
-  double coarse_canny_low_ = 20;
+  std::string coarse_note_;  // why this frame's coarse alignment did not run, for the LOST reason
+  double coarse_canny_low_ = 20;  // acquisition_canny_low
   double acquisition_sigmas_ = 3;
   int acquisition_max_search_ = 64;
   bool lateral_first_ = true;

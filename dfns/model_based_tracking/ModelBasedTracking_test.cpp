@@ -383,6 +383,41 @@ TEST(ModelBasedTracking, EdgeTrackerAcquiresFromAnUncertainInitialPose) {
               translationError(*node->out.pose, seq.truth(0)) > 0.002);
 }
 
+// The coarse alignment needs edges to align with: in a black image (a back-lit target against
+// black space) it is skipped, which the LOST reason says, while in the lit image of the same
+// uncertain start it runs and the acquisition succeeds.
+TEST(ModelBasedTracking, EdgeTrackerSkipsTheCoarseSearchWithoutEdgesToSupportIt) {
+  const Sequence seq;
+  const Eigen::Isometry3d truth = seq.truth(0);
+  const double offset = 0.05 * truth.translation().norm();
+  Eigen::Isometry3d start = truth;
+  start.translation() += Eigen::Vector3d(0.6, -0.8, 0).normalized() * offset;
+  start.linear() =
+      expSO3(Eigen::Vector3d(0, 0, 3.0 * M_PI / 180)).toRotationMatrix() * truth.linear();
+  PoseWithCovariance p = prediction(start);
+  p.covariance.diagonal() << Eigen::Vector3d::Constant(offset * offset),
+      Eigen::Vector3d::Constant(std::pow(5.0 * M_PI / 180, 2));
+  for (const double brightness : {0.0, 1.0}) {
+    SCOPED_TRACE("brightness " + std::to_string(brightness));
+    auto node = make("EdgeTracker", "{acquisition_coarse_search: true}");
+    node->in.model.set(seq.model);
+    node->in.predicted_pose.set(p);
+    node->in.image.set(seq.image(truth, 0, brightness));
+    ASSERT_OK(node->process());
+    const std::deque<std::string>& warnings = node->diagnostics().warnings;
+    const bool skipped =
+        !warnings.empty() && warnings.back().find("coarse alignment skipped") != std::string::npos;
+    if (brightness == 0) {
+      EXPECT_EQ(*node->out.status, kLost);
+      EXPECT_TRUE(skipped) << (warnings.empty() ? "no warning" : warnings.back());
+    } else {
+      EXPECT_NE(*node->out.status, kLost);
+      EXPECT_FALSE(skipped);
+      EXPECT_LT(translationError(*node->out.pose, truth), 0.0005);
+    }
+  }
+}
+
 // An acquired pose is not yet a track: DEGRADED (ACQUIRING) until the next frame confirms it. A
 // next frame whose estimate its prediction does not admit (here a prediction 3 mm off with a
 // covariance of 0.1 mm, where the tracked pose returns to the truth) is LOST, and the frame after
@@ -450,6 +485,49 @@ TEST(ModelBasedTracking, ExactlyOnePredictionIsExpected) {
   state.pose = prediction(seq.truth(0)).pose;
   node->in.predicted_state.set(state);
   testing::expectRejected(*node, "both 'predicted_pose' and 'predicted_state' are set");
+}
+
+// The coarse alignment's Canny threshold: a threshold of 0 would make every pixel with any
+// gradient an edge, one above 680 (the high threshold above the largest 3x3 Sobel L1 norm of an
+// 8-bit image) no pixel; both are refused at configure time with the value and the bounds.
+TEST(ModelBasedTracking, ACoarseSearchCannyThresholdOutOfRangeIsRejected) {
+  auto node =
+      dfn::Registry::instance().createAs<ModelBasedTracking>("ModelBasedTracking", "EdgeTracker");
+  ASSERT_TRUE(node.isOk()) << node.status().toString();
+  for (const std::string value : {"0", "681", "-5"}) {
+    const Status s = node.value()->configure(
+        YAML::Load("{acquisition_coarse_search: true, acquisition_canny_low: " + value + "}"));
+    EXPECT_EQ(s.code(), StatusCode::kInvalidParameter) << s.toString();
+    EXPECT_NE(s.message().find("'acquisition_canny_low' = " + value +
+                               " is out of range; expected "
+                               "[1, 680]"),
+              std::string::npos)
+        << s.message();
+  }
+  EXPECT_TRUE(node.value()
+                  ->configure(YAML::Load("{acquisition_coarse_search: true, "
+                                         "acquisition_canny_low: 35}"))
+                  .isOk());
+  // The threshold is the search's: at the largest one the lit image of an uncertain start has no
+  // edges left to align with, and the search is skipped (see the test below at the default, 20).
+  const Sequence seq;
+  const Eigen::Isometry3d truth = seq.truth(0);
+  const double offset = 0.05 * truth.translation().norm();
+  Eigen::Isometry3d start = truth;
+  start.translation() += Eigen::Vector3d(0.6, -0.8, 0).normalized() * offset;
+  PoseWithCovariance p = prediction(start);
+  p.covariance.diagonal() << Eigen::Vector3d::Constant(offset * offset),
+      Eigen::Vector3d::Constant(std::pow(5.0 * M_PI / 180, 2));
+  auto strict =
+      make("EdgeTracker", "{acquisition_coarse_search: true, acquisition_canny_low: 680}");
+  strict->in.model.set(seq.model);
+  strict->in.predicted_pose.set(p);
+  strict->in.image.set(seq.image(truth, 0));
+  ASSERT_OK(strict->process());
+  bool skipped = false;
+  for (const std::string& w : strict->diagnostics().warnings)
+    skipped = skipped || w.find("coarse alignment skipped: 0 edge pixels") != std::string::npos;
+  EXPECT_TRUE(skipped) << "the acquisition frame's reason does not name the skipped search";
 }
 
 TEST(ModelBasedTracking, VispMbtNeedsTheDepthItsModeUses) {
