@@ -376,13 +376,19 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     coarse.solver.divergence_rotation =
         std::max(options_.solver.divergence_rotation,
                  2 * acquisition_sigmas_ * std::sqrt(c.bottomRightCorner<3, 3>().trace()));
+    // Below full resolution only the reference camera: the coarse levels place the model within
+    // the full-resolution search, which one camera does as well as two (the second doubled the
+    // stereo acquisition frame's passes); at full resolution every camera contributes.
     for (std::size_t i = 0; i < frames.size(); ++i)
-      if (frames[i].image) pyramidLevel(frames, i, levels, pyramid);
+      if (frames[i].image) pyramidLevel(frames, i, i == reference ? levels : 0, pyramid);
     for (int level = levels; level >= 0; --level) {
-      std::vector<tracking::CameraFrame> scaled(frames.begin(), frames.end());
+      std::vector<tracking::CameraFrame> scaled;
       for (std::size_t i = 0; i < frames.size(); ++i) {
-        for (int l = 0; l < level; ++l) scaled[i].camera = halve(scaled[i].camera);
-        if (frames[i].image) scaled[i].image = &pyramid[i][static_cast<std::size_t>(level)];
+        if (level > 0 && i != reference) continue;
+        tracking::CameraFrame frame = frames[i];
+        for (int l = 0; l < level; ++l) frame.camera = halve(frame.camera);
+        if (frames[i].image) frame.image = &pyramid[i][static_cast<std::size_t>(level)];
+        scaled.push_back(frame);
       }
       const double level_spread = spread / (1 << level);
       // The coarsest level first finds the lateral offset alone with the wide search, then all
