@@ -240,6 +240,57 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   EXPECT_EQ(*plain->out.track_state, "ACQUIRING");
 }
 
+TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost) {
+  // The filter is confident in a state 0.5 m from where every measurement puts the target: one
+  // of the two is wrong, and after lost_after_rejections of them in a row the track is LOST so
+  // that the DFPC's acquisition decides (with reacquire, its next measurement re-initialises the
+  // pose); a fused measurement starts the count again. Without the parameter the filter coasts
+  // on until lost_after.
+  const double gate = chiSquareQuantile(0.999, 6);
+  const RigidBodyState s0 = knownState();  // at 1 s
+  PoseWithCovariance fix;
+  fix.pose = s0.pose;
+  fix.pose.stamp = 1'050'000;
+  fix.pose.translation += 0.05 * s0.twist.linear;
+  fix.covariance = Matrix6d::Identity() * 1e-4;
+  const auto elsewhere = [&](Timestamp stamp) {
+    PoseWithCovariance z = fix;
+    z.pose.stamp = stamp;
+    z.pose.translation = s0.pose.translation + toSeconds(stamp - s0.pose.stamp) * s0.twist.linear +
+                         Eigen::Vector3d(0.5, 0, 0);
+    return z;
+  };
+  for (int after : {3, 0}) {
+    auto ekf = make(fmt::format(
+        "{{innovation_gate: {}, lost_after: 1.0, reacquire: true, lost_after_rejections: {}}}",
+        gate, after));
+    ekf->in.initial_state.set(s0);
+    ASSERT_OK(ekf->process());
+    ekf->in.pose_measurement.set(fix);  // acquires: TRACKING
+    ASSERT_OK(ekf->process());
+    ASSERT_EQ(*ekf->out.track_state, "TRACKING");
+    for (int k = 1; k <= 3; ++k) {
+      ekf->in.pose_measurement.set(elsewhere(1'050'000 + 100'000 * k));
+      ASSERT_OK(ekf->process());
+      EXPECT_FALSE(*ekf->out.measurement_accepted) << k;
+      EXPECT_EQ(*ekf->out.track_state, after > 0 && k == 3 ? "LOST" : "TRACKING") << k;
+    }
+    if (after == 0) continue;
+    // LOST: the next measurement re-acquires, and the count starts again.
+    const PoseWithCovariance z = elsewhere(1'450'000);
+    ekf->in.pose_measurement.set(z);
+    ASSERT_OK(ekf->process());
+    EXPECT_TRUE(*ekf->out.measurement_accepted);
+    EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+    EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
+  }
+  auto node = Registry::instance().create("EstimationFilter", "ExtendedKalman");
+  ASSERT_TRUE(node.isOk());
+  const Status s = node.value()->configure(YAML::Load("{lost_after_rejections: -1}"));
+  EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
+  EXPECT_NE(s.message().find("lost_after_rejections"), std::string::npos) << s.message();
+}
+
 TEST(EstimationFilterExtendedKalman, BadInputsAreReportedAndLeaveTheFilterUnchanged) {
   auto ekf = make("max_prediction_interval: 5");
   auto reference = make("max_prediction_interval: 5");

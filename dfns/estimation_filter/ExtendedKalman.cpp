@@ -37,6 +37,7 @@ struct Estimate {
   Eigen::Vector3d target_rate = Eigen::Vector3d::Zero();                // rad/s, inertial frame
   bool acquiring = false;  // initialised by an initial state, no pose fused since
   Timestamp last_fix = 0;  // stamp of the last fused pose measurement (or of the initial state)
+  int rejections = 0;      // pose measurements gated out since the last fused one
 
   static Estimate from(const RigidBodyState& s) {
     Estimate e;
@@ -123,9 +124,12 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
           next = corrected;
           next->acquiring = false;
           next->last_fix = z.pose.stamp;
-        } else  // gated out: the state is only predicted to the measurement's time
+          next->rejections = 0;
+        } else {  // gated out: the state is only predicted to the measurement's time
+          ++next->rejections;
           warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
                            nis, params_.innovation_gate));
+        }
       }
     }
     if (has_attitude) {
@@ -233,10 +237,11 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
                            params_.ahrs_attitude_sigma);
   }
 
-  /// No pose fused for longer than lost_after.
+  /// No pose fused for longer than lost_after, or lost_after_rejections gated out in a row.
   bool lost(const Estimate& e) const {
-    return params_.lost_after > 0 &&
-           toSeconds(e.state.pose.stamp - e.last_fix) > params_.lost_after;
+    return (params_.lost_after > 0 &&
+            toSeconds(e.state.pose.stamp - e.last_fix) > params_.lost_after) ||
+           (params_.lost_after_rejections > 0 && e.rejections >= params_.lost_after_rejections);
   }
 
   /// The pose and its covariance from `z`, the twist and its covariance kept from the
@@ -251,6 +256,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     e.has_inertial = false;
     e.acquiring = false;
     e.last_fix = z.pose.stamp;
+    e.rejections = 0;
   }
 
   Estimate initialiseFrom(const PoseWithCovariance& z, const Matrix6d& noise) const {
