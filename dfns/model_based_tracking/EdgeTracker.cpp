@@ -351,8 +351,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
                        std::vector<std::vector<Image>>& pyramid) {
     acquisition_ran_ = false;
     if (frames.empty()) return true;
-    std::size_t reference = 0;
-    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    const std::size_t reference = referenceCamera(frames);
     const double spread = predictionSpreadPx(frames[reference], predicted);
     const int search = options_.search.search_distance;
     if (spread <= search) return true;
@@ -413,6 +412,14 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
       }
     }
     return true;
+  }
+
+  // The first camera with an image (the left one unless it failed): the one the acquisition's
+  // spread, model size and coarse alignment are measured in.
+  static std::size_t referenceCamera(std::span<const tracking::CameraFrame> frames) {
+    std::size_t reference = 0;
+    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    return reference;
   }
 
   // The image of camera `i` at pyramid `level` (2x2 averaging per level), each level built once
@@ -521,8 +528,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
   Result<std::optional<Transform>> coarseAlign(std::span<const tracking::CameraFrame> frames,
                                                const PoseWithCovariance& predicted,
                                                std::vector<std::vector<Image>>& pyramid) {
-    std::size_t reference = 0;
-    while (reference + 1 < frames.size() && !frames[reference].image) ++reference;
+    const std::size_t reference = referenceCamera(frames);
     const tracking::CameraFrame& frame = frames[reference];
     if (!frame.image || !tracker_.hasModel()) return std::optional<Transform>();
     const double spread = predictionSpreadPx(frame, predicted);

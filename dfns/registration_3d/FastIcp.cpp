@@ -410,8 +410,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
 
     bool ambiguous = false;
     Search search;
-    search.rotation = guess->linear();
-    search.translation = guess->translation();
+    search.setPose(*guess);
     search.distance = params_.max_correspondence_distance;
     if (params_.hypotheses > 1) {
       // Acquisition from a poor guess: a sparse scan of a target that looks alike from several
@@ -567,6 +566,10 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       at.translation() = translation;
       return at;
     }
+    void setPose(const Eigen::Isometry3d& at) {
+      rotation = at.linear();
+      translation = at.translation();
+    }
   };
 
   /// A start's short run in the multi-start search.
@@ -707,8 +710,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
       for (Hypothesis& h : hypotheses_) {
         const Eigen::Isometry3d start = h.from_guess * guess;
         Search s;
-        s.rotation = start.linear();
-        s.translation = start.translation();
+        s.setPose(start);
         s.distance =
             std::clamp(params_.inlier_distance + 3.0 * shift_sigma,
                        params_.min_correspondence_distance, params_.max_correspondence_distance);
@@ -717,8 +719,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         CDFF_RETURN_IF_ERROR(iterate(points, s, params_.hypothesis_iterations));
         if (s.starved) {
           h.misfit += unexplained;
-          h.search.rotation = start.linear();
-          h.search.translation = start.translation();
+          h.search.setPose(start);
         } else {
           h.misfit += descend(s, [&](const Search& at) {
             const Vector6d moved = at.fromAnchor();
