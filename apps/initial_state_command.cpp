@@ -49,7 +49,7 @@ Status writeInitialState(const InitialStateOptions& o) {
     } else if (!at) {
       at = m.logTime();
       // A scan's stamp is its start, earlier than its log time.
-      if (m.cdffType() == "PointCloud") {
+      if (m.type() == TypeId::of<PointCloud>()) {
         Result<std::shared_ptr<const PointCloud>> cloud = m.decode<PointCloud>();
         if (!cloud) return cloud.status();
         at = (*cloud)->stamp;

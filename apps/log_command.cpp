@@ -21,6 +21,11 @@ namespace {
 
 using nlohmann::json;
 
+/// A channel's CDFF type name, "" when it is none of ours (e.g. a ROS 2 message).
+std::string_view typeLabel(TypeId type) {
+  return type ? type.name() : std::string_view();
+}
+
 void printError(const Status& s) {
   fmt::print(stderr, "error: {}\n", s.message());
 }
@@ -169,7 +174,7 @@ int info(const std::string& path, bool quick, bool as_json) {
       const ChannelStats& c = stats[id];
       json e = {{"id", id},
                 {"topic", ch.topic},
-                {"cdff_type", std::string(io::cdffTypeOf(ch, schema))},
+                {"cdff_type", std::string(typeLabel(io::typeOfChannel(ch, schema)))},
                 {"schema", schema ? schema->name : ""},
                 {"schema_encoding", schema ? schema->encoding : ""},
                 {"message_encoding", ch.message_encoding},
@@ -204,7 +209,7 @@ int info(const std::string& path, bool quick, bool as_json) {
     for (const auto& [id, ch] : r.channels()) {
       const io::Schema* schema = r.schemaOf(ch);
       topic_w = std::max(topic_w, ch.topic.size());
-      type_w = std::max(type_w, io::cdffTypeOf(ch, schema).size());
+      type_w = std::max(type_w, typeLabel(io::typeOfChannel(ch, schema)).size());
       schema_w = std::max(schema_w, schema ? schema->name.size() : 0);
     }
     fmt::print("channels:    {}\n", r.channels().size());
@@ -216,7 +221,7 @@ int info(const std::string& path, bool quick, bool as_json) {
       std::string rate = "-";
       if (exact && c.count > 1 && c.last > c.first)
         rate = fmt::format("{:.2f} Hz", (c.count - 1) / ((c.last - c.first) * 1e-9));
-      const std::string_view type = io::cdffTypeOf(ch, schema);
+      const std::string_view type = typeLabel(io::typeOfChannel(ch, schema));
       fmt::print("  {:>3}  {:<{}}  {:<{}}  {:<{}}  {:<10} {:>9} {:>10}\n", id, ch.topic, topic_w,
                  type.empty() ? "-" : type, type_w, schema ? schema->name : "-", schema_w,
                  ch.message_encoding, c.count, rate);
@@ -278,7 +283,7 @@ int cat(const std::vector<std::string>& paths, const std::vector<std::string>& c
         R"({{"channel":{},"log_time":{},"log_time_ns":{},"publish_time_ns":{},"sequence":{},)"
         R"("schema":{},"type":{})",
         dumpLine(m.channel()), seconds(v.log_time), v.log_time, v.publish_time, v.sequence,
-        dumpLine(std::string(m.schemaName())), dumpLine(std::string(m.cdffType())));
+        dumpLine(std::string(m.schemaName())), dumpLine(std::string(typeLabel(m.type()))));
     if (paths.size() > 1) line += fmt::format(R"(,"file":{})", dumpLine(paths[m.fileIndex()]));
     Result<json> data = it->second ? it->second->toJson(v.data) : Result<json>(it->second.status());
     if (data) {

@@ -126,9 +126,6 @@ int runGraphs(const RunArguments& args) {
     fmt::print(stderr, "error: closing '{}': {}\n", args.output, s.message());
     return 1;
   }
-  for (const auto& [channel, count] : sink.unrecordable())
-    fmt::print(stderr, "warning: {} message(s) on '{}' not recorded: no recording encoding\n",
-               count, channel);
   if (!result) {
     fmt::print(stderr, "{}: what was produced before the error is recorded\n", args.output);
     return status;
@@ -143,7 +140,7 @@ int runGraphs(const RunArguments& args) {
              s.products, s.passed_through, s.events, s.faults, s.recoveries, args.output);
   for (const dfpc::DfpcStatus& d : result->dfpcs) {
     fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d.name, toString(d.state),
-               d.track_state.empty() ? "" : fmt::format(" (track {})", d.track_state), d.messages,
+               d.track_state ? fmt::format(" (track {})", toString(*d.track_state)) : "", d.messages,
                d.products, d.faults,
                d.last_fault.empty() ? "" : fmt::format(", last fault: {}", d.last_fault));
   }

@@ -42,7 +42,7 @@ class McapSink final : public egse::SimulationSink {
         [&](const auto& v) -> Status {
           using T = std::decay_t<decltype(v)>;
           if constexpr (std::is_same_v<T, egse::CameraInfo>) {
-            return recorder_.write(channel, v.model, v.stamp, v.frame_id);
+            return recorder_.writeCalibration(channel, v.model, v.stamp, v.frame_id);
           } else if constexpr (std::is_same_v<T, egse::RangeMeasurement>) {
             return writeRadar(channel, v);
           } else if constexpr (std::is_same_v<T, egse::FaultEvent>) {
@@ -70,10 +70,10 @@ class McapSink final : public egse::SimulationSink {
   // A range, a range rate (NaN, written as null, without a detection) and the whole measurement.
   Status writeRadar(const std::string& channel, const egse::RangeMeasurement& m) {
     const double nan = std::numeric_limits<double>::quiet_NaN();
-    CDFF_RETURN_IF_ERROR(recorder_.writeScalar(channel, m.valid ? m.range : nan, m.stamp));
+    CDFF_RETURN_IF_ERROR(recorder_.write(channel, m.valid ? m.range : nan, m.stamp));
     const std::string prefix = channel.substr(0, channel.rfind('/'));
     CDFF_RETURN_IF_ERROR(
-        recorder_.writeScalar(prefix + "/range_rate", m.valid ? m.range_rate : nan, m.stamp));
+        recorder_.write(prefix + "/range_rate", m.valid ? m.range_rate : nan, m.stamp));
     return recorder_.writeJson(prefix + "/measurement", m.stamp,
                                {{"frame_id", m.frame_id},
                                 {"valid", m.valid},

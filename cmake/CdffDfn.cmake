@@ -1,7 +1,9 @@
 # cdff_add_dfn_area(DIR): adds one DFN type folder under dfns/.
 #
 # The folder holds <Name>.yaml (the description), one .cpp per DFI and *_test.cpp unit tests.
-# The description is turned into <Name>.gen.hpp/.gen.cpp at build time (scripts/dfn_codegen.py),
+# The description is read and checked by `cdff_dfn_describe` (the project's schema reader, with
+# each port's C++ type from the type registry) into <Name>.json, which scripts/dfn_codegen.py turns
+# into <Name>.gen.hpp/.gen.cpp at build time;
 # the DFIs and generated code into the object library `cdff_dfn_<area>` (object files, so that
 # every DFI's self-registration is linked in), and the tests into one GoogleTest executable per
 # folder that links only its own area. `cdff_dfns` (dfns/CMakeLists.txt) gathers every area.
@@ -27,11 +29,19 @@ function(cdff_add_dfn_area dir)
     get_filename_component(name ${description} NAME_WE)
     set(gen_hpp ${CDFF_DFN_GEN_DIR}/${name}.gen.hpp)
     set(gen_cpp ${CDFF_DFN_GEN_DIR}/${name}.gen.cpp)
+    set(checked ${CDFF_DFN_GEN_DIR}/${name}.json)
+    file(RELATIVE_PATH source_file ${PROJECT_SOURCE_DIR} ${description})
+    add_custom_command(
+      OUTPUT ${checked}
+      COMMAND cdff_dfn_describe ${description} --area ${area} --source-file ${source_file}
+              --out ${checked}
+      DEPENDS ${description} cdff_dfn_describe
+      COMMENT "Checking the ${name} DFN description"
+      VERBATIM)
     add_custom_command(
       OUTPUT ${gen_hpp} ${gen_cpp}
-      COMMAND Python3::Interpreter ${CDFF_DFN_CODEGEN} ${description} --area ${area}
-              --source-root ${PROJECT_SOURCE_DIR} --out ${CDFF_DFN_GEN_DIR}
-      DEPENDS ${description} ${CDFF_DFN_CODEGEN}
+      COMMAND ${CDFF_PYTHON} ${CDFF_DFN_CODEGEN} ${checked} --out ${CDFF_DFN_GEN_DIR}
+      DEPENDS ${checked} ${CDFF_DFN_CODEGEN}
       COMMENT "Generating the ${name} DFN interface"
       VERBATIM)
     target_sources(${lib} PRIVATE ${gen_cpp} ${gen_hpp})

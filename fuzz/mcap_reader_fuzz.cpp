@@ -4,12 +4,13 @@
 #include <map>
 #include <vector>
 
-#include "cdff/io/codec.hpp"
+#include "cdff/io/recorder.hpp"
 #include "cdff/io/inspect.hpp"
 #include "cdff/io/mcap.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace cdff::io;
+  using cdff::TypeId;
   McapReaderOptions options;
   options.max_chunk_bytes = 64u << 20;  // stay well inside libFuzzer's memory limit
   McapReader reader;
@@ -21,8 +22,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::size_t n = 0;
   while (it.next() && n++ < 2000) {
     const MessageView& m = it.message();
-    const std::string_view type = cdffTypeOf(*m.channel, m.schema);
-    if (!type.empty()) (void)decodeAny(type, m.data, m.owner);
+    const TypeId type = typeOfChannel(*m.channel, m.schema);
+    if (type) (void)type.info().decode(m.data, m.owner);
     auto found = inspectors.find(m.channel->id);
     if (found == inspectors.end())
       found =

@@ -176,9 +176,9 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     out.pose.set(estimate_->state.pose);
     out.measurement_accepted.set(accepted);
     out.innovation_nis.set(nis);
-    out.track_state.set(estimate_->acquiring ? "ACQUIRING"
-                        : lost(*estimate_)   ? "LOST"
-                                             : "TRACKING");
+    out.track_state.set(estimate_->acquiring ? TrackState::kAcquiring
+                        : lost(*estimate_)   ? TrackState::kLost
+                                             : TrackState::kTracking);
     return Status::ok();
   }
 

@@ -192,7 +192,7 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     mbt::publishStatus(out, result->status);
     // Not yet a track: `cdff eval` and the DFPC's conditions take ACQUIRING as not tracking.
     if (acquisition_ran_ && result->status != TrackingStatus::kLost)
-      out.track_state.set(std::string("ACQUIRING"));
+      out.track_state.set(TrackState::kAcquiring);
     out.inlier_ratio.set(result->inlier_ratio);
     out.feature_count.set(static_cast<int>(result->inliers + result->depth_points));
     return Status::ok();

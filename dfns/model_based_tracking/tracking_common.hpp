@@ -162,13 +162,13 @@ inline void publishStatus(ModelBasedTracking::Outputs& out, TrackingStatus statu
   out.status.set(static_cast<int>(status));
   switch (status) {
     case TrackingStatus::kTracking:
-      out.track_state.set(std::string("TRACKING"));
+      out.track_state.set(TrackState::kTracking);
       break;
     case TrackingStatus::kDegraded:
-      out.track_state.set(std::string("DEGRADED"));
+      out.track_state.set(TrackState::kDegraded);
       break;
     case TrackingStatus::kLost:
-      out.track_state.set(std::string("LOST"));
+      out.track_state.set(TrackState::kLost);
       break;
   }
 }

@@ -28,6 +28,13 @@ std::string ParameterSpec::acceptedText() const {
   return text;
 }
 
+std::optional<ParameterType> parameterTypeNamed(std::string_view name) {
+  for (ParameterType t : {ParameterType::kBool, ParameterType::kInt, ParameterType::kDouble,
+                          ParameterType::kString, ParameterType::kDoubleList})
+    if (name == toString(t)) return t;
+  return std::nullopt;
+}
+
 const ImplementationSpec* DfnDescription::findImplementation(const std::string& impl) const {
   for (const auto& i : implementations)
     if (i.name == impl) return &i;

@@ -1,17 +1,22 @@
 #pragma once
 // What a DFN type is, as written in its YAML description file: ports, parameters and
-// implementations (DFIs). The build generates one DfnDescription per file (scripts/dfn_codegen.py),
-// so the running code and its description cannot disagree.
+// implementations (DFIs). loadDescription() reads and checks a file (the one schema reader,
+// cdff/schema); at build time `cdff_dfn_describe` runs it on every description and hands the
+// checked result, with each port's C++ type from the type registry, to the code generator
+// (scripts/dfn_codegen.py), so the running code and its description cannot disagree.
 
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
+
+#include "cdff/types/status.hpp"
 
 namespace cdff::dfn {
 
 struct PortSpec {
   std::string name;
-  std::string type;  // a PortTypeName, e.g. "Image"
+  std::string type;  // a data type name of the type registry, e.g. "Image"
   std::string doc;
   bool optional = false;  // inputs only: process() may run without it
 };
@@ -19,11 +24,17 @@ struct PortSpec {
 enum class ParameterType { kBool, kInt, kDouble, kString, kDoubleList };
 
 const char* toString(ParameterType type);
+/// "bool", "int", "double", "string", "double[]" -> the type; none otherwise.
+std::optional<ParameterType> parameterTypeNamed(std::string_view name);
+
+/// A parameter's default value, typed as its ParameterType (kInt: long long).
+using ParameterValue = std::variant<bool, long long, double, std::string, std::vector<double>>;
 
 struct ParameterSpec {
   std::string name;
   ParameterType type = ParameterType::kDouble;
   std::string default_text;   // the default as written in YAML
+  ParameterValue default_value;
   std::string unit;           // SI unit, "" when dimensionless
   std::optional<double> min;  // inclusive bounds for numbers (and list elements)
   std::optional<double> max;
@@ -53,5 +64,13 @@ struct DfnDescription {
 
   const ImplementationSpec* findImplementation(const std::string& name) const;
 };
+
+/// Reads and checks a DFN description file: keys, names (CamelCase types, snake_case ports and
+/// parameters, not C++ keywords), port types (registered data types), parameter types, defaults
+/// within their ranges and choices, no name twice. `area` is the folder under dfns/,
+/// `source_file` the repository-relative path recorded in the description. Errors have the
+/// schema reader's format: file:line:column, key path, value, expected.
+Result<DfnDescription> loadDescription(const std::string& path, const std::string& area,
+                                       const std::string& source_file);
 
 }  // namespace cdff::dfn

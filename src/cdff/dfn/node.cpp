@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include "cdff/schema/field.hpp"
+
 namespace cdff::dfn {
 
 namespace {
@@ -46,17 +48,10 @@ Status Node::configure(const YAML::Node& parameters, const std::string& source) 
 }
 
 Status Node::configureFromFile(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    return notFound("{}: cannot open parameter file for {}; expected a readable YAML file", path,
-                    name_);
-  } catch (const YAML::Exception& e) {
-    return invalidParameter("{}:{}:{}: YAML syntax error: {}", path, e.mark.line + 1,
-                            e.mark.column + 1, e.msg);
-  }
-  return configure(root, path);
+  Result<schema::Document> document =
+      schema::Document::loadFile(path, fmt::format("the parameter file of {}", name_));
+  if (!document) return document.status();
+  return configure(document->root().node(), path);
 }
 
 Status Node::process() {
@@ -67,7 +62,7 @@ Status Node::process() {
   for (const InputPortBase* in : inputs_) {
     if (!in->optional() && !in->hasValue()) {
       Status s = invalidInput("{}: required input '{}' ({}) is not set", name_, in->name(),
-                              in->type().name);
+                              in->type().name());
       diagnostics_.last_status = s;
       diagnostics_.last_error = s.message();
       ++diagnostics_.error_count;
@@ -76,7 +71,7 @@ Status Node::process() {
   }
 
   // Outputs are shared pointers: saving them costs a reference count each.
-  std::vector<std::shared_ptr<const void>> saved_outputs;
+  std::vector<Value> saved_outputs;
   saved_outputs.reserve(outputs_.size());
   for (const OutputPortBase* out : outputs_) saved_outputs.push_back(out->anyValue());
 
@@ -106,7 +101,7 @@ Status Node::process() {
 
   if (!status) {
     for (std::size_t i = 0; i < outputs_.size(); ++i)
-      (void)outputs_[i]->setAny(saved_outputs[i], outputs_[i]->type());
+      (void)outputs_[i]->setAny(std::move(saved_outputs[i]));
     status = status.withContext(name_);
     ++d.error_count;
     d.last_error = status.message();

@@ -1,14 +1,16 @@
 #pragma once
-// Reading and checking DFN parameters against their ParameterSpecs. The generated code of each
-// DFI calls these, one line per parameter; errors name the file, line, key, value and the
-// accepted range.
+// Reading and checking DFN parameters against their ParameterSpecs, with the schema reader (one
+// error format: file:line:column, the DFN, key, value, what was expected). The generated code of
+// each DFI calls these, one line per parameter.
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 
 #include "cdff/dfn/description.hpp"
+#include "cdff/schema/field.hpp"
 #include "cdff/types/status.hpp"
 
 namespace cdff::dfn {
@@ -29,20 +31,13 @@ class ParameterReader {
   Status finish(const std::vector<ParameterSpec>& specs) const;
 
  private:
-  std::string where(const YAML::Node& node) const;
-  template <typename T>
-  void readScalar(const ParameterSpec& spec, T& value, const char* type_name);
+  /// The parameter's field when the map gives it and no error came before.
+  std::optional<schema::Field> given(const ParameterSpec& spec) const;
+  void keep(Status status);
 
-  YAML::Node node_;
-  std::string source_;
+  schema::Field root_;
   std::string owner_;
   Status status_;
 };
-
-/// Ok when `value` satisfies `spec`'s range; otherwise a message "parameter 'x' = v is out of
-/// range; expected [a, b]" (without location).
-Status checkNumber(const ParameterSpec& spec, double value, const std::string& value_text);
-Status checkString(const ParameterSpec& spec, const std::string& value);
-Status checkList(const ParameterSpec& spec, const std::vector<double>& value);
 
 }  // namespace cdff::dfn

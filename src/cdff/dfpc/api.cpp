@@ -209,7 +209,7 @@ struct Cdff::Impl {
     if (!p) return p.status();
     if (auto pose = p->as<PoseWithCovariance>()) return *pose;
     if (auto state = p->as<RigidBodyState>()) return state->poseWithCovariance();
-    return invalidInput("product '{}' holds {} values; expected a pose", product, p->type.name);
+    return invalidInput("product '{}' holds {} values; expected a pose", product, p->type().name());
   }
 
   Result<SubscriptionId> subscribe(Subscription s, double frequency_hz) {

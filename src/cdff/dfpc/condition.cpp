@@ -26,9 +26,23 @@ bool isWordChar(char c) {
 
 }  // namespace
 
+namespace {
+
+// The location of character `column` (1-based) of a condition written at `where` on one line.
+Status conditionError(const std::string& text, const SourceLocation& where, int column,
+                      const std::string& what) {
+  SourceLocation at = where;
+  if (at.column > 0) at.column += column - 1;
+  return Status(StatusCode::kInvalidParameter,
+                fmt::format("condition '{}': {} (at character {})", text, what, column), at);
+}
+
+}  // namespace
+
 class ConditionParser {
  public:
-  ConditionParser(const std::string& text, const std::string& where) : text_(text), where_(where) {}
+  ConditionParser(const std::string& text, const SourceLocation& where)
+      : text_(text), where_(where) {}
 
   Result<Condition> run() {
     Condition c;
@@ -55,7 +69,7 @@ class ConditionParser {
 
  private:
   Status error(int column, const std::string& what) const {
-    return invalidParameter("{}condition '{}': {} (at character {})", where_, text_, what, column);
+    return conditionError(text_, where_, column, what);
   }
 
   Status tokenize() {
@@ -219,30 +233,32 @@ class ConditionParser {
   }
 
   const std::string& text_;
-  const std::string& where_;
+  const SourceLocation& where_;
   std::vector<Token> tokens_;
   std::size_t pos_ = 0;
 };
 
-Result<Condition> Condition::parse(const std::string& text, const std::string& where) {
+Result<Condition> Condition::parse(const std::string& text, const SourceLocation& where) {
   return ConditionParser(text, where).run();
 }
 
-Status Condition::bind(const std::vector<dfn::PortType>& types, const std::string& where) {
+Status Condition::bind(const std::vector<TypeId>& types, const SourceLocation& where) {
   auto fail = [&](int column, const std::string& what) {
-    return invalidParameter("{}condition '{}': {} (at character {})", where, text_, what, column);
+    return conditionError(text_, where, column, what);
   };
   kinds_.clear();
-  for (const dfn::PortType& t : types) {
-    if (t == dfn::PortType::of<std::string>())
+  for (const TypeId& t : types) {
+    if (t == TypeId::of<TrackState>())
+      kinds_.push_back(ValueKind::kTrackState);
+    else if (t == TypeId::of<std::string>())
       kinds_.push_back(ValueKind::kString);
-    else if (t == dfn::PortType::of<bool>())
+    else if (t == TypeId::of<bool>())
       kinds_.push_back(ValueKind::kBool);
-    else if (t == dfn::PortType::of<int>())
+    else if (t == TypeId::of<int>())
       kinds_.push_back(ValueKind::kInt);
-    else if (t == dfn::PortType::of<double>())
+    else if (t == TypeId::of<double>())
       kinds_.push_back(ValueKind::kDouble);
-    else if (t == dfn::PortType::of<Timestamp>())
+    else if (t == TypeId::of<Timestamp>())
       kinds_.push_back(ValueKind::kTimestamp);
     else
       kinds_.push_back(ValueKind::kOther);
@@ -258,15 +274,16 @@ Status Condition::bind(const std::vector<dfn::PortType>& types, const std::strin
         if (c.op == Op::kTruthy || ordered || !only_unset)
           return fail(c.column, fmt::format("'{}' is a {}; it can only be compared with unset "
                                             "(== unset, != unset)",
-                                            name, types[c.ref].name));
+                                            name, types[c.ref].name()));
         continue;
       }
       if (c.op == Op::kTruthy && kind != ValueKind::kBool)
         return fail(c.column, fmt::format("'{}' is a {}, not a Bool; compare it with a value", name,
-                                          types[c.ref].name));
-      if (ordered && (kind == ValueKind::kString || kind == ValueKind::kBool))
+                                          types[c.ref].name()));
+      if (ordered && (kind == ValueKind::kString || kind == ValueKind::kBool ||
+                      kind == ValueKind::kTrackState))
         return fail(c.column, fmt::format("'{}' is a {}; <, <=, >, >= need a number", name,
-                                          types[c.ref].name));
+                                          types[c.ref].name()));
       for (Literal& lit : c.literals) {
         if (lit.unset) {
           if (ordered) return fail(lit.column, "'unset' cannot be ordered; use == or !=");
@@ -276,6 +293,16 @@ Status Condition::bind(const std::vector<dfn::PortType>& types, const std::strin
           case ValueKind::kString:
             if (lit.is_number) lit.is_number = false;  // 3 is the text "3" for a String
             break;
+          case ValueKind::kTrackState: {
+            const std::optional<TrackState> state = parseTrackState(lit.text);
+            if (!state)
+              return fail(lit.column,
+                          fmt::format("'{}' is a track state; expected one of {{UNINITIALISED, "
+                                      "ACQUIRING, TRACKING, DEGRADED, LOST}} or unset, got '{}'",
+                                      name, lit.text));
+            lit.state = *state;
+            break;
+          }
           case ValueKind::kBool:
             if (lit.text != "true" && lit.text != "false")
               return fail(lit.column, fmt::format("'{}' is a Bool; expected true, false or unset, "
@@ -286,7 +313,7 @@ Status Condition::bind(const std::vector<dfn::PortType>& types, const std::strin
             if (!lit.is_number)
               return fail(lit.column, fmt::format("'{}' is a {}; expected a number or unset, got "
                                                   "'{}'",
-                                                  name, types[c.ref].name, lit.text));
+                                                  name, types[c.ref].name(), lit.text));
         }
       }
     }
@@ -301,6 +328,8 @@ bool Condition::evaluate(const Comparison& c, const void* value) const {
     switch (kind) {
       case ValueKind::kString:
         return *static_cast<const std::string*>(value) == lit.text;
+      case ValueKind::kTrackState:
+        return *static_cast<const TrackState*>(value) == lit.state;
       case ValueKind::kBool:
         return *static_cast<const bool*>(value) == (lit.text == "true");
       case ValueKind::kInt:

@@ -10,8 +10,9 @@
 //   ref        := instance '.' port | 'track_state'
 //   literal    := number | 'true' | 'false' | 'unset' | identifier | 'quoted text'
 //
-// A ref reads the latest value of a DFN output (String, Bool, Int, Double or Timestamp) or the
-// DFPC's track state. Before the output has ever been produced it is `unset`: it equals only the
+// A ref reads the latest value of a DFN output (TrackState, String, Bool, Int, Double or
+// Timestamp) or the DFPC's track state (a TrackState: its literals are checked against the
+// states' names). Before the output has ever been produced it is `unset`: it equals only the
 // literal `unset`, so `tracker.status in [LOST, unset]` holds until the tracker first runs.
 // Outputs of other types (a state, a cloud...) can only be compared with unset
 // (`ekf.state != unset`: the filter has produced a state).
@@ -24,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "cdff/dfn/port.hpp"
 #include "cdff/types/status.hpp"
+#include "cdff/types/type_registry.hpp"
 
 namespace cdff::dfpc {
 
@@ -37,15 +38,15 @@ class Condition {
     std::string text() const { return instance.empty() ? port : instance + "." + port; }
   };
 
-  /// Parses `text`; `where` prefixes error messages (e.g. "graph.yaml:12:18: ").
-  static Result<Condition> parse(const std::string& text, const std::string& where);
+  /// Parses `text`, written at `where` (errors point at the character).
+  static Result<Condition> parse(const std::string& text, const SourceLocation& where);
 
   const std::string& text() const { return text_; }
   const std::vector<Ref>& refs() const { return refs_; }
 
   /// Checks every comparison against the type of its ref (`types[i]` for refs()[i]): a String
   /// compared with a number, a Bool with <, a literal that is not a number for a Double...
-  Status bind(const std::vector<dfn::PortType>& types, const std::string& where);
+  Status bind(const std::vector<TypeId>& types, const SourceLocation& where);
 
   /// The value of refs()[i]: a pointer to the latest value of its bound type, nullptr if unset.
   using ValueOf = std::function<const void*(std::size_t ref)>;
@@ -61,6 +62,7 @@ class Condition {
     bool is_number = false;
     double number = 0;
     std::string text;
+    TrackState state = TrackState::kUninitialised;  // a track state's, after bind()
     int column = 0;  // 1-based, in the condition text
   };
   struct Comparison {
@@ -70,7 +72,7 @@ class Condition {
     std::vector<Literal> literals;
     int column = 0;
   };
-  enum class ValueKind { kString, kBool, kInt, kDouble, kTimestamp, kOther };
+  enum class ValueKind { kString, kTrackState, kBool, kInt, kDouble, kTimestamp, kOther };
 
   friend class ConditionParser;
   bool evaluate(const Comparison& c, const void* value) const;

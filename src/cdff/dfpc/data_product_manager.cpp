@@ -10,7 +10,8 @@ DataProductManager::DataProductManager(std::size_t default_history)
     : default_history_(std::max<std::size_t>(default_history, 1)) {}
 
 Status DataProductManager::typeError(const Product& p, std::string_view expected) {
-  return invalidInput("product '{}' holds {} values; expected {}", p.name, p.type.name, expected);
+  return invalidInput("product '{}' holds {} values; expected {}", p.name, p.type().name(),
+                      expected);
 }
 
 std::shared_ptr<DataProductManager::Series> DataProductManager::find(
@@ -33,16 +34,17 @@ std::shared_ptr<DataProductManager::Series> DataProductManager::findOrAdd(const 
 }
 
 Status DataProductManager::publish(const std::string& name, Timestamp stamp,
-                                   std::shared_ptr<const void> value, const dfn::PortType& type) {
+                                   Value value) {
   if (name.empty()) return invalidInput("a product needs a name");
-  if (!value) return invalidInput("product '{}' at t = {} us: no value", name, stamp);
+  if (value.empty()) return invalidInput("product '{}' at t = {} us: no value", name, stamp);
+  const TypeId type = value.type();
   std::shared_ptr<Series> s = findOrAdd(name);
   std::unique_lock lock(s->mutex);
-  if (s->samples.empty() && s->type == dfn::PortType()) s->type = type;
-  if (!(s->type == type))
-    return invalidInput("product '{}' holds {} values; got a {} at t = {} us", name, s->type.name,
-                        type.name, stamp);
-  Product p{name, stamp, type, std::move(value)};
+  if (s->samples.empty() && !s->type) s->type = type;
+  if (s->type != type)
+    return invalidInput("product '{}' holds {} values; got a {} at t = {} us", name,
+                        s->type.name(), type.name(), stamp);
+  Product p{name, stamp, std::move(value)};
   if (s->samples.empty() || s->samples.back().stamp <= stamp) {
     s->samples.push_back(std::move(p));
   } else {
@@ -127,7 +129,7 @@ Result<PoseWithCovariance> asPose(const Product& p) {
   return invalidInput(
       "product '{}' holds {} values; expected PoseWithCovariance, RigidBodyState "
       "or Transform",
-      p.name, p.type.name);
+      p.name, p.type().name());
 }
 
 // The two samples around t (equal when t hits one), or an error outside the history.

@@ -14,9 +14,9 @@
 // the history: the DPM does not extrapolate).
 //
 // save()/restore() write a directory: products.json (the index: names, types, history limits,
-// stamps, and the small values inline) plus one binary PLY file per point cloud or mesh sample
-// (docs/dfpc.md). Types without a file encoding (images, features...) are reported by save(),
-// never dropped silently.
+// stamps, and the small values inline) plus one file per sample of the other types: binary PLY
+// for point clouds and meshes, the MCAP message for the rest (docs/dfpc.md). Each type's form is
+// in the type registry.
 
 #include <cstddef>
 #include <deque>
@@ -27,22 +27,23 @@
 #include <string>
 #include <vector>
 
-#include "cdff/dfn/port.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/status.hpp"
 #include "cdff/types/time.hpp"
+#include "cdff/types/type_registry.hpp"
+#include "cdff/types/value.hpp"
 
 namespace cdff::dfpc {
 
 struct Product {
   std::string name;
   Timestamp stamp = 0;
-  dfn::PortType type;
-  std::shared_ptr<const void> value;
+  Value value;
 
-  template <typename T>
+  TypeId type() const { return value.type(); }
+  template <RegisteredType T>
   std::shared_ptr<const T> as() const {
-    return type == dfn::PortType::of<T>() ? std::static_pointer_cast<const T>(value) : nullptr;
+    return value.as<T>();
   }
 };
 
@@ -54,14 +55,12 @@ class DataProductManager {
 
   /// Adds a sample. The first sample fixes a product's type; another type later is an error.
   /// Samples may arrive out of order; the history stays sorted by stamp.
-  Status publish(const std::string& name, Timestamp stamp, std::shared_ptr<const void> value,
-                 const dfn::PortType& type);
-  template <typename T>
+  Status publish(const std::string& name, Timestamp stamp, Value value);
+  template <RegisteredType T>
   Status publish(const std::string& name, Timestamp stamp, std::shared_ptr<const T> value) {
-    return publish(name, stamp, std::static_pointer_cast<const void>(std::move(value)),
-                   dfn::PortType::of<T>());
+    return publish(name, stamp, Value::of<T>(std::move(value)));
   }
-  template <typename T>
+  template <RegisteredType T>
   Status publish(const std::string& name, Timestamp stamp, T value) {
     return publish<T>(name, stamp, std::make_shared<const T>(std::move(value)));
   }
@@ -75,12 +74,12 @@ class DataProductManager {
   /// All samples, oldest first.
   Result<std::vector<Product>> history(const std::string& name) const;
 
-  template <typename T>
+  template <RegisteredType T>
   Result<std::shared_ptr<const T>> latestAs(const std::string& name) const {
     Result<Product> p = latest(name);
     if (!p) return p.status();
     if (auto v = p->as<T>()) return v;
-    return typeError(*p, dfn::PortTypeName<T>::value);
+    return typeError(*p, TypeTraits<T>::name);
   }
 
   /// The pose of a PoseWithCovariance, RigidBodyState or Transform product at t, interpolated
@@ -105,7 +104,7 @@ class DataProductManager {
 
  private:
   struct Series {
-    dfn::PortType type;
+    TypeId type;
     std::size_t limit = 0;
     std::deque<Product> samples;  // sorted by stamp, at most `limit`
     mutable std::shared_mutex mutex;

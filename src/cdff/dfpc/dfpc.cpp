@@ -67,39 +67,27 @@ Status Dfpc::createNode(Instance& inst, const std::string& dfi, const YAML::Node
                         const std::string& source, std::unique_ptr<dfn::Node>& out) const {
   Result<std::unique_ptr<dfn::Node>> node = dfn::Registry::instance().create(inst.spec->dfn, dfi);
   if (!node)
-    return node.status().withContext(inst.spec->at().prefix() + "instance '" + inst.spec->name +
-                                     "'");
+    return node.status().withContext("instance '" + inst.spec->name + "'").at(inst.spec->at());
   node.value()->setName(spec_.name + "." + inst.spec->name);
   Status configured = node.value()->configure(parameters, source);
-  if (!configured) {
-    // Parameter errors already start with their location (file:line:column: ); keep it first.
-    const std::string& message = configured.message();
-    std::string location = inst.spec->at("parameters").prefix(), rest = message;
-    if (!source.empty() && message.rfind(source + ":", 0) == 0) {
-      const std::size_t end = message.find(": ", source.size());
-      if (end != std::string::npos &&
-          message.find_first_not_of("0123456789:", source.size()) == end + 1) {
-        location = message.substr(0, end + 2);
-        rest = message.substr(end + 2);
-      }
-    }
-    return Status(configured.code(), fmt::format("{}instance '{}' ({}/{}): {}", location,
-                                                 inst.spec->name, inst.spec->dfn, dfi, rest));
-  }
+  if (!configured)  // a parameter's own location (its line) stays first, else the instance's
+    return configured
+        .withContext(fmt::format("instance '{}' ({}/{})", inst.spec->name, inst.spec->dfn, dfi))
+        .at(inst.spec->at("parameters"));
   out = std::move(node).value();
   return Status::ok();
 }
 
 Result<Dfpc::BoundCondition> Dfpc::bindCondition(const std::string& text,
                                                  const SourceLocation& at) const {
-  Result<Condition> parsed = Condition::parse(text, at.prefix());
+  Result<Condition> parsed = Condition::parse(text, at);
   if (!parsed) return parsed.status();
   BoundCondition b{std::move(parsed).value(), {}};
-  std::vector<dfn::PortType> types;
+  std::vector<TypeId> types;
   for (const Condition::Ref& r : b.condition.refs()) {
     if (r.instance.empty()) {
       b.refs.emplace_back(-1, -1);
-      types.push_back(dfn::PortType::of<std::string>());
+      types.push_back(TypeId::of<TrackState>());
       continue;
     }
     const std::size_t n = index_.at(r.instance);
@@ -107,11 +95,12 @@ Result<Dfpc::BoundCondition> Dfpc::bindCondition(const std::string& text,
     const auto& outs = node.outputs();
     std::size_t o = 0;
     while (o < outs.size() && outs[o]->name() != r.port) ++o;
-    if (o == outs.size()) return notFound("{}no output '{}'", at.prefix(), r.text());
+    if (o == outs.size())
+      return Status(StatusCode::kNotFound, fmt::format("no output '{}'", r.text()), at);
     b.refs.emplace_back(static_cast<int>(n), static_cast<int>(o));
     types.push_back(outs[o]->type());
   }
-  CDFF_RETURN_IF_ERROR(b.condition.bind(types, at.prefix()));
+  CDFF_RETURN_IF_ERROR(b.condition.bind(types, at));
   return b;
 }
 
@@ -171,10 +160,10 @@ Status Dfpc::build() {
   };
 
   input_edges_.resize(spec_.inputs.size());
-  for (const DfpcInputSpec& in : spec_.inputs) input_types_.push_back(*dfn::findPortType(in.type));
+  for (const DfpcInputSpec& in : spec_.inputs) input_types_.push_back(findType(in.type));
   outputs_.resize(spec_.outputs.size());
   for (std::size_t o = 0; o < spec_.outputs.size(); ++o) {
-    outputs_[o].type = *dfn::findPortType(spec_.outputs[o].type);
+    outputs_[o].type = findType(spec_.outputs[o].type);
     has_watchdog_ = has_watchdog_ || spec_.outputs[o].timeout_s > 0;
   }
 
@@ -267,7 +256,7 @@ void Dfpc::clearRuntime() {
   delayed_.clear();
   delayed_next_.clear();
   started_ = false;
-  track_state_ = spec_.track_state ? spec_.track_state->initial : "UNINITIALISED";
+  track_state_ = spec_.track_state ? spec_.track_state->initial : TrackState::kUninitialised;
   last_product_.reset();
   messages_ = ignored_ = products_ = faults_ = recoveries_ = 0;
   last_fault_.clear();
@@ -345,11 +334,12 @@ Status Dfpc::deliver(std::size_t input, const Message& message) {
     ++ignored_;
     return Status::ok();
   }
-  if (!(message.type == input_types_[input]) || !message.value) {
-    Status s =
-        invalidInput("DFPC '{}' input '{}' (channel {}) takes {}; got {} at t = {} us", name(),
-                     spec_.inputs[input].name, message.channel, input_types_[input].name,
-                     message.value ? message.type.name : "an empty message", message.stamp);
+  if (message.type() != input_types_[input] || message.value.empty()) {
+    Status s = invalidInput("DFPC '{}' input '{}' (channel {}) takes {}; got {} at t = {} us",
+                            name(), spec_.inputs[input].name, message.channel,
+                            input_types_[input].name(),
+                            message.value.empty() ? "an empty message" : message.type().name(),
+                            message.stamp);
     emit(EventType::kInputRejected, "", s.message());
     return s;
   }
@@ -361,7 +351,7 @@ Status Dfpc::deliver(std::size_t input, const Message& message) {
   return Status::ok();
 }
 
-void Dfpc::writeInput(const Edge& e, const std::shared_ptr<const void>& value, Timestamp stamp) {
+void Dfpc::writeInput(const Edge& e, const Value& value, Timestamp stamp) {
   Instance& inst = instances_[e.node];
   const InputSlot& slot = inst.inputs[e.input];
   if (slot.sync >= 0) {
@@ -369,7 +359,7 @@ void Dfpc::writeInput(const Edge& e, const std::shared_ptr<const void>& value, T
     return;
   }
   dfn::InputPortBase& port = *inst.node->inputs()[e.input];
-  (void)port.setAny(value, port.type());  // types were checked when the graph was built
+  (void)port.setAny(value);  // types were checked when the graph was built
   if (slot.trigger) markPending(e.node, step_stamp_);
 }
 
@@ -405,7 +395,7 @@ bool Dfpc::evaluate(const BoundCondition& c) const {
     return instances_[static_cast<std::size_t>(n)]
         .node->outputs()[static_cast<std::size_t>(o)]
         ->anyValue()
-        .get();
+        .raw();
   });
 }
 
@@ -432,7 +422,7 @@ void Dfpc::runNode(std::size_t n) {
   }
 
   const auto& outs = node.outputs();
-  for (std::size_t o = 0; o < outs.size(); ++o) inst.before[o] = outs[o]->anyValue().get();
+  for (std::size_t o = 0; o < outs.size(); ++o) inst.before[o] = outs[o]->anyValue().raw();
 
   const Timestamp t0 = execution_clock_ ? execution_clock_->now() : 0;
   const Status status = node.process();
@@ -468,8 +458,8 @@ void Dfpc::runNode(std::size_t n) {
   inst.woken = false;  // a woken instance has done its run; its condition governs again
 
   for (std::size_t o = 0; o < outs.size(); ++o) {
-    const std::shared_ptr<const void>& value = outs[o]->anyValue();
-    if (value.get() == inst.before[o] || !value) continue;
+    const Value& value = outs[o]->anyValue();
+    if (value.raw() == inst.before[o] || value.empty()) continue;
     const OutputSlot& slot = inst.outputs[o];
     for (const Edge& e : slot.edges) {
       if (e.delayed)
@@ -483,7 +473,7 @@ void Dfpc::runNode(std::size_t n) {
       outputs_[dfpc_output].watch_since = stamp;
       if (observer_) observer_->onProduct(*this, dfpc_output, stamp, value);
     }
-    if (slot.feeds_track_state) setTrackState(*static_cast<const std::string*>(value.get()));
+    if (slot.feeds_track_state) setTrackState(*value.get<TrackState>());
   }
 
   if (inst.spec->budget_s > 0 && wall > inst.spec->budget_s) {
@@ -508,8 +498,7 @@ void Dfpc::dropSync(std::size_t n, int queue, Timestamp stamp, const char* why) 
                    stamp, why));
 }
 
-void Dfpc::pushSync(std::size_t n, int queue, const std::shared_ptr<const void>& value,
-                    Timestamp stamp) {
+void Dfpc::pushSync(std::size_t n, int queue, const Value& value, Timestamp stamp) {
   Instance& inst = instances_[n];
   auto& q = inst.queues[static_cast<std::size_t>(queue)];
   auto pos = std::upper_bound(q.begin(), q.end(), stamp,
@@ -565,15 +554,14 @@ void Dfpc::trySync(std::size_t n, Timestamp now, bool final) {
       continue;
     }
     dfn::Node& node = *inst.node;
-    (void)node.inputs()[inst.sync_inputs[0]]->setAny(pivot.front().value,
-                                                     node.inputs()[inst.sync_inputs[0]]->type());
+    (void)node.inputs()[inst.sync_inputs[0]]->setAny(pivot.front().value);
     pivot.pop_front();
     for (std::size_t k = 1; k < inst.queues.size(); ++k) {
       auto& q = inst.queues[k];
       for (std::size_t i = 0; i < best[k]; ++i)
         dropSync(n, static_cast<int>(k), q[i].stamp, "older than the matched message");
       dfn::InputPortBase& port = *node.inputs()[inst.sync_inputs[k]];
-      (void)port.setAny(q[best[k]].value, port.type());
+      (void)port.setAny(q[best[k]].value);
       q.erase(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(best[k]) + 1);
     }
     inst.sync_loaded = true;
@@ -605,7 +593,7 @@ void Dfpc::advanceTo(Timestamp t) {
         if (inst.time_input >= 0) {
           dfn::InputPortBase& port =
               *inst.node->inputs()[static_cast<std::size_t>(inst.time_input)];
-          (void)port.setAny(std::make_shared<const Timestamp>(tick), port.type());
+          (void)port.setAny(Value::of<Timestamp>(tick));
         }
         markPending(n, tick);
       }
@@ -678,7 +666,7 @@ void Dfpc::recover(const RecoverySpec& recovery, std::optional<std::size_t> faul
     ++recoveries_;
     if (a.kind == RecoveryActionKind::kSetTrackState) {
       emit(EventType::kSetTrackState, faulty ? instances_[*faulty].spec->name : "", a.argument);
-      setTrackState(a.argument);
+      setTrackState(parseTrackState(a.argument).value_or(track_state_));  // checkGraph checked it
       continue;
     }
     const std::size_t target = a.argument.empty() ? *faulty : index_.at(a.argument);
@@ -729,9 +717,9 @@ bool Dfpc::recreate(std::size_t n, bool fallback, std::string& why) {
   }
   // The new instance sees the inputs the old one had (not as fresh: nothing new arrived).
   for (std::size_t i = 0; i < fresh->inputs().size(); ++i) {
-    const auto& value = inst.node->inputs()[i]->anyValue();
-    if (!value) continue;
-    (void)fresh->inputs()[i]->setAny(value, fresh->inputs()[i]->type());
+    const Value& value = inst.node->inputs()[i]->anyValue();
+    if (value.empty()) continue;
+    (void)fresh->inputs()[i]->setAny(value);
     fresh->inputs()[i]->markConsumed();
   }
   inst.node = std::move(fresh);
@@ -745,9 +733,10 @@ bool Dfpc::recreate(std::size_t n, bool fallback, std::string& why) {
   return true;
 }
 
-void Dfpc::setTrackState(const std::string& value) {
+void Dfpc::setTrackState(TrackState value) {
   if (value == track_state_) return;
-  emit(EventType::kTrackStateChanged, "", fmt::format("{} -> {}", track_state_, value));
+  emit(EventType::kTrackStateChanged, "",
+       fmt::format("{} -> {}", toString(track_state_), toString(value)));
   track_state_ = value;
 }
 

@@ -48,7 +48,7 @@ struct InstanceStatus {
 struct DfpcStatus {
   std::string name;
   DfpcState state = DfpcState::kInitialised;
-  std::string track_state;
+  std::optional<TrackState> track_state;  // none when the graph declares no track state
   Timestamp stream_time = 0;              // the latest stream time the DFPC has seen
   std::optional<Timestamp> last_product;  // stream time of its latest product
   std::uint64_t messages = 0;             // messages delivered while running
@@ -67,7 +67,7 @@ class DfpcObserver {
   virtual ~DfpcObserver() = default;
   /// A new value on DFPC output `output` (index into spec().outputs).
   virtual void onProduct(const Dfpc& dfpc, std::size_t output, Timestamp stamp,
-                         const std::shared_ptr<const void>& value) = 0;
+                         const Value& value) = 0;
   virtual void onEvent(const Event& event) = 0;
   /// One DFN call; only when timing is enabled.
   virtual void onTiming(const TimingRecord& timing) = 0;
@@ -114,7 +114,7 @@ class Dfpc {
   void finish();
 
   DfpcStatus status() const;
-  const std::string& trackState() const { return track_state_; }
+  TrackState trackState() const { return track_state_; }
   /// An instance by name (nullptr if none); it changes when a recovery re-creates it.
   dfn::Node* instance(const std::string& name) const;
 
@@ -135,7 +135,7 @@ class Dfpc {
   };
   struct SyncEntry {
     Timestamp stamp;
-    std::shared_ptr<const void> value;
+    Value value;
   };
   struct BoundCondition {
     Condition condition;
@@ -168,11 +168,11 @@ class Dfpc {
   };
   struct DelayedValue {
     Edge edge;
-    std::shared_ptr<const void> value;
+    Value value;
     Timestamp stamp;
   };
   struct OutputState {
-    dfn::PortType type;
+    TypeId type;
     Timestamp watch_since = 0;
   };
 
@@ -185,12 +185,11 @@ class Dfpc {
   void clearRuntime();
 
   void beginStep(Timestamp t);
-  void writeInput(const Edge& e, const std::shared_ptr<const void>& value, Timestamp stamp);
+  void writeInput(const Edge& e, const Value& value, Timestamp stamp);
   void markPending(std::size_t n, Timestamp stamp);
   void runPending();
   void runNode(std::size_t n);
-  void pushSync(std::size_t n, int queue, const std::shared_ptr<const void>& value,
-                Timestamp stamp);
+  void pushSync(std::size_t n, int queue, const Value& value, Timestamp stamp);
   void trySync(std::size_t n, Timestamp now, bool final);
   void dropSync(std::size_t n, int queue, Timestamp stamp, const char* why);
 
@@ -198,7 +197,7 @@ class Dfpc {
              const RecoverySpec* recovery);
   void recover(const RecoverySpec& recovery, std::optional<std::size_t> faulty);
   bool recreate(std::size_t n, bool fallback, std::string& why);
-  void setTrackState(const std::string& value);
+  void setTrackState(TrackState value);
   void emit(EventType type, const std::string& instance, std::string message);
 
   GraphSpec spec_;
@@ -210,7 +209,7 @@ class Dfpc {
   std::vector<Instance> instances_;  // topological order
   std::unordered_map<std::string, std::size_t> index_;
   std::vector<std::vector<Edge>> input_edges_;  // per DFPC input
-  std::vector<dfn::PortType> input_types_;
+  std::vector<TypeId> input_types_;
   std::vector<OutputState> outputs_;
   std::optional<std::pair<std::size_t, std::size_t>> track_state_source_;
 
@@ -220,7 +219,7 @@ class Dfpc {
   bool started_ = false;  // stream time has started (first advanceTo since init)
   Timestamp step_stamp_ = 0;
   Timestamp stream_time_ = 0;
-  std::string track_state_;
+  TrackState track_state_ = TrackState::kUninitialised;
   std::optional<Timestamp> last_product_;
   std::uint64_t messages_ = 0, ignored_ = 0, products_ = 0, faults_ = 0, recoveries_ = 0;
   std::string last_fault_;

@@ -17,19 +17,12 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cdff/types/status.hpp"
+#include "cdff/types/track_state.hpp"
 
 namespace cdff::dfpc {
 
-struct SourceLocation {
-  std::string file;
-  int line = 0;    // 1-based; 0 when unknown
-  int column = 0;  // 1-based; 0 when unknown
-
-  static SourceLocation of(const std::string& file, const YAML::Node& node);
-  static SourceLocation of(const std::source_location& where);
-  /// "file:line:column: " (the prefix of an error message), or "file: " without a line.
-  std::string prefix() const;
-};
+/// Letters, digits and '_', not starting with a digit: instance, input and output names.
+bool isIdentifier(const std::string& s);
 
 /// `instance.port`, or a DFPC input or output when `instance` is empty.
 struct PortRef {
@@ -134,8 +127,8 @@ struct DfpcOutputSpec {
 };
 
 struct TrackStateSpec {
-  PortRef from;  // a String output; empty: only recoveries set the track state
-  std::string initial = "UNINITIALISED";
+  PortRef from;  // a TrackState output; empty: only recoveries set the track state
+  TrackState initial = TrackState::kUninitialised;
   SourceLocation at;
 };
 
@@ -220,7 +213,8 @@ class GraphBuilder {
             std::source_location where = std::source_location::current());
   GraphBuilder& connect(const std::string& from, const std::string& to, int delay = 0,
                         std::source_location where = std::source_location::current());
-  GraphBuilder& trackState(const std::string& from, std::string initial = "UNINITIALISED",
+  GraphBuilder& trackState(const std::string& from,
+                           TrackState initial = TrackState::kUninitialised,
                            std::source_location where = std::source_location::current());
 
   const GraphSpec& spec() const { return spec_; }

@@ -53,7 +53,6 @@ Status Orchestrator::add(std::unique_ptr<Dfpc> dfpc) {
     OutputBinding b;
     b.product = productName(dfpc->name(), out.name);
     b.message.channel = dfpc->spec().outputChannel(out);
-    b.message.type = *dfn::findPortType(out.type);
     if (out.history > 0) CDFF_RETURN_IF_ERROR(products_->setHistoryLimit(b.product, out.history));
     entry.outputs.push_back(std::move(b));
   }
@@ -154,17 +153,17 @@ Status Orchestrator::checkChannels(const std::vector<ChannelInfo>& available) co
               fmt::format("DFPC '{}' input '{}' needs channel '{}' ({}), which the "
                           "input does not have",
                           e.dfpc->name(), in.name, in.channel, in.type));
-      } else if (it->type.name != in.type) {
+      } else if (it->type.name() != in.type) {
         problems.push_back(fmt::format("DFPC '{}' input '{}' takes {}; channel '{}' holds {}",
                                        e.dfpc->name(), in.name, in.type, in.channel,
-                                       it->type.name));
+                                       it->type.name()));
       }
     }
   }
   if (problems.empty()) return Status::ok();
   std::vector<std::string> names;
   for (const ChannelInfo& c : available)
-    names.push_back(fmt::format("{} ({})", c.channel, c.type.name));
+    names.push_back(fmt::format("{} ({})", c.channel, c.type.name()));
   return notFound("{}; the input has {{{}}}", fmt::join(problems, "; "), fmt::join(names, ", "));
 }
 
@@ -173,12 +172,12 @@ void Orchestrator::recordSinkError(const Status& status) {
 }
 
 void Orchestrator::onProduct(const Dfpc& dfpc, std::size_t output, Timestamp stamp,
-                             const std::shared_ptr<const void>& value) {
+                             const Value& value) {
   for (Entry& e : entries_) {
     if (e.dfpc.get() != &dfpc) continue;
     OutputBinding& b = e.outputs[output];
     ++counters_.products;
-    (void)products_->publish(b.product, stamp, value, b.message.type);  // types fixed at load
+    (void)products_->publish(b.product, stamp, value);  // types fixed at load
     b.message.stamp = stamp;
     b.message.value = value;
     if (options_.sink) recordSinkError(options_.sink->writeMessage(b.message));

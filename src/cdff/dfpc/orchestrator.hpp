@@ -132,7 +132,7 @@ class Orchestrator final : private DfpcObserver {
   };
 
   void onProduct(const Dfpc& dfpc, std::size_t output, Timestamp stamp,
-                 const std::shared_ptr<const void>& value) override;
+                 const Value& value) override;
   void onEvent(const Event& event) override;
   void onTiming(const TimingRecord& timing) override;
 

@@ -2,9 +2,6 @@
 
 #include <fmt/format.h>
 
-#include <functional>
-#include <typeindex>
-#include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
@@ -20,22 +17,17 @@ Status McapInputStream::open(const std::vector<std::string>& paths,
                              const io::ReplayOptions& options) {
   CDFF_RETURN_IF_ERROR(replay_.open(paths, options));
   channels_.clear();
-  port_types_.clear();
+  types_.clear();
   skipped_.clear();
   done_ = false;
   for (const io::ReplayChannel& c : replay_.channels()) {
-    if (c.cdff_type.empty()) {
+    if (!c.type) {
       skipped_[c.topic] =
           fmt::format("schema '{}' ({}) is not a CDFF type", c.schema_name, c.message_encoding);
       continue;
     }
-    const dfn::PortType* type = dfn::findPortType(c.cdff_type);
-    if (type == nullptr) {
-      skipped_[c.topic] = fmt::format("type '{}' is recorded but is not a port type", c.cdff_type);
-      continue;
-    }
-    port_types_.emplace(c.topic, *type);
-    channels_.push_back({c.topic, *type, c.message_count});
+    types_.emplace(c.topic, c.type);
+    channels_.push_back({c.topic, c.type, c.message_count});
   }
   return Status::ok();
 }
@@ -44,15 +36,10 @@ Result<std::optional<Message>> McapInputStream::next() {
   if (done_) return std::optional<Message>();
   while (replay_.next()) {
     const io::ReplayMessage& m = replay_.message();
-    auto type = port_types_.find(m.channel());
-    if (type == port_types_.end()) continue;
-    Result<io::AnyValue> value = m.decode();
+    if (!types_.count(m.channel())) continue;
+    Result<Value> value = m.decode();
     if (!value) return value.status();
-    if (value->type != type->second.cpp_type)
-      return invalidInput("channel '{}': decoded a '{}' where the channel holds '{}'", m.channel(),
-                          value->type_name, type->second.name);
-    return std::optional<Message>(
-        Message{m.channel(), m.logTime(), type->second, std::move(value->value)});
+    return std::optional<Message>(Message{m.channel(), m.logTime(), std::move(value).value()});
   }
   done_ = true;
   Status damage = replay_.status();
@@ -75,62 +62,6 @@ std::optional<std::pair<Timestamp, Timestamp>> McapInputStream::timeRange() cons
 // ---------------------------------------------------------------------------------------------
 // Output
 
-namespace {
-
-using WriteFunction = std::function<Status(io::Recorder&, const Message&)>;
-
-template <typename T>
-void addStamped(std::unordered_map<std::type_index, WriteFunction>& table) {
-  table[std::type_index(typeid(T))] = [](io::Recorder& r, const Message& m) {
-    return r.write(m.channel, *static_cast<const T*>(m.value.get()));
-  };
-}
-template <typename T>
-void addUnstamped(std::unordered_map<std::type_index, WriteFunction>& table) {
-  table[std::type_index(typeid(T))] = [](io::Recorder& r, const Message& m) {
-    return r.write(m.channel, *static_cast<const T*>(m.value.get()), m.stamp);
-  };
-}
-template <typename T>
-void addScalar(std::unordered_map<std::type_index, WriteFunction>& table) {
-  table[std::type_index(typeid(T))] = [](io::Recorder& r, const Message& m) {
-    return r.writeScalar(m.channel, *static_cast<const T*>(m.value.get()), m.stamp);
-  };
-}
-
-const std::unordered_map<std::type_index, WriteFunction>& writers() {
-  static const auto table = [] {
-    std::unordered_map<std::type_index, WriteFunction> t;
-    addStamped<Image>(t);
-    addStamped<DepthMap>(t);
-    addStamped<StereoImagePair>(t);
-    addStamped<PointCloud>(t);
-    addStamped<Transform>(t);
-    addStamped<PoseWithCovariance>(t);
-    addStamped<RigidBodyState>(t);
-    addStamped<TriangleMesh>(t);
-    addStamped<Features2D>(t);
-    addStamped<Features3D>(t);
-    addStamped<ImuSample>(t);
-    addStamped<Wrench>(t);
-    addStamped<JointState>(t);
-    addUnstamped<CameraModel>(t);
-    addUnstamped<Matches>(t);
-    addUnstamped<Correspondences2D>(t);
-    addUnstamped<Correspondences3D>(t);
-    addUnstamped<Correspondences2D3D>(t);
-    addScalar<double>(t);
-    addScalar<bool>(t);
-    addScalar<int>(t);
-    addScalar<std::int64_t>(t);
-    addScalar<std::string>(t);
-    return t;
-  }();
-  return table;
-}
-
-}  // namespace
-
 const char* eventLevel(EventType type) {
   switch (type) {
     case EventType::kDfnError:
@@ -150,7 +81,6 @@ const char* eventLevel(EventType type) {
 
 Status McapSink::open(const std::string& path, const McapSinkOptions& options) {
   options_ = options;
-  unrecordable_.clear();
   timing_channels_.clear();
   messages_written_ = events_written_ = 0;
   return recorder_.open(path, options.writer);
@@ -162,28 +92,10 @@ Status McapSink::close() {
 }
 
 Status McapSink::writeMessage(const Message& message) {
-  if (message.value == nullptr)
+  if (message.value.empty())
     return invalidInput("channel '{}': a message without a value at t = {} us", message.channel,
                         message.stamp);
-  auto writer = writers().find(message.type.cpp_type);
-  if (writer == writers().end()) {
-    // A product of a type that has no channel encoding is counted and reported once as an
-    // event; the run goes on and every recordable product is kept.
-    if (unrecordable_[message.channel]++ == 0) {
-      CDFF_RETURN_IF_ERROR(recorder_.writeJson(
-          options_.event_channel, message.stamp,
-          {{"level", "warning"},
-           {"source", "cdff run"},
-           {"kind", "warning"},
-           {"type", "unrecordable_channel"},
-           {"message", fmt::format("channel '{}': type '{}' has no recording encoding "
-                                   "(docs/recording.md); its messages are not recorded",
-                                   message.channel, message.type.name)}}));
-      ++events_written_;
-    }
-    return Status::ok();
-  }
-  CDFF_RETURN_IF_ERROR(writer->second(recorder_, message)
+  CDFF_RETURN_IF_ERROR(recorder_.write(message.channel, message.value, message.stamp)
                            .withContext(fmt::format("recording channel '{}' at t = {} us",
                                                     message.channel, message.stamp)));
   ++messages_written_;

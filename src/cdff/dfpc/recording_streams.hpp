@@ -46,7 +46,7 @@ class McapInputStream final : public InputStream {
  private:
   io::Replay replay_;
   std::vector<ChannelInfo> channels_;
-  std::map<std::string, dfn::PortType, std::less<>> port_types_;
+  std::map<std::string, TypeId, std::less<>> types_;
   std::map<std::string, std::string> skipped_;
   bool done_ = false;
 };
@@ -69,16 +69,12 @@ class McapSink final : public Sink {
   Status writeTiming(const TimingRecord& timing) override;
   Status flush() override;
 
-  /// Messages that could not be recorded because their type has no channel encoding, by
-  /// channel (each such channel also gets one warning event).
-  const std::map<std::string, std::uint64_t>& unrecordable() const { return unrecordable_; }
   std::uint64_t messagesWritten() const { return messages_written_; }
   std::uint64_t eventsWritten() const { return events_written_; }
 
  private:
   io::Recorder recorder_;
   McapSinkOptions options_;
-  std::map<std::string, std::uint64_t> unrecordable_;
   std::map<std::string, std::string, std::less<>> timing_channels_;  // dfpc -> channel
   std::uint64_t messages_written_ = 0;
   std::uint64_t events_written_ = 0;

@@ -37,7 +37,7 @@ std::vector<ChannelInfo> MemoryStream::channels() const {
   for (const Message& m : messages_) {
     ChannelInfo& info = by_name[m.channel];
     info.channel = m.channel;
-    info.type = m.type;
+    info.type = m.type();
     ++info.message_count;
   }
   std::vector<ChannelInfo> out;

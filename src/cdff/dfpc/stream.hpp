@@ -18,37 +18,38 @@
 #include <utility>
 #include <vector>
 
-#include "cdff/dfn/port.hpp"
+#include "cdff/types/type_registry.hpp"
+#include "cdff/types/value.hpp"
 #include "cdff/types/status.hpp"
 #include "cdff/types/time.hpp"
 
 namespace cdff::dfpc {
 
 struct Message {
-  std::string
-      channel;  // e.g. /chaser/camera_left/image, /truth/target_pose, /cdff/<dfpc>/<product>
+  std::string channel;  // e.g. /chaser/camera_left/image, /truth/target_pose, /cdff/<dfpc>/<product>
   Timestamp stamp = 0;  // stream time of the data
-  dfn::PortType type;   // the C++ type of *value
-  std::shared_ptr<const void> value;
+  Value value;
 
-  template <typename T>
+  TypeId type() const { return value.type(); }
+
+  template <RegisteredType T>
   static Message of(std::string channel, Timestamp stamp, std::shared_ptr<const T> value) {
-    return {std::move(channel), stamp, dfn::PortType::of<T>(), std::move(value)};
+    return {std::move(channel), stamp, Value::of<T>(std::move(value))};
   }
-  template <typename T>
+  template <RegisteredType T>
   static Message of(std::string channel, Timestamp stamp, T value) {
     return of<T>(std::move(channel), stamp, std::make_shared<const T>(std::move(value)));
   }
   /// The value as a T, or nullptr when it is of another type.
-  template <typename T>
+  template <RegisteredType T>
   const T* as() const {
-    return type == dfn::PortType::of<T>() ? static_cast<const T*>(value.get()) : nullptr;
+    return value.get<T>();
   }
 };
 
 struct ChannelInfo {
   std::string channel;
-  dfn::PortType type;
+  TypeId type;
   std::uint64_t message_count = 0;  // 0 when unknown
 };
 

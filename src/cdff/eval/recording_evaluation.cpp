@@ -13,8 +13,9 @@ namespace cdff::eval {
 
 namespace {
 
-bool isPoseType(std::string_view type) {
-  return type == "PoseWithCovariance" || type == "RigidBodyState" || type == "Transform";
+bool isPoseType(TypeId type) {
+  return type == TypeId::of<PoseWithCovariance>() || type == TypeId::of<RigidBodyState>() ||
+         type == TypeId::of<Transform>();
 }
 
 struct DecodedPose {
@@ -28,12 +29,12 @@ std::optional<Matrix6d> covarianceOf(const Matrix6d& c) {
 }
 
 Result<DecodedPose> decodePose(const io::ReplayMessage& m) {
-  if (m.cdffType() == "Transform") {
+  if (m.type() == TypeId::of<Transform>()) {
     Result<std::shared_ptr<const Transform>> t = m.decode<Transform>();
     if (!t) return t.status();
     return DecodedPose{**t, std::nullopt};
   }
-  if (m.cdffType() == "PoseWithCovariance") {
+  if (m.type() == TypeId::of<PoseWithCovariance>()) {
     Result<std::shared_ptr<const PoseWithCovariance>> p = m.decode<PoseWithCovariance>();
     if (!p) return p.status();
     return DecodedPose{(*p)->pose, covarianceOf((*p)->covariance)};
@@ -93,7 +94,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   // at or before its stamp: a DFPC publishes its step's products and then the change the step
   // made, at the same stamp); products before the first change take that change's earlier
   // state, so that the initial state of an UNINITIALISED track is not a tracked estimate.
-  std::map<std::string, std::vector<std::string>> track_states;
+  std::map<std::string, std::vector<std::optional<TrackState>>> track_states;
   std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
   std::set<std::string> wanted(options.products.begin(), options.products.end());
 
@@ -109,23 +110,23 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       const std::string text = j.value("message", "");
       const std::size_t arrow = text.find("-> ");
       if (arrow == std::string::npos) continue;
-      std::vector<std::string>& states = track_states[j.value("dfpc", "")];
+      std::vector<std::optional<TrackState>>& states = track_states[j.value("dfpc", "")];
       if (states.empty()) {
         std::string before = text.substr(0, arrow);
         while (!before.empty() && before.back() == ' ') before.pop_back();
-        states.push_back(std::move(before));
+        states.push_back(parseTrackState(before));
       }
-      states.push_back(text.substr(arrow + 3));
+      states.push_back(parseTrackState(text.substr(arrow + 3)));
     } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
       step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
-    } else if (isPoseType(m.cdffType()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
+    } else if (isPoseType(m.type()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
       const bool is_truth = dfpc.empty();
       Result<DecodedPose> decoded = decodePose(m);
       if (!decoded) return decoded.status();
       Series& s = (is_truth ? truths : products)[channel];
-      s.type = std::string(m.cdffType());
+      s.type = std::string(m.type().name());
       s.poses.push_back(decoded->pose);
       s.covariances.push_back(decoded->covariance);
       if (!is_truth) {
@@ -201,8 +202,9 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       e.covariance = product.covariances[i];
       e.valid = isFinite(pose);
       if (!states.empty()) {
-        const std::string& state = states[product.changes_before[i]];
-        if (state == "LOST" || state == "UNINITIALISED" || state == "ACQUIRING") e.valid = false;
+        // A state this version does not know (an older recording's) is taken as tracked.
+        const std::optional<TrackState>& state = states[product.changes_before[i]];
+        if (state && !isTracked(*state)) e.valid = false;
       }
       if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
       estimates.push_back(e);

@@ -6,9 +6,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cdff/io/mcap.hpp"
-#include "cdff/io/protobuf.hpp"
+#include "cdff/types/codec/protobuf.hpp"
 
 namespace cdff::io {
+
+namespace pb = ::cdff::codec::pb;
 
 struct InspectOptions {
   /// Arrays longer than this become {"$array": length, "head": [first values]}; byte fields

@@ -7,16 +7,21 @@
 //   CDFF_RETURN_IF_ERROR(rec.write("/truth/target_pose", pose));
 //   CDFF_RETURN_IF_ERROR(rec.close());
 //
-// The log time of a message is its value's stamp (microseconds, stored as MCAP nanoseconds).
-// Types without a stamp (camera models, matches, correspondences) take one as an argument.
-// A channel holds one type; writing another type to it is refused. Thread-safe.
+// Any type of the registry (type_registry.hpp) can be written: its schema and encoding come from
+// there. The log time of a message is its value's stamp (microseconds, stored as MCAP
+// nanoseconds); types without a stamp (camera models, matches, correspondences, scalars) take one
+// as an argument. A channel holds one type; writing another type to it is refused. Thread-safe.
 
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 
-#include "cdff/io/codec.hpp"
+#include <nlohmann/json.hpp>
+
 #include "cdff/io/mcap.hpp"
+#include "cdff/types/codec/codec.hpp"
+#include "cdff/types/type_registry.hpp"
 
 namespace cdff::io {
 
@@ -28,6 +33,14 @@ constexpr Timestamp fromMcapTime(std::uint64_t ns) {
   return static_cast<Timestamp>(ns / 1000);
 }
 
+/// The channel metadata key that names a channel's CDFF type.
+inline constexpr std::string_view kTypeMetadataKey = "cdff.type";
+
+/// The CDFF type of a channel: its "cdff.type" metadata, else what its schema implies
+/// (foxglove.RawImage -> Image, ...), else Json for a JSON channel without a known schema; not
+/// valid when it is none of ours (e.g. a ROS 2 message).
+TypeId typeOfChannel(const Channel& channel, const Schema* schema);
+
 class Recorder {
  public:
   Recorder();
@@ -38,31 +51,21 @@ class Recorder {
   Status open(const std::string& path, const McapWriterOptions& options = {});
   bool isOpen() const;
 
-  Status write(const std::string& channel, const Image& value);
-  Status write(const std::string& channel, const DepthMap& value);
-  Status write(const std::string& channel, const StereoImagePair& value);  // stamp: left image
-  Status write(const std::string& channel, const CompressedImage& value);
-  Status write(const std::string& channel, const PointCloud& value);
-  Status write(const std::string& channel, const Transform& value);
-  Status write(const std::string& channel, const PoseWithCovariance& value);
-  Status write(const std::string& channel, const RigidBodyState& value);
-  Status write(const std::string& channel, const PoseArray& value);
-  Status write(const std::string& channel, const TriangleMesh& value);
-  Status write(const std::string& channel, const Features2D& value);
-  Status write(const std::string& channel, const Features3D& value);
-  Status write(const std::string& channel, const ImuSample& value);
-  Status write(const std::string& channel, const Wrench& value);
-  Status write(const std::string& channel, const JointState& value);
-  Status write(const std::string& channel, const CameraModel& value, Timestamp stamp,
-               const std::string& frame_id = {});
-  Status write(const std::string& channel, const Matches& value, Timestamp stamp);
-  Status write(const std::string& channel, const Correspondences2D& value, Timestamp stamp);
-  Status write(const std::string& channel, const Correspondences3D& value, Timestamp stamp);
-  Status write(const std::string& channel, const Correspondences2D3D& value, Timestamp stamp);
-
-  /// A scalar (double, bool, int, Timestamp or std::string) as {"timestamp", "value"}.
-  template <typename T>
-  Status writeScalar(const std::string& channel, const T& value, Timestamp stamp);
+  /// A value of any registered type. Its log time is its own stamp (an image's, a pose's...), or
+  /// `stamp` for the types without one (matches, correspondences, camera models, scalars).
+  Status write(const std::string& channel, const Value& value, Timestamp stamp);
+  /// A value with a stamp of its own; an error for a type without one.
+  template <RegisteredType T>
+  Status write(const std::string& channel, const T& value) {
+    return writeTyped(channel, TypeId::of<T>(), &value, std::nullopt);
+  }
+  template <RegisteredType T>
+  Status write(const std::string& channel, const T& value, Timestamp stamp) {
+    return writeTyped(channel, TypeId::of<T>(), &value, stamp);
+  }
+  /// A camera model with the frame its calibration belongs to.
+  Status writeCalibration(const std::string& channel, const CameraModel& value, Timestamp stamp,
+                          const std::string& frame_id);
 
   /// A JSON object (schema cdff.Record), e.g. a DFN timing record or a report.
   Status writeJson(const std::string& channel, Timestamp stamp, const nlohmann::json& record);
@@ -82,19 +85,19 @@ class Recorder {
   Statistics statistics() const;
 
  private:
-  Status writeEncoded(const std::string& channel, std::string_view cdff_type, Timestamp stamp);
-  template <typename T, typename Encode>
-  Status record(const std::string& channel, Timestamp stamp, Encode&& encode_value);
+  Status writeTyped(const std::string& channel, TypeId type, const void* value,
+                    std::optional<Timestamp> stamp);
+  Status writeEncoded(const std::string& channel, TypeId type, Timestamp stamp);
 
   struct ChannelEntry {
     std::uint16_t id;
-    std::string_view cdff_type;
+    TypeId type;
   };
   mutable std::mutex mutex_;
   McapWriter writer_;
-  Encoded scratch_;
+  codec::Encoded scratch_;
   std::map<std::string, ChannelEntry, std::less<>> channels_;
-  std::map<std::string_view, std::uint16_t> schemas_;  // by CDFF type
+  std::map<std::string_view, std::uint16_t> schemas_;  // by type name
 };
 
 }  // namespace cdff::io

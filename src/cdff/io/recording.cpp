@@ -28,100 +28,76 @@ bool Recorder::isOpen() const {
   return writer_.isOpen();
 }
 
-Status Recorder::writeEncoded(const std::string& channel, std::string_view cdff_type,
-                              Timestamp stamp) {
+Status Recorder::writeEncoded(const std::string& channel, TypeId type, Timestamp stamp) {
   if (stamp < 0)
     return invalidInput("channel '{}': stamp {} us is negative; MCAP times are unsigned", channel,
                         stamp);
   auto it = channels_.find(channel);
   if (it == channels_.end()) {
-    const TypeFormat* format = formatOf(cdff_type);
-    if (!format) return {StatusCode::kInternal, fmt::format("no format for type '{}'", cdff_type)};
+    const TypeInfo& info = type.info();
     std::uint16_t schema_id = 0;
-    if (auto s = schemas_.find(format->cdff_type); s != schemas_.end()) {
+    if (auto s = schemas_.find(info.name); s != schemas_.end()) {
       schema_id = s->second;
     } else {
-      auto id = writer_.addSchema(std::string(format->schema_name),
-                                  std::string(format->schema_encoding), format->schema_data);
+      auto id = writer_.addSchema(std::string(info.schema_name), std::string(info.schemaEncoding()),
+                                  info.schemaData());
       CDFF_RETURN_IF_ERROR(id.status());
       schema_id = *id;
-      schemas_[format->cdff_type] = schema_id;
+      schemas_[info.name] = schema_id;
     }
-    auto id = writer_.addChannel(channel, std::string(format->message_encoding), schema_id,
-                                 {{std::string(kTypeMetadataKey), std::string(format->cdff_type)}});
+    auto id = writer_.addChannel(channel, std::string(info.messageEncoding()), schema_id,
+                                 {{std::string(kTypeMetadataKey), std::string(info.name)}});
     CDFF_RETURN_IF_ERROR(id.status());
-    it = channels_.emplace(channel, ChannelEntry{*id, format->cdff_type}).first;
-  } else if (it->second.cdff_type != cdff_type) {
+    it = channels_.emplace(channel, ChannelEntry{*id, type}).first;
+  } else if (it->second.type != type) {
     return invalidInput("channel '{}' records {} values; cannot write a {} to it", channel,
-                        it->second.cdff_type, cdff_type);
+                        it->second.type.name(), type.name());
   }
   const std::vector<Bytes> parts = scratch_.parts();
   const std::uint64_t t = toMcapTime(stamp);
   return writer_.write(it->second.id, t, t, parts);
 }
 
-template <typename T, typename Encode>
-Status Recorder::record(const std::string& channel, Timestamp stamp, Encode&& encode_value) {
+Status Recorder::writeTyped(const std::string& channel, TypeId type, const void* value,
+                            std::optional<Timestamp> stamp) {
+  const TypeInfo& info = type.info();
+  const std::optional<Timestamp> own = info.own_stamp(value);
+  if (!own && !stamp)
+    return invalidInput(
+        "channel '{}': a {} has no stamp of its own; expected the message's stamp as an argument",
+        channel, info.name);
+  const Timestamp log_time = own ? *own : *stamp;
   std::lock_guard lock(mutex_);
   if (!writer_.isOpen())
     return invalidInput("recorder is not open; cannot write channel '{}'", channel);
-  CDFF_RETURN_IF_ERROR(encode_value(scratch_).withContext(fmt::format("channel '{}'", channel)));
-  const Status s = writeEncoded(channel, TypeName<T>::value, stamp);
+  CDFF_RETURN_IF_ERROR(
+      info.encode(value, log_time, scratch_).withContext(fmt::format("channel '{}'", channel)));
+  const Status s = writeEncoded(channel, type, log_time);
   scratch_.clear();  // drop the references to the caller's buffers
   return s;
 }
 
-#define CDFF_RECORD_STAMPED(Type, stamp_expr)                                               \
-  Status Recorder::write(const std::string& channel, const Type& value) {                   \
-    return record<Type>(channel, stamp_expr, [&](Encoded& e) { return encode(value, e); }); \
-  }
-CDFF_RECORD_STAMPED(Image, value.stamp)
-CDFF_RECORD_STAMPED(DepthMap, value.image.stamp)
-CDFF_RECORD_STAMPED(StereoImagePair, value.left.stamp)
-CDFF_RECORD_STAMPED(CompressedImage, value.stamp)
-CDFF_RECORD_STAMPED(PointCloud, value.stamp)
-CDFF_RECORD_STAMPED(Transform, value.stamp)
-CDFF_RECORD_STAMPED(PoseWithCovariance, value.pose.stamp)
-CDFF_RECORD_STAMPED(RigidBodyState, value.pose.stamp)
-CDFF_RECORD_STAMPED(PoseArray, value.stamp)
-CDFF_RECORD_STAMPED(TriangleMesh, value.stamp)
-CDFF_RECORD_STAMPED(Features2D, value.stamp)
-CDFF_RECORD_STAMPED(Features3D, value.stamp)
-CDFF_RECORD_STAMPED(ImuSample, value.stamp)
-CDFF_RECORD_STAMPED(Wrench, value.stamp)
-CDFF_RECORD_STAMPED(JointState, value.stamp)
-#undef CDFF_RECORD_STAMPED
-
-Status Recorder::write(const std::string& channel, const CameraModel& value, Timestamp stamp,
-                       const std::string& frame_id) {
-  return record<CameraModel>(channel, stamp,
-                             [&](Encoded& e) { return encode(value, stamp, frame_id, e); });
+Status Recorder::write(const std::string& channel, const Value& value, Timestamp stamp) {
+  if (value.empty())
+    return invalidInput("channel '{}': no value to write at t = {} us", channel, stamp);
+  return writeTyped(channel, value.type(), value.raw(), stamp);
 }
 
-#define CDFF_RECORD_WITH_STAMP(Type)                                                          \
-  Status Recorder::write(const std::string& channel, const Type& value, Timestamp stamp) {    \
-    return record<Type>(channel, stamp, [&](Encoded& e) { return encode(value, stamp, e); }); \
-  }
-CDFF_RECORD_WITH_STAMP(Matches)
-CDFF_RECORD_WITH_STAMP(Correspondences2D)
-CDFF_RECORD_WITH_STAMP(Correspondences3D)
-CDFF_RECORD_WITH_STAMP(Correspondences2D3D)
-#undef CDFF_RECORD_WITH_STAMP
-
-template <typename T>
-Status Recorder::writeScalar(const std::string& channel, const T& value, Timestamp stamp) {
-  return record<T>(channel, stamp, [&](Encoded& e) { return encodeScalar(value, stamp, e); });
+Status Recorder::writeCalibration(const std::string& channel, const CameraModel& value,
+                                  Timestamp stamp, const std::string& frame_id) {
+  std::lock_guard lock(mutex_);
+  if (!writer_.isOpen())
+    return invalidInput("recorder is not open; cannot write channel '{}'", channel);
+  CDFF_RETURN_IF_ERROR(codec::encodeCalibration(value, stamp, frame_id, scratch_)
+                           .withContext(fmt::format("channel '{}'", channel)));
+  const Status s = writeEncoded(channel, TypeId::of<CameraModel>(), stamp);
+  scratch_.clear();
+  return s;
 }
-template Status Recorder::writeScalar(const std::string&, const double&, Timestamp);
-template Status Recorder::writeScalar(const std::string&, const bool&, Timestamp);
-template Status Recorder::writeScalar(const std::string&, const int&, Timestamp);
-template Status Recorder::writeScalar(const std::string&, const std::int64_t&, Timestamp);
-template Status Recorder::writeScalar(const std::string&, const std::string&, Timestamp);
 
 Status Recorder::writeJson(const std::string& channel, Timestamp stamp,
                            const nlohmann::json& value) {
-  return record<nlohmann::json>(channel, stamp,
-                                [&](Encoded& e) { return encode(value, stamp, e); });
+  return write(channel, value, stamp);
 }
 
 Status Recorder::writeEvent(Timestamp stamp, const std::string& level, const std::string& source,
@@ -160,6 +136,15 @@ Statistics Recorder::statistics() const {
   return writer_.statistics();
 }
 
+TypeId typeOfChannel(const Channel& channel, const Schema* schema) {
+  if (auto it = channel.metadata.find(std::string(kTypeMetadataKey)); it != channel.metadata.end())
+    if (const TypeId type = findType(it->second)) return type;
+  if (schema)
+    if (const TypeId type = findTypeBySchema(schema->name, channel.message_encoding)) return type;
+  if (channel.message_encoding == "json") return TypeId::of<nlohmann::json>();
+  return TypeId();
+}
+
 // ---- Replay --------------------------------------------------------------------------------
 
 std::string_view ReplayMessage::schemaName() const {
@@ -171,22 +156,23 @@ std::string ReplayMessage::context() const {
                      channel(), view_.log_time);
 }
 
-Status ReplayMessage::checkDecodableAs(std::string_view type) const {
-  if (type == cdff_type_) return Status::ok();
-  const TypeFormat* format = formatOf(type);
-  if (format && view_.schema && format->schema_name == view_.schema->name &&
-      format->message_encoding == view_.channel->message_encoding)
+Status ReplayMessage::checkDecodableAs(TypeId type) const {
+  if (type == type_) return Status::ok();
+  const TypeInfo& info = type.info();
+  if (view_.schema && info.schema_name == view_.schema->name &&
+      info.messageEncoding() == view_.channel->message_encoding)
     return Status::ok();  // the same schema (e.g. a RigidBodyState read as PoseWithCovariance)
   return invalidInput("{}: the channel holds {} ({}); cannot decode it as {}", context(),
-                      cdff_type_.empty() ? "a non-CDFF type" : std::string(cdff_type_),
-                      view_.schema ? view_.schema->name : view_.channel->message_encoding, type);
+                      type_ ? std::string(type_.name()) : std::string("a non-CDFF type"),
+                      view_.schema ? view_.schema->name : view_.channel->message_encoding,
+                      type.name());
 }
 
-Result<AnyValue> ReplayMessage::decode() const {
-  if (cdff_type_.empty())
+Result<Value> ReplayMessage::decode() const {
+  if (!type_)
     return notFound("{}: schema '{}' ({}) is not a CDFF type; only its raw bytes are available",
                     context(), schemaName(), messageEncoding());
-  auto value = decodeAny(cdff_type_, view_.data, view_.owner);
+  Result<Value> value = type_.info().decode(view_.data, view_.owner);
   if (!value) return value.status().withContext(context());
   return value;
 }
@@ -198,7 +184,7 @@ struct Replay::Impl {
   std::vector<bool> has_current;
   std::vector<std::size_t> heap;  // file indices, min-heap on the current message
   std::vector<ReplayChannel> channels;
-  std::vector<std::map<std::uint16_t, std::string_view>> cdff_types;  // per file, by channel id
+  std::vector<std::map<std::uint16_t, TypeId>> types;  // per file, by channel id
   ReplayMessage current;
   std::vector<std::string> open_damages;
   Timestamp start = 0, end = 0;
@@ -236,19 +222,19 @@ Status Replay::open(const std::vector<std::string>& paths, const ReplayOptions& 
   // Channels, matched by topic across files.
   for (std::size_t f = 0; f < impl->readers.size(); ++f) {
     const McapReader& r = *impl->readers[f];
-    auto& types = impl->cdff_types.emplace_back();
+    auto& types = impl->types.emplace_back();
     for (const auto& entry : r.channels()) {
       const std::uint16_t id = entry.first;
       const Channel& ch = entry.second;  // named: lambdas below capture it (clang 14)
       const Schema* schema = r.schemaOf(ch);
-      const std::string_view type = cdffTypeOf(ch, schema);
+      const TypeId type = typeOfChannel(ch, schema);
       types[id] = type;
       const std::string schema_name = schema ? schema->name : std::string();
       auto it = std::find_if(impl->channels.begin(), impl->channels.end(),
                              [&](const ReplayChannel& c) { return c.topic == ch.topic; });
       if (it == impl->channels.end()) {
         impl->channels.push_back(
-            {ch.topic, std::string(type), schema_name, ch.message_encoding, 0, {}});
+            {ch.topic, type, schema_name, ch.message_encoding, 0, {}});
         it = impl->channels.end() - 1;
       } else if (it->schema_name != schema_name || it->message_encoding != ch.message_encoding) {
         return invalidInput("channel '{}' is {} ({}) in '{}' but {} ({}) in '{}'", ch.topic,
@@ -354,8 +340,8 @@ bool Replay::next() {
   m.current.view_ = view;
   m.current.file_ = f;
   m.current.path_ = &m.paths[f];
-  auto t = m.cdff_types[f].find(view.channel->id);
-  m.current.cdff_type_ = t == m.cdff_types[f].end() ? std::string_view{} : t->second;
+  auto t = m.types[f].find(view.channel->id);
+  m.current.type_ = t == m.types[f].end() ? TypeId() : t->second;
   return true;
 }
 

@@ -6,8 +6,8 @@
 //   CDFF_RETURN_IF_ERROR(replay.open({"sensors.mcap", "truth.mcap"}, {.channels = {...}}));
 //   while (replay.next()) {
 //     const auto& m = replay.message();
-//     auto value = m.decode();                 // Result<AnyValue>: shared_ptr<const void> + type
-//     if (value) port.setAny(value->value, {value->type, value->type_name});
+//     Result<Value> value = m.decode();       // any registered type, known at run time
+//     if (value) port.setAny(*value);
 //   }
 //   CDFF_RETURN_IF_ERROR(replay.status());     // damage met on the way (file, byte offset)
 
@@ -16,7 +16,6 @@
 #include <string>
 #include <vector>
 
-#include "cdff/io/codec.hpp"
 #include "cdff/io/mcap.hpp"
 #include "cdff/io/recorder.hpp"
 
@@ -32,7 +31,7 @@ struct ReplayOptions {
 /// A channel as seen across the replayed files (matched by topic).
 struct ReplayChannel {
   std::string topic;
-  std::string cdff_type;  // "" when not a CDFF type (e.g. a ROS 2 message)
+  TypeId type;  // not valid when not a CDFF type (e.g. a ROS 2 message)
   std::string schema_name;
   std::string message_encoding;
   std::uint64_t message_count = 0;
@@ -47,30 +46,32 @@ class ReplayMessage {
   std::uint64_t publishTimeNs() const { return view_.publish_time; }
   std::uint32_t sequence() const { return view_.sequence; }
   std::string_view schemaName() const;
-  std::string_view cdffType() const { return cdff_type_; }
+  /// The channel's CDFF type; not valid when it is none of ours.
+  TypeId type() const { return type_; }
   const std::string& messageEncoding() const { return view_.channel->message_encoding; }
   Bytes data() const { return view_.data; }
   std::size_t fileIndex() const { return file_; }
   const MessageView& view() const { return view_; }
 
-  /// The value as its CDFF type (cdffType()); large arrays share the chunk's memory.
-  Result<AnyValue> decode() const;
-  /// The value as T; fails when the channel's schema does not hold T.
-  template <typename T>
+  /// The value as its CDFF type (type()); large arrays share the chunk's memory.
+  Result<Value> decode() const;
+  /// The value as T; fails when the channel's schema does not hold T (a RigidBodyState channel
+  /// reads as a PoseWithCovariance: they share their schema).
+  template <RegisteredType T>
   Result<std::shared_ptr<const T>> decode() const {
-    CDFF_RETURN_IF_ERROR(checkDecodableAs(TypeName<T>::value));
+    CDFF_RETURN_IF_ERROR(checkDecodableAs(TypeId::of<T>()));
     auto value = std::make_shared<T>();
-    CDFF_RETURN_IF_ERROR(io::decode(view_.data, view_.owner, *value).withContext(context()));
+    CDFF_RETURN_IF_ERROR(codec::decode(view_.data, view_.owner, *value).withContext(context()));
     return std::shared_ptr<const T>(std::move(value));
   }
 
  private:
   friend class Replay;
-  Status checkDecodableAs(std::string_view type) const;
+  Status checkDecodableAs(TypeId type) const;
   std::string context() const;
 
   MessageView view_;
-  std::string_view cdff_type_;
+  TypeId type_;
   std::size_t file_ = 0;
   const std::string* path_ = nullptr;
 };

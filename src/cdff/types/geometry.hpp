@@ -8,6 +8,7 @@
 // and covariances are ordered [dt (3), dtheta (3)] (+ [dv (3), domega (3)] for states).
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -95,5 +96,12 @@ Status checkFinite(const Eigen::MatrixBase<Derived>& m, const char* what) {
                             what, static_cast<double>(m(r, c)), r, c);
   return Status::ok();
 }
+
+/// Poses in one frame (a trajectory, candidate poses), shown by Foxglove as arrows.
+struct PoseArray {
+  Timestamp stamp = 0;
+  std::string frame_id;
+  std::vector<Eigen::Isometry3d> poses;
+};
 
 }  // namespace cdff

@@ -102,4 +102,12 @@ struct DepthMap {
   Status validate() const;
 };
 
+/// A compressed image (JPEG, PNG, WebP) as it was produced; CDFF stores it without decoding it.
+struct CompressedImage {
+  Timestamp stamp = 0;
+  std::string frame_id;
+  std::string format;  // "jpeg", "png", "webp"
+  Buffer<std::uint8_t> data;
+};
+
 }  // namespace cdff

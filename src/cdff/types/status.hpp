@@ -1,10 +1,13 @@
 #pragma once
 // Status: how every CDFF call reports success or a fault, without exceptions or exit().
 //
-// A non-OK status carries a code and a message that says what went wrong, where, with which
-// value and what was expected (e.g. "EdgeDetection/Canny input 'image': image is empty
-// (0x0); expected a non-empty 8UC1 image").
+// A non-OK status carries a code, a reason that says what went wrong, with which value and what
+// was expected (e.g. "EdgeDetection/Canny input 'image': image is empty (0x0); expected a
+// non-empty 8UC1 image"), and, when the fault is in a file, where: the location is data
+// (SourceLocation), rendered first by message() ("graph.yaml:12:5: ..."), so that context added
+// on the way up never pushes it out of the first place.
 
+#include <source_location>
 #include <string>
 #include <utility>
 
@@ -27,26 +30,51 @@ enum class StatusCode {
 
 const char* toString(StatusCode code);
 
+/// A place in a text file (1-based line and column; 0 when unknown), or in C++ code.
+struct SourceLocation {
+  std::string file;
+  int line = 0;
+  int column = 0;
+
+  static SourceLocation of(const std::source_location& where);
+  bool empty() const { return file.empty() && line == 0; }
+  /// "file:line:column: " (the prefix of an error message), "file: " without a line, "" when
+  /// empty.
+  std::string prefix() const;
+  bool operator==(const SourceLocation&) const = default;
+};
+
 class [[nodiscard]] Status {
  public:
   Status() = default;
-  Status(StatusCode code, std::string message) : code_(code), message_(std::move(message)) {}
+  Status(StatusCode code, std::string reason) : code_(code), reason_(std::move(reason)) {}
+  Status(StatusCode code, std::string reason, SourceLocation where)
+      : code_(code), reason_(std::move(reason)), location_(std::move(where)) {}
 
   static Status ok() { return {}; }
 
   bool isOk() const { return code_ == StatusCode::kOk; }
   explicit operator bool() const { return isOk(); }
   StatusCode code() const { return code_; }
-  const std::string& message() const { return message_; }
+  /// What went wrong, without the location.
+  const std::string& reason() const { return reason_; }
+  /// Where, when the fault is in a file (empty otherwise).
+  const SourceLocation& location() const { return location_; }
+  /// The location first (when there is one), then the reason: what a person reads.
+  std::string message() const { return location_.prefix() + reason_; }
   /// "invalid input: <message>", or "ok".
   std::string toString() const;
 
-  /// Returns a copy whose message is prefixed with `context: ` (e.g. the DFN instance name).
+  /// A copy whose reason is prefixed with `context: ` (e.g. the DFN instance name); the location
+  /// stays first in message().
   Status withContext(const std::string& context) const;
+  /// A copy located at `where` (an existing location is kept: it is the more precise one).
+  Status at(const SourceLocation& where) const;
 
  private:
   StatusCode code_ = StatusCode::kOk;
-  std::string message_;
+  std::string reason_;
+  SourceLocation location_;
 };
 
 template <typename... Args>
@@ -68,6 +96,10 @@ Status notFound(fmt::format_string<Args...> format, Args&&... args) {
 template <typename... Args>
 Status ioError(fmt::format_string<Args...> format, Args&&... args) {
   return {StatusCode::kIoError, fmt::format(format, std::forward<Args>(args)...)};
+}
+template <typename... Args>
+Status corruptData(fmt::format_string<Args...> format, Args&&... args) {
+  return {StatusCode::kCorruptData, fmt::format(format, std::forward<Args>(args)...)};
 }
 
 /// A value or the Status that explains why there is none.
@@ -95,8 +127,8 @@ class [[nodiscard]] Result {
 
 }  // namespace cdff
 
-#define CDFF_RETURN_IF_ERROR(expr)            \
-  do {                                        \
-    ::cdff::Status cdff_status_ = (expr);     \
+#define CDFF_RETURN_IF_ERROR(expr)                 \
+  do {                                             \
+    ::cdff::Status cdff_status_ = (expr);          \
     if (!cdff_status_.isOk()) return cdff_status_; \
   } while (false)

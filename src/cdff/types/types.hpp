@@ -11,3 +11,4 @@
 #include "cdff/types/sensors.hpp"
 #include "cdff/types/status.hpp"
 #include "cdff/types/time.hpp"
+#include "cdff/types/track_state.hpp"

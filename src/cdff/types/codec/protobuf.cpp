@@ -1,4 +1,4 @@
-#include "cdff/io/protobuf.hpp"
+#include "cdff/types/codec/protobuf.hpp"
 
 #include <algorithm>
 #include <functional>
@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-namespace cdff::io::pb {
+namespace cdff::codec::pb {
 
 void Writer::packedInt32(std::uint32_t f, std::span<const std::int32_t> values) {
   if (values.empty()) return;
@@ -347,4 +347,4 @@ Result<DescriptorPool> DescriptorPool::parse(Bytes file_descriptor_set) {
   return pool;
 }
 
-}  // namespace cdff::io::pb
+}  // namespace cdff::codec::pb

@@ -14,7 +14,7 @@
 
 #include "cdff/types/status.hpp"
 
-namespace cdff::io::pb {
+namespace cdff::codec::pb {
 
 using Bytes = std::span<const std::uint8_t>;
 
@@ -246,4 +246,4 @@ class DescriptorPool {
   std::map<std::string, EnumDef, std::less<>> enums_;
 };
 
-}  // namespace cdff::io::pb
+}  // namespace cdff::codec::pb
