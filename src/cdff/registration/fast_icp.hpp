@@ -11,6 +11,7 @@
 // model structures, the confirmation's hypotheses, scratch reused without allocating).
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <span>
 #include <vector>
@@ -55,9 +56,11 @@ struct ModelPreparation {
 struct Registration {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // source_T_model; the guess if starved
   Quality quality;
-  IcpRun run;              // the ICP's final state (converged, starved, iterations, ...)
+  /// The ICP's final state (converged, starved, iterations, ...); its pose is `pose` before the
+  /// re-orthonormalisation.
+  IcpRun run;
   bool ambiguous = false;  // one of several hypotheses, not yet confirmed
-  double visibility = 0;   // NaN without visibility_check (or without rings in the scan)
+  double visibility = std::numeric_limits<double>::quiet_NaN();  // NaN without visibility_check
 };
 
 class FastIcp {
