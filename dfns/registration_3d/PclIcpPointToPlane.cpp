@@ -8,8 +8,10 @@
 #include <pcl/search/kdtree.h>
 
 #include "Registration3D.gen.hpp"
+#include "cdff/registration/model_index.hpp"
+#include "cdff/registration/quality.hpp"
 #include "cdff/types/pcl.hpp"
-#include "registration_common.hpp"
+#include "registration_ports.hpp"
 
 namespace cdff::dfn {
 
@@ -46,9 +48,9 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
     if (!in.source.isFresh()) return Status::ok();
     const PointCloud& source = *in.source;
     Result<Eigen::Isometry3d> guess =
-        registration::checkInputs(source, model, in.initial_guess.get());
+        registration3d::checkInputs(source, model, in.initial_guess.get());
     if (!guess) return guess.status();
-    registration::selectSource(source, 0, points_);
+    registration3d::selectSource(source, 0, points_);
     auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
     scan->resize(points_.size());
     for (std::size_t i = 0; i < points_.size(); ++i) {
@@ -91,8 +93,8 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
           "only {} source points of {} within inlier_distance {:.3g} m of the model "
           "at the final pose; expected at least min_correspondences = {}",
           quality.inliers, points_.size(), params_.inlier_distance, params_.min_correspondences));
-    registration::publish(out, source, model, pose, quality, converged && enough,
-                          icp_.nr_iterations_);
+    registration3d::publish(out, source, model, pose, quality, converged && enough,
+                            icp_.nr_iterations_);
     out.ambiguous.set(false);
     out.visibility.set(std::numeric_limits<double>::quiet_NaN());  // FastIcp's check only
     return Status::ok();

@@ -1,0 +1,63 @@
+#pragma once
+// The ports of the Registration3D DFIs, shared by both: the input checks, the scan points a DFI
+// registers, and the outputs, written the same way for every DFI at its final pose. The
+// algorithms are in src/cdff/registration/.
+
+#include <algorithm>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "Registration3D.gen.hpp"
+#include "cdff/registration/quality.hpp"
+
+namespace cdff::dfn::registration3d {
+
+/// Checks the scan and the guess; returns the starting pose source_T_model.
+inline Result<Eigen::Isometry3d> checkInputs(const PointCloud& source, const PointCloud& model,
+                                             const Transform* initial_guess) {
+  CDFF_RETURN_IF_ERROR(source.validate("input 'source'"));
+  if (initial_guess == nullptr) return Eigen::Isometry3d::Identity();
+  CDFF_RETURN_IF_ERROR(initial_guess->validate().withContext("input 'initial_guess'"));
+  const bool parent_ok = initial_guess->parent_frame.empty() || source.frame_id.empty() ||
+                         initial_guess->parent_frame == source.frame_id;
+  const bool child_ok = initial_guess->child_frame.empty() || model.frame_id.empty() ||
+                        initial_guess->child_frame == model.frame_id;
+  if (!parent_ok || !child_ok)
+    return invalidInput(
+        "input 'initial_guess' is {}_T_{}; expected source_T_model = {}_T_{} (the frames of "
+        "'source' and 'model')",
+        initial_guess->parent_frame, initial_guess->child_frame, source.frame_id, model.frame_id);
+  return initial_guess->isometry();
+}
+
+/// The source points a DFI uses, into `out`: all, or at most `max_points` evenly strided ones.
+inline void selectSource(const PointCloud& source, int max_points,
+                         std::vector<Eigen::Vector3f>& out) {
+  const std::size_t n = source.size();
+  const std::size_t keep =
+      max_points > 0 ? std::min<std::size_t>(n, static_cast<std::size_t>(max_points)) : n;
+  out.clear();
+  out.reserve(keep);
+  for (std::size_t k = 0; k < keep; ++k) out.push_back(source.points[k * n / keep].vec());
+}
+
+/// Writes every output of a Registration3D DFI but `ambiguous` and `visibility`.
+inline void publish(Registration3D::Outputs& out, const PointCloud& source, const PointCloud& model,
+                    const Eigen::Isometry3d& pose, const cdff::registration::Quality& quality,
+                    bool converged, int iterations) {
+  Transform t = Transform::fromIsometry(pose, source.frame_id, model.frame_id, source.stamp);
+  t.rotation.normalize();
+  PoseWithCovariance pwc;
+  pwc.pose = t;
+  pwc.covariance = quality.covariance;
+  out.transform.set(std::move(t));
+  out.pose.set(std::move(pwc));
+  out.fitness.set(quality.fitness);
+  out.inlier_rms.set(quality.inlier_rms);
+  out.converged.set(converged);
+  out.iterations.set(iterations);
+}
+
+}  // namespace cdff::dfn::registration3d
