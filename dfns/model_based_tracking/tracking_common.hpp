@@ -8,6 +8,7 @@
 
 #include "ModelBasedTracking.gen.hpp"
 #include "cdff/tracking/edge_tracker.hpp"
+#include "cdff/tracking/prediction.hpp"
 
 namespace cdff::dfn::mbt {
 
@@ -129,9 +130,8 @@ inline Timestamp sensorStamp(const ModelBasedTracking::Inputs& in) {
 }
 
 /// The prediction: `predicted_pose`, or the pose of `predicted_state` (EstimationFilter's output)
-/// moved to the measurements' time with its twist, the mean of the filter's constant-velocity
-/// prediction (translation += v dt, rotation = exp(w dt) rotation), so that the previous frame's
-/// corrected state predicts this frame.
+/// moved to the measurements' time with its twist (tracking::predictPose), so that the previous
+/// frame's corrected state predicts this frame.
 inline Result<PoseWithCovariance> prediction(const ModelBasedTracking::Inputs& in) {
   if (in.predicted_pose.hasValue() == in.predicted_state.hasValue())
     return invalidInput("{}; expected exactly one of 'predicted_pose' and 'predicted_state'",
@@ -146,15 +146,7 @@ inline Result<PoseWithCovariance> prediction(const ModelBasedTracking::Inputs& i
   }
   const RigidBodyState& state = *in.predicted_state;
   CDFF_RETURN_IF_ERROR(state.validate().withContext("input 'predicted_state'"));
-  PoseWithCovariance p = state.poseWithCovariance();
-  const Timestamp to = sensorStamp(in);
-  if (to > state.pose.stamp) {
-    const double dt = toSeconds(to - state.pose.stamp);
-    p.pose.translation += state.twist.linear * dt;
-    p.pose.rotation = (expSO3(state.twist.angular * dt) * p.pose.rotation).normalized();
-    p.pose.stamp = to;
-  }
-  return p;
+  return tracking::predictPose(state, sensorStamp(in));
 }
 
 /// Publishes the status on both status outputs.

@@ -31,6 +31,12 @@ TrackingStatus assessTracking(const PoseSolution& solution, std::size_t cameras,
   return TrackingStatus::kTracking;
 }
 
+std::size_t referenceCamera(std::span<const CameraFrame> cameras) {
+  std::size_t reference = 0;
+  while (reference + 1 < cameras.size() && !cameras[reference].image) ++reference;
+  return reference;
+}
+
 Matrix6d noInformationCovariance() {
   Matrix6d c = Matrix6d::Zero();
   c.diagonal() << 1e6, 1e6, 1e6, 1e2, 1e2, 1e2;

@@ -48,6 +48,11 @@ struct CameraFrame {
   Transform camera_T_reference;  // identity for the reference camera
 };
 
+/// The first camera with an image (the left one unless it failed); the last camera when none has
+/// one. The acquisition measures the prediction's spread and the model's size in it, and the
+/// coarse alignment aligns its image.
+std::size_t referenceCamera(std::span<const CameraFrame> cameras);
+
 struct TrackingResult {
   Transform reference_T_model;             // the estimate (the prediction when lost)
   Matrix6d covariance = Matrix6d::Zero();  // noInformationCovariance() when lost

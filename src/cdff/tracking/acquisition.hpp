@@ -1,0 +1,74 @@
+#pragma once
+// Acquisition from an uncertain prediction (a fresh initial pose, or a prediction widened by lost
+// frames): when the prediction's uncertainty, projected into the image, exceeds the edge search,
+// the tracker first runs coarse-to-fine passes on an image pyramid that bring the pose within the
+// search, then the usual passes at full resolution.
+//
+// Two hypotheses, because neither works everywhere. The lateral-first one moves the pose across
+// the optical axis only at the coarsest level, with the wide search, then frees all six degrees
+// of freedom with the usual search: the lateral offset is what moves the model's image most,
+// while range and attitude, weakly observed through the wrong associations of a wide coarse
+// search, run away with the update. The plain one frees all six degrees of freedom with the wide
+// search from the start, which some geometries need. The plain one runs only when the
+// lateral-first one gives no acceptable result, as running both doubles the acquisition frame's
+// cost; the full-resolution result with the higher inlier ratio is then kept. An acquired pose
+// that the prediction's covariance does not admit is lost (acquisition_confirmation.hpp).
+
+#include <span>
+#include <string>
+
+#include "cdff/tracking/edge_tracker.hpp"
+#include "cdff/tracking/image_pyramid.hpp"
+
+namespace cdff::tracking {
+
+struct AcquisitionOptions {
+  /// The prediction's spread in the image, in standard deviations of its covariance; the
+  /// acquisition runs when the spread exceeds the search distance. 0 disables the acquisition.
+  double sigmas = 3;
+  int max_search_distance = 64;  // px of its level: the longest search of the coarsest pass
+  bool lateral_first = true;     // the lateral-first hypothesis first (else the plain one only)
+};
+
+/// How far, in pixels, the prediction's uncertainty moves the model's image in `frame`: `sigmas`
+/// standard deviations of the lateral position, of the range (which scales the image about its
+/// centre) and of the attitude (which swings the model's extent). 0 without acquisition (sigmas
+/// 0), for a covariance that is not finite, not positive or of no information (1e5 or more), or
+/// a model centre nearer than `near_clipping`.
+double predictionSpreadPx(const TrackingModel& model, const CameraFrame& frame,
+                          const PoseWithCovariance& predicted, double sigmas, double near_clipping);
+
+/// The diameter of the model's bounding sphere in `frame`'s image at the prediction (0 for a
+/// centre nearer than `near_clipping`).
+double modelSizePx(const TrackingModel& model, const CameraFrame& frame,
+                   const PoseWithCovariance& predicted, double near_clipping);
+
+/// One frame's measurements, as EdgeTracker::track takes them.
+struct FrameMeasurements {
+  std::span<const CameraFrame> cameras;
+  const DepthMap* depth = nullptr;
+  Eigen::Isometry3d depth_T_reference = Eigen::Isometry3d::Identity();
+};
+
+struct AcquisitionResult {
+  bool ran = false;         // the prediction's spread exceeded the search: acquisition passes ran
+  bool acquired = true;     // false: the passes of every hypothesis lost the track
+  std::string failure;      // why not acquired: where and why the passes lost the track
+  TrackingResult tracking;  // the frame's result; lost with the prediction's pose when not
+                            // acquired or not admitted by the prediction
+};
+
+/// Tracks one frame from `start` (the prediction, or the coarse alignment's placement of it when
+/// `coarse_placed`), acquiring first when the prediction's spread in the reference camera exceeds
+/// options.search.search_distance. After a coarse placement the lateral offset comes from the
+/// image's edges, so the lateral-first result is kept when it is not lost and the prediction
+/// admits it (at long range it is degraded, as any track there); without one, only when it is
+/// tracking and admitted.
+Result<AcquisitionResult> trackWithAcquisition(EdgeTracker& tracker, const FrameMeasurements& frame,
+                                               const PoseWithCovariance& predicted,
+                                               const Transform& start, bool coarse_placed,
+                                               const EdgeTrackerOptions& options,
+                                               const AcquisitionOptions& acquisition,
+                                               FramePyramids& pyramids);
+
+}  // namespace cdff::tracking

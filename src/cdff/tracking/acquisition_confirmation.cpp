@@ -1,0 +1,93 @@
+#include "cdff/tracking/acquisition_confirmation.hpp"
+
+#include <Eigen/Cholesky>
+
+namespace cdff::tracking {
+
+Vector6d poseDifference(const Transform& estimate, const Transform& predicted) {
+  const Eigen::Isometry3d p = predicted.isometry();
+  const Eigen::Isometry3d e = estimate.isometry();
+  Vector6d d;
+  d.head<3>() = e.translation() - p.translation();
+  d.tail<3>() = logSO3(Eigen::Quaterniond(e.linear() * p.linear().transpose()));
+  return d;
+}
+
+GateTest testGate(const Transform& estimate, const Transform& predicted,
+                  const Matrix6d& covariance) {
+  const Vector6d d = poseDifference(estimate, predicted);
+  const Eigen::LDLT<Matrix6d> ldlt(covariance);
+  const double m = ldlt.info() == Eigen::Success ? d.dot(ldlt.solve(d)) : 0.0;
+  return {ldlt.info() != Eigen::Success || m <= kAcquisitionGate, m};
+}
+
+Matrix6d AcquisitionConfirmation::widened(const Matrix6d& predicted) const {
+  if (reacquisition_covariance_ && reacquisition_covariance_->trace() > predicted.trace())
+    return *reacquisition_covariance_;
+  return predicted;
+}
+
+void AcquisitionConfirmation::acquired(const Matrix6d& covariance) {
+  awaiting_ = true;
+  acquisition_covariance_ = covariance;
+}
+
+AcquisitionConfirmation::Check AcquisitionConfirmation::confirm(bool lost,
+                                                                const Transform& estimate,
+                                                                const Transform& predicted,
+                                                                const Matrix6d& gate_covariance) {
+  Check check;
+  if (!awaiting_) return check;
+  awaiting_ = false;
+  check.checked = true;
+  if (!lost) {
+    const GateTest gate = testGate(estimate, predicted, gate_covariance);
+    check.distance = gate.distance;
+    check.confirmed = gate.admitted;
+  }
+  if (check.confirmed)
+    reacquisition_covariance_.reset();
+  else
+    reacquisition_covariance_ = acquisition_covariance_;
+  return check;
+}
+
+void AcquisitionConfirmation::reset() {
+  awaiting_ = false;
+  reacquisition_covariance_.reset();
+}
+
+Matrix6d confirmationCovariance(const TrackingResult& result, const PosePrediction& prediction) {
+  Matrix6d c = prediction.pose.covariance;
+  if (prediction.carried_covariance) c = *prediction.carried_covariance;
+  if (result.covariance.allFinite()) c += result.covariance;
+  return c;
+}
+
+void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
+                        bool acquisition_ran, const PosePrediction& prediction) {
+  const bool lost = result.status == TrackingStatus::kLost;
+  if (acquisition_ran) {
+    if (lost) return;
+    state.acquired(prediction.pose.covariance);
+    if (result.status == TrackingStatus::kTracking) {
+      result.status = TrackingStatus::kDegraded;
+      result.reason = "acquired; not tracking until the next frame confirms the acquired pose";
+    }
+    return;
+  }
+  if (!state.awaiting()) return;
+  const AcquisitionConfirmation::Check check =
+      state.confirm(lost, result.reference_T_model, prediction.pose.pose,
+                    lost ? Matrix6d::Zero() : confirmationCovariance(result, prediction));
+  if (check.confirmed) return;
+  result.reason = fmt::format(
+      "the next frame did not confirm the acquired pose ({}; squared Mahalanobis distance "
+      "{:.1f} from the prediction, gate {:.2f}): acquiring again",
+      lost ? result.reason : "tracked", check.distance, kAcquisitionGate);
+  result.status = TrackingStatus::kLost;
+  result.reference_T_model = prediction.pose.pose;
+  result.covariance = noInformationCovariance();
+}
+
+}  // namespace cdff::tracking
