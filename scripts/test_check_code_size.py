@@ -140,6 +140,25 @@ class FunctionTest(unittest.TestCase):
         """
         self.assertEqual(functions(code), {"after": 2, "TEST(Suite, Name)": 3, "shade": 2})
 
+    def test_quotes_inside_other_literals(self):
+        code = (
+            "void f() {\n"
+            "  char q = '\"';\n"
+            "  char b = '\\\\';\n"
+            '  auto r = R"sql(a )" { b)sql";\n'
+            '  auto s = "\\"{";\n'
+            "}\n"
+            "[[nodiscard]] int g() noexcept {\n"
+            "  return 0;\n"
+            "}\n"
+            "struct F {\n"
+            "  void operator()(int a) const { }\n"
+            "  template <typename T>\n"
+            "    requires std::integral<T>\n"
+            "  T h(T t) { return t; }\n"
+            "};\n")
+        self.assertEqual(functions(code), {"f": 6, "g": 3, "operator()": 1, "h": 1})
+
     def test_extern_c_and_function_try_blocks(self):
         code = """
         extern "C" {
