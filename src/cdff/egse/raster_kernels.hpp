@@ -177,9 +177,10 @@ void radianceSpan(int n, const ShadeMaterial& mat, float E, const float* __restr
                   float* __restrict l0, float* __restrict l1, float* __restrict red,
                   float* __restrict green, float* __restrict blue, float* __restrict rad);
 
-// Stage 1 of n pixels of a smooth triangle, from column x_first: the same operations, in the
-// same order, as the scalar code they replace, in loops without branches. onx..axis2 are
-// scratch arrays of n entries.
+// Stage 1 of n pixels of a smooth triangle, from column x_first: each pixel's normal, pattern,
+// shading normal and shadow-map point, with every pixel's operations in a fixed order and no
+// branches (selects as bit masks), so that GCC vectorises the loops and the result does not
+// depend on the vector width. onx..axis2 are scratch arrays of n entries.
 void smoothSpan(int n, int x_first, float fy, const SmoothTriangle& t, const float* __restrict z,
                 const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
                 const std::uint8_t* __restrict cells, const float* __restrict tilts,
