@@ -14,15 +14,17 @@ namespace cdff::egse::raster {
 #else
 #define CDFF_SHADING_CLONES
 #endif
+// The steps of a cloned stage, compiled into each of its clones (as one function).
+#define CDFF_SHADING_STEP [[gnu::always_inline]] inline
 
 namespace {
 
 // Stage 1 of a smooth triangle, step 1: the body-frame normal (unit) and point of each pixel.
-CDFF_SHADING_CLONES void smoothNormalsAndPoints(int n, int x_first, float fy,
-                                                const SmoothTriangle& t, const float* __restrict z,
-                                                float* __restrict onx, float* __restrict ony,
-                                                float* __restrict onz, float* __restrict px,
-                                                float* __restrict py, float* __restrict pz) {
+CDFF_SHADING_STEP void smoothNormalsAndPoints(int n, int x_first, float fy, const SmoothTriangle& t,
+                                              const float* __restrict z, float* __restrict onx,
+                                              float* __restrict ony, float* __restrict onz,
+                                              float* __restrict px, float* __restrict py,
+                                              float* __restrict pz) {
   const float bkx = t.beta.kx, bky = t.beta.ky, bk0 = t.beta.k0, bc = t.beta.c;
   const float gkx = t.gamma.kx, gky = t.gamma.ky, gk0 = t.gamma.k0, gc = t.gamma.c;
   const float n00 = t.n[0].x(), n01 = t.n[0].y(), n02 = t.n[0].z();
@@ -52,7 +54,7 @@ CDFF_SHADING_CLONES void smoothNormalsAndPoints(int n, int x_first, float fy,
 // Step 2: the surface pattern at each pixel: the crinkle facet's tilts (t0, t1) and the
 // triplanar axes they tilt (axis0, axis2), or the solar-cell interconnects' albedo boost; zeros
 // where the material has no such pattern.
-CDFF_SHADING_CLONES void smoothPattern(
+CDFF_SHADING_STEP void smoothPattern(
     int n, const SmoothTriangle& t, const std::uint8_t* __restrict cells,
     const float* __restrict tilts, const float* __restrict onx, const float* __restrict ony,
     const float* __restrict onz, const float* __restrict px, const float* __restrict py,
@@ -96,7 +98,7 @@ CDFF_SHADING_CLONES void smoothPattern(
 
 // Step 3: the shading normal in the camera frame (tilted by the crinkle facet, turned towards
 // the camera, 0 where the sun is below the surface) and the shadow-map point of each pixel.
-CDFF_SHADING_CLONES void smoothShading(
+CDFF_SHADING_STEP void smoothShading(
     int n, int x_first, const SmoothTriangle& t, const float* __restrict z,
     const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
     const float* __restrict onx, const float* __restrict ony, const float* __restrict onz,
@@ -346,15 +348,15 @@ CDFF_SHADING_CLONES void radianceSpan(int n, const ShadeMaterial& mat, float E,
   }
 }
 
-void smoothSpan(int n, int x_first, float fy, const SmoothTriangle& t, const float* __restrict z,
-                const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
-                const std::uint8_t* __restrict cells, const float* __restrict tilts,
-                float* __restrict onx, float* __restrict ony, float* __restrict onz,
-                float* __restrict px, float* __restrict py, float* __restrict pz,
-                float* __restrict t0, float* __restrict t1, int* __restrict texel,
-                int* __restrict axis0, int* __restrict axis2, float* __restrict nx,
-                float* __restrict ny, float* __restrict nz, float* __restrict boost,
-                float* __restrict sx, float* __restrict sy, float* __restrict sz) {
+CDFF_SHADING_CLONES void smoothSpan(
+    int n, int x_first, float fy, const SmoothTriangle& t, const float* __restrict z,
+    const float* __restrict vx, const float* __restrict vy, const float* __restrict vz,
+    const std::uint8_t* __restrict cells, const float* __restrict tilts, float* __restrict onx,
+    float* __restrict ony, float* __restrict onz, float* __restrict px, float* __restrict py,
+    float* __restrict pz, float* __restrict t0, float* __restrict t1, int* __restrict texel,
+    int* __restrict axis0, int* __restrict axis2, float* __restrict nx, float* __restrict ny,
+    float* __restrict nz, float* __restrict boost, float* __restrict sx, float* __restrict sy,
+    float* __restrict sz) {
   smoothNormalsAndPoints(n, x_first, fy, t, z, onx, ony, onz, px, py, pz);
   smoothPattern(n, t, cells, tilts, onx, ony, onz, px, py, pz, t0, t1, texel, axis0, axis2, boost);
   smoothShading(n, x_first, t, z, vx, vy, vz, onx, ony, onz, t0, t1, axis0, axis2, nx, ny, nz, sx,

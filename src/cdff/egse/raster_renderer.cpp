@@ -641,8 +641,9 @@ class CpuRenderer final : public Renderer {
 
   // Stage 1 of a run: the depth and id outputs, the shading normal, the shadow-map point and the
   // albedo boost; the run's material for stage 3.
-  void shadeRun(const ShadeFrame& fr, PixelRun& run, std::size_t i0, int xs, float fy,
-                const Eigen::Vector3f& shadow_row) {
+  // Inlined, as a step of the row loop: it runs once per run of pixels.
+  [[gnu::always_inline]] void shadeRun(const ShadeFrame& fr, PixelRun& run, std::size_t i0, int xs,
+                                       float fy, const Eigen::Vector3f& shadow_row) {
     RowBuffers& b = row_;
     const auto [first, last, code, material] = run;
     const float inf = std::numeric_limits<float>::infinity();
