@@ -17,28 +17,9 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
   Status onProcess() override {
     std::vector<const ContourSamples*> inputs = {in.matches.get()};
     if (in.matches_secondary.hasValue()) inputs.push_back(in.matches_secondary.get());
-    const char* names[] = {"input 'matches'", "input 'matches_secondary'"};
-    Eigen::Isometry3d prediction = Eigen::Isometry3d::Identity();
-    for (std::size_t i = 0; i < inputs.size(); ++i) {
-      CDFF_RETURN_IF_ERROR(inputs[i]->validate(names[i]));
-      if (!inputs[i]->matched)
-        return invalidInput(
-            "{} holds samples that were never matched; expected the output of "
-            "EdgeMatching",
-            names[i]);
-      const ModelContours& c = *inputs[i]->contours;
-      const Eigen::Isometry3d r_T_m =
-          c.camera_T_reference.isometry().inverse() * c.camera_T_model.isometry();
-      if (i == 0) {
-        prediction = r_T_m;
-      } else if ((r_T_m.translation() - prediction.translation()).norm() > 1e-6 ||
-                 Eigen::AngleAxisd(r_T_m.linear().transpose() * prediction.linear()).angle() >
-                     1e-6) {
-        return invalidInput(
-            "the two cameras' contours were computed for different poses of the "
-            "model in the rig; expected the same prediction for both");
-      }
-    }
+    Result<Eigen::Isometry3d> predicted_pose = commonPrediction(inputs);
+    if (!predicted_pose) return predicted_pose.status();
+    const Eigen::Isometry3d prediction = *predicted_pose;
     const ModelContours& first = *in.matches->contours;
     const Transform predicted =
         Transform::fromIsometry(prediction, first.camera_T_reference.child_frame,
@@ -69,19 +50,7 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
       depth_points = std::move(associated).value();
     }
 
-    tracking::PoseSolverOptions options;
-    options.max_iterations = params_.max_iterations;
-    options.convergence_translation = params_.convergence_translation;
-    options.convergence_rotation = params_.convergence_rotation;
-    options.divergence_translation = params_.divergence_translation;
-    options.divergence_rotation = params_.divergence_rotation;
-    options.tukey_constant = params_.tukey_constant;
-    options.min_edge_sigma = params_.min_edge_sigma;
-    options.inlier_threshold = params_.inlier_threshold;
-    options.min_measurements = params_.min_measurements;
-    options.depth_weight = params_.depth_weight;
-    options.min_depth_sigma = params_.min_depth_sigma;
-
+    const tracking::PoseSolverOptions options = solverOptions();
     PoseWithCovariance pose;
     pose.pose = predicted;
     pose.covariance = tracking::noInformationCovariance();
@@ -123,6 +92,51 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
   }
 
  private:
+  // The model's predicted pose in the rig (reference_T_model), which the inputs' contours must
+  // share; each input must be a matched one.
+  static Result<Eigen::Isometry3d> commonPrediction(
+      const std::vector<const ContourSamples*>& inputs) {
+    const char* names[] = {"input 'matches'", "input 'matches_secondary'"};
+    Eigen::Isometry3d prediction = Eigen::Isometry3d::Identity();
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+      CDFF_RETURN_IF_ERROR(inputs[i]->validate(names[i]));
+      if (!inputs[i]->matched)
+        return invalidInput(
+            "{} holds samples that were never matched; expected the output of "
+            "EdgeMatching",
+            names[i]);
+      const ModelContours& c = *inputs[i]->contours;
+      const Eigen::Isometry3d r_T_m =
+          c.camera_T_reference.isometry().inverse() * c.camera_T_model.isometry();
+      if (i == 0) {
+        prediction = r_T_m;
+      } else if ((r_T_m.translation() - prediction.translation()).norm() > 1e-6 ||
+                 Eigen::AngleAxisd(r_T_m.linear().transpose() * prediction.linear()).angle() >
+                     1e-6) {
+        return invalidInput(
+            "the two cameras' contours were computed for different poses of the "
+            "model in the rig; expected the same prediction for both");
+      }
+    }
+    return prediction;
+  }
+
+  tracking::PoseSolverOptions solverOptions() const {
+    tracking::PoseSolverOptions options;
+    options.max_iterations = params_.max_iterations;
+    options.convergence_translation = params_.convergence_translation;
+    options.convergence_rotation = params_.convergence_rotation;
+    options.divergence_translation = params_.divergence_translation;
+    options.divergence_rotation = params_.divergence_rotation;
+    options.tukey_constant = params_.tukey_constant;
+    options.min_edge_sigma = params_.min_edge_sigma;
+    options.inlier_threshold = params_.inlier_threshold;
+    options.min_measurements = params_.min_measurements;
+    options.depth_weight = params_.depth_weight;
+    options.min_depth_sigma = params_.min_depth_sigma;
+    return options;
+  }
+
   Eigen::Isometry3d depth_T_reference_ = Eigen::Isometry3d::Identity();
 };
 

@@ -94,44 +94,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     }
     double nis = std::numeric_limits<double>::quiet_NaN();
     bool accepted = false;
-    if (has_measurement) {
-      const PoseWithCovariance& z = *in.pose_measurement;
-      CDFF_RETURN_IF_ERROR(z.validate());
-      Result<Matrix6d> noise = measurementNoise(z);
-      if (!noise) return noise.status();
-      if (!next) {
-        next = initialiseFrom(z, *noise);
-        accepted = true;
-      } else {
-        CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose));
-        CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
-      }
-      if (!accepted && params_.reacquire && (next->acquiring || lost(*next))) {
-        reacquire(*next, z, *noise);
-        accepted = true;
-      } else if (!accepted) {
-        Estimate corrected = *next;
-        Vector6d residual;
-        residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
-        residual.tail<3>() = logSO3(z.pose.rotation * corrected.state.pose.rotation.conjugate());
-        Eigen::Matrix<double, 6, kN> h = Eigen::Matrix<double, 6, kN>::Zero();
-        h.leftCols<6>().setIdentity();
-        Result<double> fused = correct<6>(corrected, h, residual, *noise);
-        if (!fused) return fused.status();
-        nis = *fused;
-        accepted = params_.innovation_gate == 0.0 || nis <= params_.innovation_gate;
-        if (accepted) {
-          next = corrected;
-          next->acquiring = false;
-          next->last_fix = z.pose.stamp;
-          next->rejections = 0;
-        } else {  // gated out: the state is only predicted to the measurement's time
-          ++next->rejections;
-          warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
-                           nis, params_.innovation_gate));
-        }
-      }
-    }
+    if (has_measurement) CDFF_RETURN_IF_ERROR(fusePose(*in.pose_measurement, next, nis, accepted));
     if (has_attitude) {
       const PoseWithCovariance& z = *in.attitude_measurement;
       CDFF_RETURN_IF_ERROR(z.validate().withContext("input 'attitude_measurement'"));
@@ -143,33 +106,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
             z.pose.stamp));
         return Status::ok();
       }
-      Result<Eigen::Matrix3d> noise = attitudeNoise(z);
-      if (!noise) return noise.status();
-      CDFF_RETURN_IF_ERROR(checkAttitudeFrames(*next, z.pose));
-      CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "attitude_measurement"));
-      if (!next->has_inertial) {
-        addInertialPart(*next, z.pose, *noise);
-      } else {
-        Estimate corrected = *next;
-        const Eigen::Quaterniond predicted =
-            corrected.target_attitude * corrected.state.pose.rotation.conjugate();  // inertial_R_a
-        const Eigen::Vector3d residual = logSO3(z.pose.rotation * predicted.conjugate());
-        Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
-        h.block<3, 3>(0, kRot) = -predicted.toRotationMatrix();
-        h.block<3, 3>(0, kTargetRot).setIdentity();
-        Result<double> fused = correct<3>(corrected, h, residual, *noise);
-        if (!fused) return fused.status();
-        nis = *fused;
-        const bool ok =
-            params_.attitude_innovation_gate == 0.0 || nis <= params_.attitude_innovation_gate;
-        if (ok) {
-          next = corrected;
-          accepted = true;
-        } else {
-          warn(fmt::format("attitude measurement at t = {} us gated out: NIS {:.3g} > {:.3g}",
-                           z.pose.stamp, nis, params_.attitude_innovation_gate));
-        }
-      }
+      CDFF_RETURN_IF_ERROR(fuseAttitude(z, *next, nis, accepted));
     }
     estimate_ = next;
     out.state.set(estimate_->output());
@@ -183,6 +120,81 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
   }
 
  private:
+  // A pose measurement: initialises the filter, reacquires, or is fused unless gated out
+  // (`nis`: its normalised innovation squared; `accepted`: whether it changed the estimate).
+  Status fusePose(const PoseWithCovariance& z, std::optional<Estimate>& next, double& nis,
+                  bool& accepted) {
+    CDFF_RETURN_IF_ERROR(z.validate());
+    Result<Matrix6d> noise = measurementNoise(z);
+    if (!noise) return noise.status();
+    if (!next) {
+      next = initialiseFrom(z, *noise);
+      accepted = true;
+    } else {
+      CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose));
+      CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
+    }
+    if (!accepted && params_.reacquire && (next->acquiring || lost(*next))) {
+      reacquire(*next, z, *noise);
+      accepted = true;
+    } else if (!accepted) {
+      Estimate corrected = *next;
+      Vector6d residual;
+      residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
+      residual.tail<3>() = logSO3(z.pose.rotation * corrected.state.pose.rotation.conjugate());
+      Eigen::Matrix<double, 6, kN> h = Eigen::Matrix<double, 6, kN>::Zero();
+      h.leftCols<6>().setIdentity();
+      Result<double> fused = correct<6>(corrected, h, residual, *noise);
+      if (!fused) return fused.status();
+      nis = *fused;
+      accepted = params_.innovation_gate == 0.0 || nis <= params_.innovation_gate;
+      if (accepted) {
+        next = corrected;
+        next->acquiring = false;
+        next->last_fix = z.pose.stamp;
+        next->rejections = 0;
+      } else {  // gated out: the state is only predicted to the measurement's time
+        ++next->rejections;
+        warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
+                         nis, params_.innovation_gate));
+      }
+    }
+    return Status::ok();
+  }
+
+  // An attitude measurement of the chaser (an AHRS sample) in an initialised filter: it adds the
+  // target's inertial attitude to the state the first time, then is fused unless gated out.
+  Status fuseAttitude(const PoseWithCovariance& z, Estimate& next, double& nis, bool& accepted) {
+    Result<Eigen::Matrix3d> noise = attitudeNoise(z);
+    if (!noise) return noise.status();
+    CDFF_RETURN_IF_ERROR(checkAttitudeFrames(next, z.pose));
+    CDFF_RETURN_IF_ERROR(predict(next, z.pose.stamp, "attitude_measurement"));
+    if (!next.has_inertial) {
+      addInertialPart(next, z.pose, *noise);
+    } else {
+      Estimate corrected = next;
+      const Eigen::Quaterniond predicted =
+          corrected.target_attitude * corrected.state.pose.rotation.conjugate();  // inertial_R_a
+      const Eigen::Vector3d residual = logSO3(z.pose.rotation * predicted.conjugate());
+      Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
+      h.block<3, 3>(0, kRot) = -predicted.toRotationMatrix();
+      h.block<3, 3>(0, kTargetRot).setIdentity();
+      Result<double> fused = correct<3>(corrected, h, residual, *noise);
+      if (!fused) return fused.status();
+      nis = *fused;
+      const bool ok =
+          params_.attitude_innovation_gate == 0.0 || nis <= params_.attitude_innovation_gate;
+      if (ok) {
+        next = corrected;
+        accepted = true;
+      } else {
+        warn(fmt::format("attitude measurement at t = {} us gated out: NIS {:.3g} > {:.3g}",
+                         z.pose.stamp, nis, params_.attitude_innovation_gate));
+      }
+    }
+    return Status::ok();
+  }
+
   Status checkFrames(const Estimate& e, const Transform& measured) const {
     const Transform& pose = e.state.pose;
     if (measured.parent_frame != pose.parent_frame || measured.child_frame != pose.child_frame)

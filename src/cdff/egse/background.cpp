@@ -131,153 +131,185 @@ const std::vector<Star>& starCatalogue() {
   return stars;
 }
 
-void compositeBackground(const PinholeCamera& cam, const BackgroundView& view,
-                         RenderOutput& frame) {
-  const int W = cam.width, H = cam.height;
-  const Eigen::Matrix3d R = view.lvlh_R_camera;
-  const Eigen::Matrix3d camera_R_lvlh = R.transpose();
-  // Pixel solid angle at the canvas centre; the unit of point sources.
-  const double point_scale = M_PI * cam.fx * cam.fy;
-  auto ray = [&](double u, double v) {
-    return Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0).normalized();
-  };
-  const Eigen::Vector3d oc = view.camera_position - view.earth_centre;
-  const double oc2 = oc.squaredNorm(), R2 = view.earth_radius * view.earth_radius;
-  auto earth_hit = [&](const Eigen::Vector3d& d_lvlh, double& t) {
+namespace {
+
+// Where rays from the camera meet the Earth's sphere (lvlh frame).
+struct EarthSphere {
+  Eigen::Vector3d oc;  // camera position from the Earth's centre
+  double oc2, R2;
+
+  explicit EarthSphere(const BackgroundView& view)
+      : oc(view.camera_position - view.earth_centre),
+        oc2(oc.squaredNorm()),
+        R2(view.earth_radius * view.earth_radius) {}
+
+  // True when the ray along d_lvlh (unit) hits the Earth in front of the camera, t metres away.
+  bool hit(const Eigen::Vector3d& d_lvlh, double& t) const {
     const double b = d_lvlh.dot(oc);
     const double disc = b * b - (oc2 - R2);
     if (disc < 0) return false;
     t = -b - std::sqrt(disc);
     return t > 0;
-  };
-
-  // The Earth and its limb, where something could be visible.
-  if (view.earth) {
-    const Eigen::Vector3d to_earth = (-oc).normalized();
-    const double earth_angle = std::asin(std::min(1.0, view.earth_radius / std::sqrt(oc2)));
-    const Eigen::Vector3d boresight = R.col(2);
-    const double half_diagonal = std::atan(
-        std::hypot(std::max(cam.cx, W - cam.cx) / cam.fx, std::max(cam.cy, H - cam.cy) / cam.fy));
-    if (std::acos(std::clamp(boresight.dot(to_earth), -1.0, 1.0)) <
-        earth_angle + half_diagonal + 0.05) {
-      const EarthTexture& texture = earthTexture();
-      const Eigen::Vector3d sun = view.sun_direction;
-      const Eigen::Vector3f limb_colour(0.10f, 0.18f, 0.38f);
-      const double scale_height = 8000.0;
-      // A cheap cone test first: only rays within the Earth's angular radius (plus the limb) of
-      // its centre can see it.
-      const double cone = std::cos(std::min(
-          M_PI, std::asin(std::min(1.0, (view.earth_radius + 10 * scale_height) / std::sqrt(oc2))) +
-                    0.01));
-      const Eigen::Matrix3f Rf = R.cast<float>();
-      const Eigen::Vector3f ef = to_earth.cast<float>();
-      const float cone2 = static_cast<float>(cone * cone);
-      const bool wide = cone <= 0;
-      for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-          const std::size_t i = static_cast<std::size_t>(y) * W + x;
-          if (frame.id[i] != 0) continue;
-          const Eigen::Vector3f df =
-              Rf * Eigen::Vector3f(static_cast<float>((x - cam.cx) / cam.fx),
-                                   static_cast<float>((y - cam.cy) / cam.fy), 1.0f);
-          const float de = df.dot(ef);
-          if (!wide && (de <= 0 || de * de < cone2 * df.squaredNorm())) continue;
-          const Eigen::Vector3d d = R * ray(x, y);
-          double t;
-          Eigen::Vector3f colour = Eigen::Vector3f::Zero();
-          if (earth_hit(d, t)) {
-            const Eigen::Vector3d n = (oc + t * d) / view.earth_radius;
-            const double lit = std::max(0.0, n.dot(sun));
-            if (lit > 0)
-              colour =
-                  texture.at(view.eci_R_lvlh * n) * static_cast<float>(lit * view.sun_irradiance);
-            frame.id[i] = 254;  // the Earth: stars are hidden behind it
-          } else {
-            // The limb: an exponential atmosphere along the ray's closest approach.
-            const double b = d.dot(oc);
-            if (b < 0) {
-              const double closest = std::sqrt(std::max(0.0, oc2 - b * b));
-              const double h = closest - view.earth_radius;
-              if (h < 10 * scale_height) {
-                const Eigen::Vector3d n = (oc - b * d).normalized();
-                const double lit = std::max(0.0, n.dot(sun) + 0.15);
-                colour = limb_colour * static_cast<float>(std::exp(-h / scale_height) * lit *
-                                                          view.sun_irradiance);
-              }
-            }
-          }
-          frame.radiance[3 * i] += colour.x();
-          frame.radiance[3 * i + 1] += colour.y();
-          frame.radiance[3 * i + 2] += colour.z();
-        }
-    }
   }
+};
 
-  // Point sources, splatted with a Gaussian PSF onto pixels that see empty sky.
+// The Earth and its limb, where something could be visible.
+void compositeEarth(const PinholeCamera& cam, const BackgroundView& view, const EarthSphere& earth,
+                    RenderOutput& frame) {
+  const int W = cam.width, H = cam.height;
+  const Eigen::Matrix3d R = view.lvlh_R_camera;
+  const Eigen::Vector3d& oc = earth.oc;
+  const double oc2 = earth.oc2;
+  auto ray = [&](double u, double v) {
+    return Eigen::Vector3d((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0).normalized();
+  };
+  const Eigen::Vector3d to_earth = (-oc).normalized();
+  const double earth_angle = std::asin(std::min(1.0, view.earth_radius / std::sqrt(oc2)));
+  const Eigen::Vector3d boresight = R.col(2);
+  const double half_diagonal = std::atan(
+      std::hypot(std::max(cam.cx, W - cam.cx) / cam.fx, std::max(cam.cy, H - cam.cy) / cam.fy));
+  if (!(std::acos(std::clamp(boresight.dot(to_earth), -1.0, 1.0)) <
+        earth_angle + half_diagonal + 0.05))
+    return;
+  const EarthTexture& texture = earthTexture();
+  const Eigen::Vector3d sun = view.sun_direction;
+  const Eigen::Vector3f limb_colour(0.10f, 0.18f, 0.38f);
+  const double scale_height = 8000.0;
+  // A cheap cone test first: only rays within the Earth's angular radius (plus the limb) of
+  // its centre can see it.
+  const double cone = std::cos(std::min(
+      M_PI,
+      std::asin(std::min(1.0, (view.earth_radius + 10 * scale_height) / std::sqrt(oc2))) + 0.01));
+  const Eigen::Matrix3f Rf = R.cast<float>();
+  const Eigen::Vector3f ef = to_earth.cast<float>();
+  const float cone2 = static_cast<float>(cone * cone);
+  const bool wide = cone <= 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      if (frame.id[i] != 0) continue;
+      const Eigen::Vector3f df =
+          Rf * Eigen::Vector3f(static_cast<float>((x - cam.cx) / cam.fx),
+                               static_cast<float>((y - cam.cy) / cam.fy), 1.0f);
+      const float de = df.dot(ef);
+      if (!wide && (de <= 0 || de * de < cone2 * df.squaredNorm())) continue;
+      const Eigen::Vector3d d = R * ray(x, y);
+      double t;
+      Eigen::Vector3f colour = Eigen::Vector3f::Zero();
+      if (earth.hit(d, t)) {
+        const Eigen::Vector3d n = (oc + t * d) / view.earth_radius;
+        const double lit = std::max(0.0, n.dot(sun));
+        if (lit > 0)
+          colour = texture.at(view.eci_R_lvlh * n) * static_cast<float>(lit * view.sun_irradiance);
+        frame.id[i] = 254;  // the Earth: stars are hidden behind it
+      } else {
+        // The limb: an exponential atmosphere along the ray's closest approach.
+        const double b = d.dot(oc);
+        if (b < 0) {
+          const double closest = std::sqrt(std::max(0.0, oc2 - b * b));
+          const double h = closest - view.earth_radius;
+          if (h < 10 * scale_height) {
+            const Eigen::Vector3d n = (oc - b * d).normalized();
+            const double lit = std::max(0.0, n.dot(sun) + 0.15);
+            colour = limb_colour *
+                     static_cast<float>(std::exp(-h / scale_height) * lit * view.sun_irradiance);
+          }
+        }
+      }
+      frame.radiance[3 * i] += colour.x();
+      frame.radiance[3 * i + 1] += colour.y();
+      frame.radiance[3 * i + 2] += colour.z();
+    }
+}
+
+// Splats a point source in direction d_camera with a Gaussian PSF of `sigma` pixels (out to
+// `reach` pixels) onto pixels that see empty sky.
+void splatPointSource(const PinholeCamera& cam, double sigma, int reach,
+                      const Eigen::Vector3d& d_camera, const Eigen::Vector3f& value,
+                      RenderOutput& frame) {
+  const int W = cam.width, H = cam.height;
+  if (d_camera.z() <= 0) return;
+  const double u = cam.fx * d_camera.x() / d_camera.z() + cam.cx;
+  const double v = cam.fy * d_camera.y() / d_camera.z() + cam.cy;
+  if (u < -reach || v < -reach || u > W + reach || v > H + reach) return;
+  const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
+  double weights[16][16];
+  double total = 0;
+  const int span = 2 * reach + 1;
+  for (int j = 0; j < span && j < 16; ++j)
+    for (int k = 0; k < span && k < 16; ++k) {
+      const double dx = u0 - reach + k - u, dy = v0 - reach + j - v;
+      weights[j][k] = std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+      total += weights[j][k];
+    }
+  for (int j = 0; j < span && j < 16; ++j)
+    for (int k = 0; k < span && k < 16; ++k) {
+      const int x = u0 - reach + k, y = v0 - reach + j;
+      if (x < 0 || y < 0 || x >= W || y >= H) continue;
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      if (frame.id[i] != 0) continue;
+      const float w = static_cast<float>(weights[j][k] / total);
+      frame.radiance[3 * i] += w * value.x();
+      frame.radiance[3 * i + 1] += w * value.y();
+      frame.radiance[3 * i + 2] += w * value.z();
+    }
+}
+
+// The stars not hidden by the Earth, as point sources.
+void compositeStars(const PinholeCamera& cam, const BackgroundView& view, const EarthSphere& earth,
+                    RenderOutput& frame) {
+  const Eigen::Matrix3d R = view.lvlh_R_camera;
+  const Eigen::Matrix3d camera_R_lvlh = R.transpose();
+  // Pixel solid angle at the canvas centre; the unit of point sources.
+  const double point_scale = M_PI * cam.fx * cam.fy;
   const double sigma = std::max(0.3, view.star_psf_sigma);
   const int reach = static_cast<int>(std::ceil(3 * sigma));
-  auto splat = [&](const Eigen::Vector3d& d_camera, const Eigen::Vector3f& value) {
-    if (d_camera.z() <= 0) return;
-    const double u = cam.fx * d_camera.x() / d_camera.z() + cam.cx;
-    const double v = cam.fy * d_camera.y() / d_camera.z() + cam.cy;
-    if (u < -reach || v < -reach || u > W + reach || v > H + reach) return;
-    const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
-    double weights[16][16];
-    double total = 0;
-    const int span = 2 * reach + 1;
-    for (int j = 0; j < span && j < 16; ++j)
-      for (int k = 0; k < span && k < 16; ++k) {
-        const double dx = u0 - reach + k - u, dy = v0 - reach + j - v;
-        weights[j][k] = std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
-        total += weights[j][k];
-      }
-    for (int j = 0; j < span && j < 16; ++j)
-      for (int k = 0; k < span && k < 16; ++k) {
-        const int x = u0 - reach + k, y = v0 - reach + j;
-        if (x < 0 || y < 0 || x >= W || y >= H) continue;
-        const std::size_t i = static_cast<std::size_t>(y) * W + x;
-        if (frame.id[i] != 0) continue;
-        const float w = static_cast<float>(weights[j][k] / total);
-        frame.radiance[3 * i] += w * value.x();
-        frame.radiance[3 * i + 1] += w * value.y();
-        frame.radiance[3 * i + 2] += w * value.z();
-      }
-  };
-  if (view.stars && view.star_gain > 0) {
-    const Eigen::Matrix3d camera_R_eci = camera_R_lvlh * view.eci_R_lvlh.transpose();
-    for (const Star& s : starCatalogue()) {
-      const Eigen::Vector3d d = camera_R_eci * s.direction;
-      if (d.z() <= 0) continue;
-      double t;
-      if (view.earth && earth_hit(R * d, t)) continue;
-      const double relative = std::pow(10.0, -0.4 * (s.magnitude - kSunMagnitude));
-      splat(d, s.colour * static_cast<float>(relative * point_scale * view.star_gain));
-    }
-  }
-  // The sun's disc (uniform, ~46 000 times a white plate), when in view and not hidden.
-  if (view.sun_disc && view.sun_irradiance > 0) {
-    const Eigen::Vector3d d = camera_R_lvlh * view.sun_direction;
+  const Eigen::Matrix3d camera_R_eci = camera_R_lvlh * view.eci_R_lvlh.transpose();
+  for (const Star& s : starCatalogue()) {
+    const Eigen::Vector3d d = camera_R_eci * s.direction;
+    if (d.z() <= 0) continue;
     double t;
-    if (d.z() > 0 && !(view.earth && earth_hit(view.sun_direction, t))) {
-      const double u = cam.fx * d.x() / d.z() + cam.cx, v = cam.fy * d.y() / d.z() + cam.cy;
-      const double radius = kSunAngularRadius * cam.fx;
-      const float value =
-          static_cast<float>(view.sun_irradiance / (kSunAngularRadius * kSunAngularRadius));
-      if (u > -radius && v > -radius && u < W + radius && v < H + radius) {
-        const int x0 = std::max(0, static_cast<int>(std::floor(u - radius))),
-                  x1 = std::min(W - 1, static_cast<int>(std::ceil(u + radius)));
-        const int y0 = std::max(0, static_cast<int>(std::floor(v - radius))),
-                  y1 = std::min(H - 1, static_cast<int>(std::ceil(v + radius)));
-        for (int y = y0; y <= y1; ++y)
-          for (int x = x0; x <= x1; ++x) {
-            const std::size_t i = static_cast<std::size_t>(y) * W + x;
-            if (frame.id[i] != 0) continue;
-            if (std::hypot(x - u, y - v) > radius) continue;
-            for (int c = 0; c < 3; ++c) frame.radiance[3 * i + c] += value;
-          }
-      }
-    }
+    if (view.earth && earth.hit(R * d, t)) continue;
+    const double relative = std::pow(10.0, -0.4 * (s.magnitude - kSunMagnitude));
+    splatPointSource(cam, sigma, reach, d,
+                     s.colour * static_cast<float>(relative * point_scale * view.star_gain), frame);
   }
+}
+
+// The sun's disc (uniform, ~46 000 times a white plate), when in view and not hidden.
+void compositeSunDisc(const PinholeCamera& cam, const BackgroundView& view,
+                      const EarthSphere& earth, RenderOutput& frame) {
+  const int W = cam.width, H = cam.height;
+  const Eigen::Matrix3d camera_R_lvlh = view.lvlh_R_camera.transpose();
+  const Eigen::Vector3d d = camera_R_lvlh * view.sun_direction;
+  double t;
+  if (!(d.z() > 0 && !(view.earth && earth.hit(view.sun_direction, t)))) return;
+  const double u = cam.fx * d.x() / d.z() + cam.cx, v = cam.fy * d.y() / d.z() + cam.cy;
+  const double radius = kSunAngularRadius * cam.fx;
+  const float value =
+      static_cast<float>(view.sun_irradiance / (kSunAngularRadius * kSunAngularRadius));
+  if (!(u > -radius && v > -radius && u < W + radius && v < H + radius)) return;
+  const int x0 = std::max(0, static_cast<int>(std::floor(u - radius))),
+            x1 = std::min(W - 1, static_cast<int>(std::ceil(u + radius)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(v - radius))),
+            y1 = std::min(H - 1, static_cast<int>(std::ceil(v + radius)));
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      if (frame.id[i] != 0) continue;
+      if (std::hypot(x - u, y - v) > radius) continue;
+      for (int c = 0; c < 3; ++c) frame.radiance[3 * i + c] += value;
+    }
+}
+
+}  // namespace
+
+void compositeBackground(const PinholeCamera& cam, const BackgroundView& view,
+                         RenderOutput& frame) {
+  const EarthSphere earth(view);
+  if (view.earth) compositeEarth(cam, view, earth, frame);
+  if (view.stars && view.star_gain > 0) compositeStars(cam, view, earth, frame);
+  if (view.sun_disc && view.sun_irradiance > 0) compositeSunDisc(cam, view, earth, frame);
 }
 
 }  // namespace cdff::egse

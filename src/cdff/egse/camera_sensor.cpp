@@ -183,16 +183,40 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
                                          const BackgroundView& view, const CameraFaults& faults,
                                          Rng& rng) const {
   if (renders.empty()) return invalidInput("{}: no render to expose", name_);
-  const int k = spec_.supersampling;
   const int RW = render_camera_.width, RH = render_camera_.height;
   for (const RenderOutput& r : renders)
     if (r.width != RW || r.height != RH)
       return invalidInput("{}: a render is {}x{}; expected {}x{}", name_, r.width, r.height, RW,
                           RH);
-  const int CW = canvas_.width, CH = canvas_.height;
-  const std::size_t canvas_pixels = static_cast<std::size_t>(CW) * CH;
   // 1. Average the motion-blur samples and the supersamples onto the canvas.
   RenderOutput& canvas = canvas_scratch_;
+  averageSamples(renders, canvas);
+  // 2. Partial occlusion of the target, from the left of the image, to the requested fraction.
+  CameraFrame frame;
+  if (faults.occlusion > 0) frame.occluded_fraction = occludeTarget(faults, canvas);
+  // 3. Background.
+  compositeBackground(canvas_, view, canvas);
+  // 4. Stray light from the sun near (or in) the field of view.
+  addStrayLight(view, faults, canvas);
+  // 5. Spectral response: one channel for a monochrome sensor.
+  const bool colour = spec_.format == PixelFormat::kBgr8;
+  const int C = colour ? 3 : 1;
+  spectralResponse(canvas, C);
+  // 6. Lens distortion: sample the canvas where each distorted pixel's ray lands.
+  distort(canvas, C, frame);
+  // 7. Optics blur, plus defocus at the target's mean depth.
+  const int W = spec_.model.width, H = spec_.model.height;
+  gaussianBlur(signal_, blur_scratch_, W, H, C, blurSigma(frame));
+  // 8-10. Exposure, noise, full well, gain, quantisation.
+  CDFF_RETURN_IF_ERROR(quantise(faults, rng, C, frame));
+  return frame;
+}
+
+void CameraSensor::averageSamples(const std::vector<RenderOutput>& renders,
+                                  RenderOutput& canvas) const {
+  const int k = spec_.supersampling;
+  const int RW = render_camera_.width;
+  const int CW = canvas_.width, CH = canvas_.height;
   if (canvas.width != CW || canvas.height != CH) canvas.resize(CW, CH);
   const RenderOutput& middle = renders[renders.size() / 2];
   const float weight = 1.0f / static_cast<float>(renders.size() * k * k);
@@ -216,43 +240,40 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
         canvas.depth[i] = middle.depth[centre];
         canvas.id[i] = middle.id[centre];
       }
+}
 
-  // 2. Partial occlusion of the target, from the left of the image, to the requested fraction.
-  CameraFrame frame;
-  if (faults.occlusion > 0) {
-    std::vector<std::size_t> column_count(CW, 0);
-    std::size_t total = 0;
-    float nearest = std::numeric_limits<float>::infinity();
-    for (std::size_t i = 0; i < canvas_pixels; ++i)
-      if (canvas.id[i] == 1) {
-        ++column_count[i % CW];
-        ++total;
-        nearest = std::min(nearest, canvas.depth[i]);
+double CameraSensor::occludeTarget(const CameraFaults& faults, RenderOutput& canvas) const {
+  const int CW = canvas_.width, CH = canvas_.height;
+  const std::size_t canvas_pixels = static_cast<std::size_t>(CW) * CH;
+  std::vector<std::size_t> column_count(CW, 0);
+  std::size_t total = 0;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (std::size_t i = 0; i < canvas_pixels; ++i)
+    if (canvas.id[i] == 1) {
+      ++column_count[i % CW];
+      ++total;
+      nearest = std::min(nearest, canvas.depth[i]);
+    }
+  std::size_t wanted =
+      static_cast<std::size_t>(std::llround(std::clamp(faults.occlusion, 0.0, 1.0) * total));
+  std::size_t hidden = 0;
+  for (int x = 0; x < CW && hidden < wanted; ++x)
+    for (int y = 0; y < CH && hidden < wanted; ++y) {
+      const std::size_t i = static_cast<std::size_t>(y) * CW + x;
+      if (canvas.id[i] != 1) continue;
+      ++hidden;
+      canvas.radiance[3 * i] = canvas.radiance[3 * i + 1] = canvas.radiance[3 * i + 2] = 0.0f;
+      if (faults.occlusion_mode == OcclusionMode::kOccluder) {
+        canvas.id[i] = 255;
+        canvas.depth[i] = 0.5f * nearest;
       }
-    std::size_t wanted =
-        static_cast<std::size_t>(std::llround(std::clamp(faults.occlusion, 0.0, 1.0) * total));
-    std::size_t hidden = 0;
-    for (int x = 0; x < CW && hidden < wanted; ++x)
-      for (int y = 0; y < CH && hidden < wanted; ++y) {
-        const std::size_t i = static_cast<std::size_t>(y) * CW + x;
-        if (canvas.id[i] != 1) continue;
-        ++hidden;
-        canvas.radiance[3 * i] = canvas.radiance[3 * i + 1] = canvas.radiance[3 * i + 2] = 0.0f;
-        if (faults.occlusion_mode == OcclusionMode::kOccluder) {
-          canvas.id[i] = 255;
-          canvas.depth[i] = 0.5f * nearest;
-        }
-      }
-    frame.occluded_fraction = total > 0 ? static_cast<double>(hidden) / total : 0.0;
-  }
+    }
+  return total > 0 ? static_cast<double>(hidden) / total : 0.0;
+}
 
-  // 3. Background.
-  compositeBackground(canvas_, view, canvas);
-
-  // 4. Stray light from the sun near (or in) the field of view: a halo around the sun's
-  // direction and two ghosts mirrored through the principal point.
-  const Eigen::Matrix3d camera_R_lvlh = view.lvlh_R_camera.transpose();
-  const Eigen::Vector3d sun = camera_R_lvlh * view.sun_direction;
+double CameraSensor::glareLevel(const BackgroundView& view, const CameraFaults& faults,
+                                const Eigen::Vector3d& sun) const {
+  const int CW = canvas_.width, CH = canvas_.height;
   bool sun_blocked = false;
   if (view.earth) {
     const Eigen::Vector3d oc = view.camera_position - view.earth_centre;
@@ -275,38 +296,47 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       if (glare * w2 / (nearest * nearest + w2) < 1e-4) glare = 0;
     }
   }
-  if (glare > 1e-6 || faults.extra_glare > 0) {
-    const double w2 = spec_.glare_width * spec_.glare_width;
-    const bool ghosts = sun.z() > 0.05;
-    double su = 0, sv = 0;
-    if (ghosts) {
-      su = canvas_.fx * sun.x() / sun.z() + canvas_.cx;
-      sv = canvas_.fy * sun.y() / sun.z() + canvas_.cy;
-    }
-    const double ghost_alpha[2] = {-0.35, -0.8}, ghost_radius[2] = {0.05 * CW, 0.09 * CW},
-                 ghost_level[2] = {0.6, 0.35};
-    for (int y = 0; y < CH; ++y)
-      for (int x = 0; x < CW; ++x) {
-        const Eigen::Vector3d d =
-            Eigen::Vector3d((x - canvas_.cx) / canvas_.fx, (y - canvas_.cy) / canvas_.fy, 1.0)
-                .normalized();
-        const double chord2 = 2.0 * (1.0 - d.dot(sun));  // ~ angle^2
-        double value = faults.extra_glare + glare * w2 / (chord2 + w2);
-        if (ghosts && glare > 1e-6)
-          for (int g = 0; g < 2; ++g) {
-            const double gu = canvas_.cx + ghost_alpha[g] * (su - canvas_.cx),
-                         gv = canvas_.cy + ghost_alpha[g] * (sv - canvas_.cy);
-            const double r = std::hypot(x - gu, y - gv) / ghost_radius[g];
-            if (r < 1.0) value += glare * ghost_level[g] * (1.0 - r * r);
-          }
-        const std::size_t i = static_cast<std::size_t>(y) * CW + x;
-        for (int c = 0; c < 3; ++c) canvas.radiance[3 * i + c] += static_cast<float>(value);
-      }
-  }
+  return glare;
+}
 
-  // 5. Spectral response: one channel for a monochrome sensor.
-  const bool colour = spec_.format == PixelFormat::kBgr8;
-  const int C = colour ? 3 : 1;
+void CameraSensor::addStrayLight(const BackgroundView& view, const CameraFaults& faults,
+                                 RenderOutput& canvas) const {
+  const int CW = canvas_.width, CH = canvas_.height;
+  const Eigen::Matrix3d camera_R_lvlh = view.lvlh_R_camera.transpose();
+  const Eigen::Vector3d sun = camera_R_lvlh * view.sun_direction;
+  const double glare = glareLevel(view, faults, sun);
+  if (!(glare > 1e-6 || faults.extra_glare > 0)) return;
+  const double w2 = spec_.glare_width * spec_.glare_width;
+  const bool ghosts = sun.z() > 0.05;
+  double su = 0, sv = 0;
+  if (ghosts) {
+    su = canvas_.fx * sun.x() / sun.z() + canvas_.cx;
+    sv = canvas_.fy * sun.y() / sun.z() + canvas_.cy;
+  }
+  const double ghost_alpha[2] = {-0.35, -0.8}, ghost_radius[2] = {0.05 * CW, 0.09 * CW},
+               ghost_level[2] = {0.6, 0.35};
+  for (int y = 0; y < CH; ++y)
+    for (int x = 0; x < CW; ++x) {
+      const Eigen::Vector3d d =
+          Eigen::Vector3d((x - canvas_.cx) / canvas_.fx, (y - canvas_.cy) / canvas_.fy, 1.0)
+              .normalized();
+      const double chord2 = 2.0 * (1.0 - d.dot(sun));  // ~ angle^2
+      double value = faults.extra_glare + glare * w2 / (chord2 + w2);
+      if (ghosts && glare > 1e-6)
+        for (int g = 0; g < 2; ++g) {
+          const double gu = canvas_.cx + ghost_alpha[g] * (su - canvas_.cx),
+                       gv = canvas_.cy + ghost_alpha[g] * (sv - canvas_.cy);
+          const double r = std::hypot(x - gu, y - gv) / ghost_radius[g];
+          if (r < 1.0) value += glare * ghost_level[g] * (1.0 - r * r);
+        }
+      const std::size_t i = static_cast<std::size_t>(y) * CW + x;
+      for (int c = 0; c < 3; ++c) canvas.radiance[3 * i + c] += static_cast<float>(value);
+    }
+}
+
+void CameraSensor::spectralResponse(const RenderOutput& canvas, int C) const {
+  const bool colour = C == 3;
+  const std::size_t canvas_pixels = static_cast<std::size_t>(canvas_.width) * canvas_.height;
   std::vector<float>& canvas_signal = canvas_signal_;
   canvas_signal.resize(canvas_pixels * C);
   for (std::size_t i = 0; i < canvas_pixels; ++i) {
@@ -319,8 +349,11 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
                          0.0722f * canvas.radiance[3 * i + 2];
     }
   }
+}
 
-  // 6. Lens distortion: sample the canvas where each distorted pixel's ray lands.
+void CameraSensor::distort(const RenderOutput& canvas, int C, CameraFrame& frame) const {
+  const int CW = canvas_.width, CH = canvas_.height;
+  const std::vector<float>& canvas_signal = canvas_signal_;
   const int W = spec_.model.width, H = spec_.model.height;
   const std::size_t pixels = static_cast<std::size_t>(W) * H;
   std::vector<float>& signal = signal_;
@@ -365,8 +398,11 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       else
         depth[i] = std::isfinite(canvas.depth[n]) ? canvas.depth[n] : 0.0f;
     }
+}
 
-  // 7. Optics blur, plus defocus at the target's mean depth.
+double CameraSensor::blurSigma(const CameraFrame& frame) const {
+  const std::size_t pixels = static_cast<std::size_t>(spec_.model.width) * spec_.model.height;
+  const std::vector<float>& depth = depth_;
   double sigma2 = spec_.psf_sigma * spec_.psf_sigma;
   if (spec_.f_number > 0) {
     double sum = 0;
@@ -383,9 +419,16 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
       sigma2 += sigma_defocus * sigma_defocus;
     }
   }
-  gaussianBlur(signal, blur_scratch_, W, H, C, std::sqrt(sigma2));
+  return std::sqrt(sigma2);
+}
 
-  // 8-10. Exposure, noise, full well, gain, quantisation.
+Status CameraSensor::quantise(const CameraFaults& faults, Rng& rng, int C,
+                              CameraFrame& frame) const {
+  const bool colour = C == 3;
+  const int W = spec_.model.width, H = spec_.model.height;
+  const std::size_t pixels = static_cast<std::size_t>(W) * H;
+  const std::vector<float>& signal = signal_;
+  const std::vector<float>& depth = depth_;
   const double to_electrons = spec_.sensitivity * spec_.exposure_time;
   const double gain = std::pow(10.0, spec_.gain_db / 20.0);
   const double to_dn = gain * 255.0 / spec_.full_well;
@@ -410,7 +453,7 @@ Result<CameraFrame> CameraSensor::expose(const std::vector<RenderOutput>& render
   frame.depth.image = std::move(depth_image).value();
   frame.depth.image.camera = spec_.model;
   frame.depth.meters_per_unit = 1.0;
-  return frame;
+  return Status::ok();
 }
 
 }  // namespace cdff::egse

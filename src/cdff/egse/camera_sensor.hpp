@@ -83,6 +83,20 @@ class CameraSensor {
                              const CameraFaults& faults, Rng& rng) const;
 
  private:
+  // The steps of expose(), in order.
+  void averageSamples(const std::vector<RenderOutput>& renders, RenderOutput& canvas) const;
+  double occludeTarget(const CameraFaults& faults, RenderOutput& canvas) const;  // the fraction
+  // A halo around the sun's direction and two ghosts mirrored through the principal point.
+  void addStrayLight(const BackgroundView& view, const CameraFaults& faults,
+                     RenderOutput& canvas) const;
+  double glareLevel(const BackgroundView& view, const CameraFaults& faults,
+                    const Eigen::Vector3d& sun) const;
+  void spectralResponse(const RenderOutput& canvas, int channels) const;  // to canvas_signal_
+  // Resamples canvas_signal_ onto the camera's pixels (signal_), with depth_ and the labels.
+  void distort(const RenderOutput& canvas, int channels, CameraFrame& frame) const;
+  double blurSigma(const CameraFrame& frame) const;  // optics and defocus, pixels
+  Status quantise(const CameraFaults& faults, Rng& rng, int channels, CameraFrame& frame) const;
+
   CameraSpec spec_;
   std::string name_;
   PinholeCamera canvas_, render_camera_;

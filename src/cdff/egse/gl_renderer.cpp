@@ -340,26 +340,49 @@ class GlRenderer final : public Renderer {
                             models_.size());
     makeCurrent();
     CDFF_RETURN_IF_ERROR(ensureTargets(cam.width, cam.height));
-    // Shadow map.
     ShadowFrame shadow;
     double depth_range = 1.0;
-    const bool lit = scene.sun_irradiance > 0;
-    if (lit && scene.shadows) {
-      std::vector<std::pair<Eigen::Vector3d, double>> casters;
-      for (const RenderObject& o : scene.objects)
-        if (o.casts_shadow)
-          casters.emplace_back(o.camera_T_object * models_[o.model].centre,
-                               models_[o.model].radius);
-      shadow = fitShadowFrame(scene.sun_direction, casters, scene.shadow_map_size);
-      if (shadow.valid) {
-        depth_range = 0;
-        for (const auto& [c, r] : casters)
-          depth_range = std::max(depth_range, std::abs((shadow.sun_T_camera * c).z()) + r);
-        depth_range = depth_range * 1.05 + 1.0;
-        CDFF_RETURN_IF_ERROR(renderShadow(scene, shadow, depth_range));
-      }
+    CDFF_RETURN_IF_ERROR(shadowPass(scene, shadow, depth_range));
+    const auto [near_plane, far_plane] = depthPlanes(scene, cam);
+    beginScenePass(cam);
+    setSceneUniforms(scene, cam, shadow, depth_range, near_plane, far_plane);
+    for (const RenderObject& o : scene.objects) {
+      const GlModel& m = models_[o.model];
+      uniformMatrix4(scene_program_, "camera_T_object", toGl(o.camera_T_object));
+      const Eigen::Matrix3f R = o.camera_T_object.linear().cast<float>();
+      glUniformMatrix3fv(location(scene_program_, "camera_R_object"), 1, GL_FALSE, R.data());
+      glUniform1ui(location(scene_program_, "object_id"), o.id);
+      setMaterials(m);
+      glActiveTexture(GL_TEXTURE2);
+      glBindTexture(GL_TEXTURE_BUFFER, m.material_texture);
+      glBindVertexArray(m.vao);
+      glDrawElements(GL_TRIANGLES, m.index_count, GL_UNSIGNED_INT, nullptr);
     }
-    // Tight near and far planes around the objects keep the depth buffer precise at any range.
+    glBindVertexArray(0);
+    return readBack(cam, out);
+  }
+
+ private:
+  // The shadow map, when the sun shines and the scene wants shadows (shadow.valid says whether
+  // one was drawn), and the depth range it spans.
+  Status shadowPass(const RenderScene& scene, ShadowFrame& shadow, double& depth_range) {
+    const bool lit = scene.sun_irradiance > 0;
+    if (!(lit && scene.shadows)) return Status::ok();
+    std::vector<std::pair<Eigen::Vector3d, double>> casters;
+    for (const RenderObject& o : scene.objects)
+      if (o.casts_shadow)
+        casters.emplace_back(o.camera_T_object * models_[o.model].centre, models_[o.model].radius);
+    shadow = fitShadowFrame(scene.sun_direction, casters, scene.shadow_map_size);
+    if (!shadow.valid) return Status::ok();
+    depth_range = 0;
+    for (const auto& [c, r] : casters)
+      depth_range = std::max(depth_range, std::abs((shadow.sun_T_camera * c).z()) + r);
+    depth_range = depth_range * 1.05 + 1.0;
+    return renderShadow(scene, shadow, depth_range);
+  }
+
+  // Near and far planes tight around the objects keep the depth buffer precise at any range.
+  std::pair<double, double> depthPlanes(const RenderScene& scene, const PinholeCamera& cam) const {
     double near_plane = std::numeric_limits<double>::infinity(), far_plane = cam.near_plane * 2;
     for (const RenderObject& o : scene.objects) {
       const double z = (o.camera_T_object * models_[o.model].centre).z(),
@@ -370,7 +393,11 @@ class GlRenderer final : public Renderer {
     near_plane = std::max(near_plane * 0.99, cam.near_plane);
     far_plane = std::min(far_plane * 1.01 + 1e-3, cam.far_plane);
     if (!(far_plane > near_plane)) far_plane = near_plane * 2;
+    return {near_plane, far_plane};
+  }
 
+  // Binds and clears the scene framebuffer, with the scene program and its fixed state.
+  void beginScenePass(const PinholeCamera& cam) {
     glBindFramebuffer(GL_FRAMEBUFFER, scene_fbo_);
     glViewport(0, 0, cam.width, cam.height);
     const GLenum buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
@@ -385,6 +412,12 @@ class GlRenderer final : public Renderer {
     glDepthFunc(GL_LESS);
     glDisable(GL_CULL_FACE);
     glUseProgram(scene_program_);
+  }
+
+  // The scene program's uniforms and textures that hold for every object.
+  void setSceneUniforms(const RenderScene& scene, const PinholeCamera& cam,
+                        const ShadowFrame& shadow, double depth_range, double near_plane,
+                        double far_plane) {
     // Optical frame (x right, y down, z forward) to clip space with pixel (u, v) centred at
     // window coordinate (u + 0.5, v + 0.5); framebuffer row v holds image row v.
     Eigen::Matrix4f P = Eigen::Matrix4f::Zero();
@@ -421,20 +454,10 @@ class GlRenderer final : public Renderer {
     glBindTexture(GL_TEXTURE_2D, shadow_texture_);
     glUniform1i(location(scene_program_, "shadow_map"), 1);
     glUniform1i(location(scene_program_, "triangle_material"), 2);
-    for (const RenderObject& o : scene.objects) {
-      const GlModel& m = models_[o.model];
-      uniformMatrix4(scene_program_, "camera_T_object", toGl(o.camera_T_object));
-      const Eigen::Matrix3f R = o.camera_T_object.linear().cast<float>();
-      glUniformMatrix3fv(location(scene_program_, "camera_R_object"), 1, GL_FALSE, R.data());
-      glUniform1ui(location(scene_program_, "object_id"), o.id);
-      setMaterials(m);
-      glActiveTexture(GL_TEXTURE2);
-      glBindTexture(GL_TEXTURE_BUFFER, m.material_texture);
-      glBindVertexArray(m.vao);
-      glDrawElements(GL_TRIANGLES, m.index_count, GL_UNSIGNED_INT, nullptr);
-    }
-    glBindVertexArray(0);
-    // Read back.
+  }
+
+  // Reads radiance, depth and ids back into `out` (nothing drawn: 0, +inf and 0).
+  Status readBack(const PinholeCamera& cam, RenderOutput& out) {
     const std::size_t pixels = static_cast<std::size_t>(cam.width) * cam.height;
     readback_.resize(4 * pixels);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
@@ -456,7 +479,6 @@ class GlRenderer final : public Renderer {
     return Status::ok();
   }
 
- private:
   void makeCurrent() { eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_); }
 
   Status checkGl(const char* what) {

@@ -89,36 +89,132 @@ Result<LidarSensor> LidarSensor::create(const LidarSpec& spec, const std::string
   return s;
 }
 
+namespace {
+
+// Relative poses every millisecond across a scan, interpolated per firing sequence.
+class ScanPoses {
+ public:
+  ScanPoses(const RelativePose& sensor_T_target, double start, double period, bool motion)
+      : keys_(static_cast<std::size_t>(std::ceil(period / kKeyStep)) + 1), motion_(motion) {
+    for (std::size_t k = 0; k < keys_.size(); ++k)
+      keys_[k] = sensor_T_target(start + std::min(period, k * kKeyStep));
+  }
+  // sensor_T_target dt seconds into the scan (the first pose without motion during the scan).
+  Eigen::Isometry3d at(double dt) const {
+    const std::size_t keys = keys_.size();
+    if (!motion_) return keys_.front();
+    const double x = std::clamp(dt / kKeyStep, 0.0, static_cast<double>(keys - 1));
+    const std::size_t k = std::min(static_cast<std::size_t>(x), keys - 2);
+    return interpolate(keys_[k], keys_[k + 1], x - static_cast<double>(k));
+  }
+  const Eigen::Isometry3d& first() const { return keys_.front(); }
+  const Eigen::Isometry3d& last() const { return keys_.back(); }
+
+ private:
+  static constexpr double kKeyStep = 1e-3;
+  std::vector<Eigen::Isometry3d> keys_;
+  bool motion_;
+};
+
+// The cone from the sensor that holds the target's bounding sphere, grown by its motion over the
+// scan: only rays inside it are cast.
+struct TargetCone {
+  Eigen::Vector3d direction;
+  double cos_half_angle;  // -2 when the sensor is inside the sphere: every ray
+};
+
+TargetCone targetCone(const TargetModel& model, const ScanPoses& poses) {
+  const Eigen::Vector3d centre_model = model.boundingCentre();
+  const double radius = model.boundingRadius();
+  Eigen::Vector3d c0 = poses.first() * centre_model, c1 = poses.last() * centre_model;
+  const double motion = (c1 - c0).norm();
+  const Eigen::Vector3d c_mid = 0.5 * (c0 + c1);
+  const double reach = radius + motion + 0.05;
+  const bool inside = c_mid.norm() <= reach;
+  const double cone_cos = inside ? -2.0 : std::cos(std::asin(std::min(1.0, reach / c_mid.norm())));
+  return {c_mid.normalized(), cone_cos};
+}
+
+// Direction of a laser at elevation el and azimuth az, sensor frame. Azimuth grows clockwise
+// seen from above (the VLP-16's spin), from +x towards -y.
+Eigen::Vector3d firingDirection(double el, double az) {
+  return {std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az), std::sin(el)};
+}
+
+// A laser firing towards the target: its slot (cycle * lasers + laser), time and direction.
+struct Firing {
+  std::size_t slot;
+  double time;
+  Eigen::Vector3d direction;  // sensor frame
+};
+
+std::vector<Firing> firingsTowards(const LidarSpec& sp, std::size_t cycles,
+                                   const TargetCone& cone) {
+  const double omega = 2 * M_PI * sp.rotation_rate;
+  const std::size_t lasers = sp.elevations.size();
+  std::vector<Firing> firings;
+  for (std::size_t j = 0; j < cycles; ++j) {
+    const double tj = j * sp.firing_cycle;
+    for (std::size_t l = 0; l < lasers; ++l) {
+      const double t = tj + l * sp.laser_interval;
+      const double az = omega * t, el = sp.elevations[l];
+      const Eigen::Vector3d d = firingDirection(el, az);
+      if (d.dot(cone.direction) < cone.cos_half_angle) continue;
+      firings.push_back({j * lasers + l, t, d});
+    }
+  }
+  return firings;
+}
+
+// The rays of the firings, in the target's frame at the time of each.
+std::vector<Ray> raysOf(const std::vector<Firing>& firings, const ScanPoses& poses,
+                        double max_range) {
+  std::vector<Ray> rays(firings.size());
+  for (std::size_t i = 0; i < firings.size(); ++i) {
+    const Eigen::Isometry3d target_T_sensor = poses.at(firings[i].time).inverse();
+    rays[i].origin = target_T_sensor.translation().cast<float>();
+    rays[i].direction =
+        (target_T_sensor.linear() * firings[i].direction).normalized().cast<float>();
+    rays[i].t_min = 0.0f;
+    rays[i].t_max = static_cast<float>(max_range * 1.5);
+  }
+  return rays;
+}
+
+// The points of a scan, in firing order.
+struct ScanPoints {
+  std::vector<Point4f> points;
+  std::vector<float> intensity;
+  std::vector<std::uint16_t> rings;
+  std::vector<std::int32_t> offsets;
+
+  void emit(const Eigen::Vector3d& p, double t, std::uint16_t ring, float value) {
+    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
+    intensity.push_back(value);
+    rings.push_back(ring);
+    offsets.push_back(static_cast<std::int32_t>(std::llround(t * 1e6)));
+  }
+  PointCloud cloud() && {
+    PointCloud cloud;
+    cloud.points = Buffer<Point4f>::fromVector(std::move(points));
+    cloud.intensity = Buffer<float>::fromVector(std::move(intensity));
+    cloud.ring = Buffer<std::uint16_t>::fromVector(std::move(rings));
+    cloud.time_offset_us = Buffer<std::int32_t>::fromVector(std::move(offsets));
+    return cloud;
+  }
+};
+
+}  // namespace
+
 Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel& model,
                                      const RelativePose& sensor_T_target, double start,
                                      const LidarFaults& faults, Rng& rng) const {
   const LidarSpec& sp = spec_;
   const double period = 1.0 / sp.rotation_rate, omega = 2 * M_PI * sp.rotation_rate;
   const std::size_t lasers = sp.elevations.size();
-  // Relative poses every millisecond across the scan, interpolated per firing sequence.
-  const double key_step = 1e-3;
-  const std::size_t keys = static_cast<std::size_t>(std::ceil(period / key_step)) + 1;
-  std::vector<Eigen::Isometry3d> sensor_T_target_keys(keys);
-  for (std::size_t k = 0; k < keys; ++k)
-    sensor_T_target_keys[k] = sensor_T_target(start + std::min(period, k * key_step));
-  auto pose_at = [&](double dt) {
-    if (!sp.motion_during_scan) return sensor_T_target_keys.front();
-    const double x = std::clamp(dt / key_step, 0.0, static_cast<double>(keys - 1));
-    const std::size_t k = std::min(static_cast<std::size_t>(x), keys - 2);
-    return interpolate(sensor_T_target_keys[k], sensor_T_target_keys[k + 1],
-                       x - static_cast<double>(k));
-  };
-  // Only rays towards the target's bounding sphere (grown by the motion over the scan) are cast.
-  const Eigen::Vector3d centre_model = model.boundingCentre();
-  const double radius = model.boundingRadius();
-  Eigen::Vector3d c0 = sensor_T_target_keys.front() * centre_model,
-                  c1 = sensor_T_target_keys.back() * centre_model;
-  const double motion = (c1 - c0).norm();
-  const Eigen::Vector3d c_mid = 0.5 * (c0 + c1);
-  const double reach = radius + motion + 0.05;
-  const bool inside = c_mid.norm() <= reach;
-  const double cone_cos = inside ? -2.0 : std::cos(std::asin(std::min(1.0, reach / c_mid.norm())));
-  const Eigen::Vector3d c_dir = c_mid.normalized();
+  const ScanPoses poses(sensor_T_target, start, period, sp.motion_during_scan);
+  const TargetCone cone = targetCone(model, poses);
 
   const double dropout = std::clamp(sp.dropout_probability + faults.extra_dropout, 0.0, 1.0);
   // Spurious returns: firing slots chosen up front so that the draws do not depend on the scene.
@@ -129,48 +225,12 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
     spurious.emplace_back(rng.below(slots), rng.uniform(sp.min_range, sp.max_range));
   std::sort(spurious.begin(), spurious.end());
 
-  struct Candidate {
-    std::size_t slot;
-    double time;
-    Eigen::Vector3d direction;  // sensor frame
-  };
-  std::vector<Candidate> candidates;
-  std::vector<Ray> rays;
-  for (std::size_t j = 0; j < cycles_; ++j) {
-    const double tj = j * sp.firing_cycle;
-    for (std::size_t l = 0; l < lasers; ++l) {
-      const double t = tj + l * sp.laser_interval;
-      const double az = omega * t, el = sp.elevations[l];
-      // Azimuth grows clockwise seen from above (the VLP-16's spin), from +x towards -y.
-      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az),
-                              std::sin(el));
-      if (d.dot(c_dir) < cone_cos) continue;
-      candidates.push_back({j * lasers + l, t, d});
-    }
-  }
-  rays.resize(candidates.size());
-  for (std::size_t i = 0; i < candidates.size(); ++i) {
-    const Eigen::Isometry3d target_T_sensor = pose_at(candidates[i].time).inverse();
-    rays[i].origin = target_T_sensor.translation().cast<float>();
-    rays[i].direction =
-        (target_T_sensor.linear() * candidates[i].direction).normalized().cast<float>();
-    rays[i].t_min = 0.0f;
-    rays[i].t_max = static_cast<float>(sp.max_range * 1.5);
-  }
+  const std::vector<Firing> candidates = firingsTowards(sp, cycles_, cone);
+  const std::vector<Ray> rays = raysOf(candidates, poses, sp.max_range);
   std::vector<RayHit> hits(rays.size());
   target.intersect(rays, hits);
 
-  std::vector<Point4f> points;
-  std::vector<float> intensity;
-  std::vector<std::uint16_t> rings;
-  std::vector<std::int32_t> offsets;
-  auto emit = [&](const Eigen::Vector3d& p, double t, std::size_t laser, float value) {
-    points.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                        static_cast<float>(p.z()));
-    intensity.push_back(value);
-    rings.push_back(ring_[laser]);
-    offsets.push_back(static_cast<std::int32_t>(std::llround(t * 1e6)));
-  };
+  ScanPoints out;
   std::size_t next_spurious = 0;
   auto emit_spurious_until = [&](std::size_t slot) {
     while (next_spurious < spurious.size() && spurious[next_spurious].first <= slot) {
@@ -178,9 +238,8 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
       const std::size_t j = s / lasers, l = s % lasers;
       const double t = j * sp.firing_cycle + l * sp.laser_interval, az = omega * t,
                    el = sp.elevations[l];
-      const Eigen::Vector3d d(std::cos(el) * std::cos(az), -std::cos(el) * std::sin(az),
-                              std::sin(el));
-      emit(range * d, t, l, static_cast<float>(rng.uniform(0.0, 20.0)));
+      const Eigen::Vector3d d = firingDirection(el, az);
+      out.emit(range * d, t, ring_[l], static_cast<float>(rng.uniform(0.0, 20.0)));
     }
   };
   for (std::size_t i = 0; i < candidates.size(); ++i) {
@@ -194,16 +253,11 @@ Result<PointCloud> LidarSensor::scan(const RayCaster& target, const TargetModel&
     const double range = std::max(0.0, h.distance + sp.range_noise * noise);
     const float cos_incidence = std::abs(h.normal.dot(rays[i].direction));
     const float reflectivity = model.triangleMaterial(h.triangle).lidar_reflectivity;
-    emit(range * candidates[i].direction, candidates[i].time, candidates[i].slot % lasers,
-         100.0f * reflectivity * cos_incidence);
+    out.emit(range * candidates[i].direction, candidates[i].time,
+             ring_[candidates[i].slot % lasers], 100.0f * reflectivity * cos_incidence);
   }
   emit_spurious_until(slots);
-  PointCloud cloud;
-  cloud.points = Buffer<Point4f>::fromVector(std::move(points));
-  cloud.intensity = Buffer<float>::fromVector(std::move(intensity));
-  cloud.ring = Buffer<std::uint16_t>::fromVector(std::move(rings));
-  cloud.time_offset_us = Buffer<std::int32_t>::fromVector(std::move(offsets));
-  return cloud;
+  return std::move(out).cloud();
 }
 
 TofSpec TofSpec::defaults() {

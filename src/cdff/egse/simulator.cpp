@@ -42,37 +42,9 @@ Transform toTransform(const Eigen::Isometry3d& T, const std::string& parent,
 
 }  // namespace
 
-Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
-                                                     std::optional<std::uint64_t> seed,
-                                                     std::optional<double> duration) {
-  std::unique_ptr<Simulator> sim(new Simulator());
-  sim->scenario_ = scenario;
-  const Scenario& sc = sim->scenario_;
-  sim->seed_ = seed.value_or(sc.seed);
-  sim->duration_ = duration.value_or(sc.duration);
-  if (!(sim->duration_ > 0))
-    return invalidParameter("duration = {} s; expected > 0", sim->duration_);
+namespace {
 
-  // Models.
-  if (sc.procedural_target) {
-    auto model = makeTargetSatellite(sc.target_spec);
-    if (!model) return model.status();
-    sim->target_ = std::move(model).value();
-  } else {
-    auto model = loadModel(sc.target_mesh, sc.mesh_options);
-    if (!model) return model.status();
-    Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
-    R.linear() = sc.mesh_rotation.toRotationMatrix();
-    sim->target_ = transformModel(*model, R);
-    sim->target_.mesh.frame_id = "target";
-  }
-  if (sc.servicer_mockup) {
-    auto mockup = makeServicerMockup(sc.servicer_spec);
-    if (!mockup) return mockup.status();
-    sim->servicer_model_ = std::move(mockup).value();
-  }
-
-  // World.
+Result<std::unique_ptr<Translation>> makeTranslation(const Scenario& sc, double duration) {
   const Orbit& orbit = sc.orbit;
   std::unique_ptr<Translation> translation;
   switch (sc.translation) {
@@ -81,7 +53,7 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
       break;
     case TranslationKind::kLine:
       translation = lineTranslation(sc.start, sc.end, sc.start_time,
-                                    sc.end_time < 0 ? sim->duration_ : sc.end_time, sc.smooth);
+                                    sc.end_time < 0 ? duration : sc.end_time, sc.smooth);
       break;
     case TranslationKind::kWaypoints: {
       auto spline = splineTranslation(sc.waypoint_times, sc.waypoints);
@@ -97,11 +69,16 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
       translation = cwTranslation(orbit, sc.start, sc.velocity);
       break;
   }
+  return translation;
+}
+
+std::unique_ptr<Attitude> makeServicerAttitude(const Scenario& sc, const Translation* translation) {
+  const Orbit& orbit = sc.orbit;
   std::unique_ptr<Attitude> servicer_attitude;
   switch (sc.servicer_attitude) {
     case ServicerAttitudeKind::kTargetPointing:
-      servicer_attitude = pointingAttitude(orbit, translation.get(), nullptr, sc.up, sc.yaw_offset,
-                                           sc.pitch_offset);
+      servicer_attitude =
+          pointingAttitude(orbit, translation, nullptr, sc.up, sc.yaw_offset, sc.pitch_offset);
       break;
     case ServicerAttitudeKind::kLvlh:
       servicer_attitude = lvlhFixedAttitude(orbit, sc.servicer_orientation);
@@ -110,6 +87,11 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
       servicer_attitude = inertialAttitude(orbit, sc.servicer_orientation);
       break;
   }
+  return servicer_attitude;
+}
+
+std::unique_ptr<Attitude> makeTargetAttitude(const Scenario& sc, double duration) {
+  const Orbit& orbit = sc.orbit;
   std::unique_ptr<Attitude> target_attitude;
   switch (sc.target_attitude) {
     case TargetAttitudeKind::kLvlh:
@@ -120,15 +102,65 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
       break;
     case TargetAttitudeKind::kTumbling:
       target_attitude = tumblingAttitude(orbit, sc.target_initial, sc.target_rate,
-                                         sc.target_inertia, sim->duration_ + 2.0);
+                                         sc.target_inertia, duration + 2.0);
       break;
   }
-  sim->world_ = std::make_unique<World>(orbit, std::move(translation), std::move(servicer_attitude),
-                                        std::move(target_attitude), sc.sun);
+  return target_attitude;
+}
 
-  // Sensors.
+}  // namespace
+
+Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
+                                                     std::optional<std::uint64_t> seed,
+                                                     std::optional<double> duration) {
+  std::unique_ptr<Simulator> sim(new Simulator());
+  sim->scenario_ = scenario;
+  const Scenario& sc = sim->scenario_;
+  sim->seed_ = seed.value_or(sc.seed);
+  sim->duration_ = duration.value_or(sc.duration);
+  if (!(sim->duration_ > 0))
+    return invalidParameter("duration = {} s; expected > 0", sim->duration_);
+  CDFF_RETURN_IF_ERROR(sim->loadModels());
+  // World.
+  auto translation = makeTranslation(sc, sim->duration_);
+  if (!translation) return translation.status();
+  std::unique_ptr<Attitude> servicer_attitude = makeServicerAttitude(sc, translation->get());
+  std::unique_ptr<Attitude> target_attitude = makeTargetAttitude(sc, sim->duration_);
+  sim->world_ =
+      std::make_unique<World>(sc.orbit, std::move(translation).value(),
+                              std::move(servicer_attitude), std::move(target_attitude), sc.sun);
   bool cameras = false, rays = false;
-  for (const SensorConfig& s : sc.sensors) {
+  CDFF_RETURN_IF_ERROR(sim->createSensors(cameras, rays));
+  CDFF_RETURN_IF_ERROR(sim->prepareRendering(cameras, rays));
+  sim->fault_started_.assign(sc.faults.size(), false);
+  sim->fault_ended_.assign(sc.faults.size(), false);
+  return sim;
+}
+
+Status Simulator::loadModels() {
+  const Scenario& sc = scenario_;
+  if (sc.procedural_target) {
+    auto model = makeTargetSatellite(sc.target_spec);
+    if (!model) return model.status();
+    target_ = std::move(model).value();
+  } else {
+    auto model = loadModel(sc.target_mesh, sc.mesh_options);
+    if (!model) return model.status();
+    Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
+    R.linear() = sc.mesh_rotation.toRotationMatrix();
+    target_ = transformModel(*model, R);
+    target_.mesh.frame_id = "target";
+  }
+  if (sc.servicer_mockup) {
+    auto mockup = makeServicerMockup(sc.servicer_spec);
+    if (!mockup) return mockup.status();
+    servicer_model_ = std::move(mockup).value();
+  }
+  return Status::ok();
+}
+
+Status Simulator::createSensors(bool& cameras, bool& rays) {
+  for (const SensorConfig& s : scenario_.sensors) {
     if (!s.enabled) continue;
     auto state = std::make_unique<SensorState>();
     state->config = &s;
@@ -162,7 +194,7 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
       case SensorType::kImu: {
         ImuSpec spec = s.imu;
         spec.rate = s.rate;
-        auto imu = ImuSensor::create(spec, s.name, state->servicer_T_frame, sim->seed_);
+        auto imu = ImuSensor::create(spec, s.name, state->servicer_T_frame, seed_);
         if (!imu) return imu.status();
         state->imu = std::move(imu).value();
         break;
@@ -175,29 +207,31 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
         CDFF_RETURN_IF_ERROR(s.ahrs.validate(s.name));
         break;
     }
-    sim->sensors_.push_back(std::move(state));
+    sensors_.push_back(std::move(state));
   }
+  return Status::ok();
+}
+
+Status Simulator::prepareRendering(bool cameras, bool rays) {
   if (rays) {
-    auto caster = RayCaster::create(sim->target_);
+    auto caster = RayCaster::create(target_);
     if (!caster) return caster.status();
-    sim->caster_ = std::move(caster).value();
+    caster_ = std::move(caster).value();
   }
   if (cameras) {
-    auto renderer = createRenderer(sc.renderer);
+    auto renderer = createRenderer(scenario_.renderer);
     if (!renderer) return renderer.status();
-    sim->renderer_ = std::move(renderer).value();
-    auto handle = sim->renderer_->addModel(sim->target_);
+    renderer_ = std::move(renderer).value();
+    auto handle = renderer_->addModel(target_);
     if (!handle) return handle.status();
-    sim->target_handle_ = *handle;
-    if (sim->servicer_model_) {
-      auto s = sim->renderer_->addModel(*sim->servicer_model_);
+    target_handle_ = *handle;
+    if (servicer_model_) {
+      auto s = renderer_->addModel(*servicer_model_);
       if (!s) return s.status();
-      sim->servicer_handle_ = *s;
+      servicer_handle_ = *s;
     }
   }
-  sim->fault_started_.assign(sc.faults.size(), false);
-  sim->fault_ended_.assign(sc.faults.size(), false);
-  return sim;
+  return Status::ok();
 }
 
 std::string Simulator::rendererDescription() const {
@@ -406,146 +440,189 @@ Status Simulator::process(SensorState& sensor, double t) {
   }
   const Timestamp available = stamp + latency + delay;
   Rng rng = Rng::stream(seed_, c.name, sensor.index);
-  const std::string prefix = c.channelPrefix();
   switch (c.type) {
-    case SensorType::kCamera: {
-      const CameraSensor& camera = *sensor.camera;
-      CameraFaults faults;
-      for (const FaultConfig& f : scenario_.faults) {
-        if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
-        if (f.type == FaultType::kCameraFailure) faults.dark = true;
-        if (f.type == FaultType::kGlare) {
-          faults.glare_gain *= f.gain;
-          faults.extra_glare += f.veil;
-        }
-        if (f.type == FaultType::kOcclusion) {
-          faults.occlusion = f.fraction;
-          faults.occlusion_mode = f.mode;
-        }
-      }
-      CDFF_RETURN_IF_ERROR(renderCamera(sensor, t, sensor.renders, camera));
-      const BodyState servicer = world_->servicer(t);
-      const Eigen::Isometry3d lvlh_T_camera = servicer.lvlh_T_body * sensor.servicer_T_frame;
-      BackgroundView view;
-      view.lvlh_R_camera = lvlh_T_camera.linear();
-      view.camera_position = lvlh_T_camera.translation();
-      view.eci_R_lvlh = scenario_.orbit.eciRotationLvlh(t);
-      view.sun_direction = world_->sunDirection(t);
-      view.sun_irradiance =
-          scenario_.eclipses && world_->inEclipse(t) ? 0.0 : world_->sun().irradiance;
-      view.earth = scenario_.orbit.enabled && scenario_.earth;
-      view.earth_centre = scenario_.orbit.earthCentreLvlh();
-      view.stars = scenario_.stars && c.camera.stars;
-      view.star_gain = scenario_.star_gain * c.camera.star_gain;
-      view.star_psf_sigma = std::max(0.5, c.camera.psf_sigma);
-      auto frame = camera.expose(sensor.renders, view, faults, rng);
-      if (!frame) return frame.status().withContext(c.name);
-      frame->image.stamp = stamp;
-      frame->image.frame_id = c.frame();
-      queue(prefix + "/image", available, frame->image);
-      queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.camera.model});
-      if (scenario_.truth_camera_depth) {
-        frame->depth.image.stamp = stamp;
-        frame->depth.image.frame_id = c.frame();
-        queue("/truth/" + c.name + "/depth", stamp, frame->depth);
-      }
-      if (faults.occlusion > 0)
-        queue("/truth/faults", stamp,
-              FaultEvent{
-                  stamp, c.name, "occlusion",
-                  fmt::format(
-                      "{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
-                      faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
-      queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
-      return Status::ok();
+    case SensorType::kCamera:
+      return processCamera(sensor, t, available, rng);
+    case SensorType::kLidar:
+      return processLidar(sensor, t, available, rng);
+    case SensorType::kTof:
+      return processTof(sensor, t, available, rng);
+    case SensorType::kImu:
+      return processImu(sensor, t, available);
+    case SensorType::kAhrs:
+      return processAhrs(sensor, t, available, rng);
+    case SensorType::kRadar:
+      return processRadar(sensor, t, available, rng);
+  }
+  return Status::ok();
+}
+
+Status Simulator::processCamera(SensorState& sensor, double t, Timestamp available, Rng& rng) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  const CameraSensor& camera = *sensor.camera;
+  const CameraFaults faults = cameraFaults(c.name, t);
+  CDFF_RETURN_IF_ERROR(renderCamera(sensor, t, sensor.renders, camera));
+  const BackgroundView view = backgroundView(sensor, t);
+  auto frame = camera.expose(sensor.renders, view, faults, rng);
+  if (!frame) return frame.status().withContext(c.name);
+  frame->image.stamp = stamp;
+  frame->image.frame_id = c.frame();
+  queue(prefix + "/image", available, frame->image);
+  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.camera.model});
+  if (scenario_.truth_camera_depth) {
+    frame->depth.image.stamp = stamp;
+    frame->depth.image.frame_id = c.frame();
+    queue("/truth/" + c.name + "/depth", stamp, frame->depth);
+  }
+  if (faults.occlusion > 0)
+    queue("/truth/faults", stamp,
+          FaultEvent{stamp, c.name, "occlusion",
+                     fmt::format(
+                         "{:.3f} of the target's pixels hidden ({})", frame->occluded_fraction,
+                         faults.occlusion_mode == OcclusionMode::kShadow ? "shadow" : "occluder")});
+  queue("/truth/" + c.name + "/target_pose", stamp,
+        truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
+  return Status::ok();
+}
+
+CameraFaults Simulator::cameraFaults(const std::string& name, double t) const {
+  CameraFaults faults;
+  for (const FaultConfig& f : scenario_.faults) {
+    if (!f.appliesTo(name) || !f.activeAt(t)) continue;
+    if (f.type == FaultType::kCameraFailure) faults.dark = true;
+    if (f.type == FaultType::kGlare) {
+      faults.glare_gain *= f.gain;
+      faults.extra_glare += f.veil;
     }
-    case SensorType::kLidar: {
-      LidarFaults faults;
-      for (const FaultConfig& f : scenario_.faults) {
-        if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
-        if (f.type == FaultType::kLidarDropout) faults.extra_dropout += f.probability;
-        if (f.type == FaultType::kLidarSpurious) faults.extra_spurious += f.rate;
-      }
-      const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
-      const RelativePose pose = [this, frame_T_servicer](double s) {
-        return frame_T_servicer * world_->servicerTtarget(s);
-      };
-      auto cloud = sensor.lidar->scan(*caster_, target_, pose, t, faults, rng);
-      if (!cloud) return cloud.status().withContext(c.name);
-      cloud->stamp = stamp;
-      cloud->frame_id = c.frame();
-      // A scan is complete (and published) one revolution after it started.
-      queue(prefix + "/points", available + micros(sensor.lidar->period()),
-            std::move(cloud).value());
-      queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
-      return Status::ok();
-    }
-    case SensorType::kTof: {
-      double dropout = 0;
-      for (const FaultConfig& f : scenario_.faults)
-        if (f.appliesTo(c.name) && f.activeAt(t) && f.type == FaultType::kLidarDropout)
-          dropout += f.probability;
-      auto depth = sensor.tof->capture(*caster_, target_, sensorTtarget(c, t), dropout, rng);
-      if (!depth) return depth.status().withContext(c.name);
-      depth->image.stamp = stamp;
-      depth->image.frame_id = c.frame();
-      queue(prefix + "/depth", available, std::move(depth).value());
-      queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.tof.model});
-      queue("/truth/" + c.name + "/target_pose", stamp,
-            truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
-      return Status::ok();
-    }
-    case SensorType::kImu: {
-      std::vector<ImuBiasJump> jumps;
-      for (const FaultConfig& f : scenario_.faults)
-        if (f.appliesTo(c.name) && f.type == FaultType::kImuBiasJump)
-          jumps.push_back({f.start, f.gyro, f.accel});
-      auto sample = sensor.imu->sample(*world_, t, jumps);
-      if (!sample) return sample.status();
-      sample->stamp = stamp;
-      sample->frame_id = c.frame();
-      queue(prefix, available, std::move(sample).value());
-      return Status::ok();
-    }
-    case SensorType::kAhrs: {
-      // The servicer body's attitude (an AHRS reports its host's attitude, whatever its
-      // mounting), inertial_T_servicer; only the attitude is measured: the translation is zero,
-      // with a zero covariance block.
-      Eigen::Quaterniond attitude(world_->servicer(t).lvlh_T_body.linear());
-      std::string inertial = "lvlh";
-      if (scenario_.orbit.enabled) {
-        attitude = Eigen::Quaterniond(scenario_.orbit.eciRotationLvlh(t)) * attitude;
-        inertial = "eci";
-      }
-      const double sigma = c.ahrs.noise ? c.ahrs.attitude_sigma : 0.0;
-      const Eigen::Vector3d error(rng.normal(0, sigma), rng.normal(0, sigma), rng.normal(0, sigma));
-      PoseWithCovariance m;
-      m.pose.stamp = stamp;
-      m.pose.parent_frame = inertial;
-      m.pose.child_frame = "servicer";
-      m.pose.translation.setZero();
-      m.pose.rotation = (expSO3(error) * attitude).normalized();
-      m.covariance.setZero();
-      // Perturbation in the inertial frame, as the EstimationFilter expects.
-      m.covariance.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::max(sigma * sigma, 1e-12);
-      queue(prefix + "/attitude", available, std::move(m));
-      return Status::ok();
-    }
-    case SensorType::kRadar: {
-      const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
-      const RelativePose pose = [this, frame_T_servicer](double s) {
-        return frame_T_servicer * world_->servicerTtarget(s);
-      };
-      auto m = measureRadar(c.radar, *caster_, pose, t, rng);
-      if (!m) return m.status().withContext(c.name);
-      m->stamp = stamp;
-      m->frame_id = c.frame();
-      queue(prefix + "/range", available, std::move(m).value());
-      return Status::ok();
+    if (f.type == FaultType::kOcclusion) {
+      faults.occlusion = f.fraction;
+      faults.occlusion_mode = f.mode;
     }
   }
+  return faults;
+}
+
+BackgroundView Simulator::backgroundView(const SensorState& sensor, double t) const {
+  const SensorConfig& c = *sensor.config;
+  const BodyState servicer = world_->servicer(t);
+  const Eigen::Isometry3d lvlh_T_camera = servicer.lvlh_T_body * sensor.servicer_T_frame;
+  BackgroundView view;
+  view.lvlh_R_camera = lvlh_T_camera.linear();
+  view.camera_position = lvlh_T_camera.translation();
+  view.eci_R_lvlh = scenario_.orbit.eciRotationLvlh(t);
+  view.sun_direction = world_->sunDirection(t);
+  view.sun_irradiance = scenario_.eclipses && world_->inEclipse(t) ? 0.0 : world_->sun().irradiance;
+  view.earth = scenario_.orbit.enabled && scenario_.earth;
+  view.earth_centre = scenario_.orbit.earthCentreLvlh();
+  view.stars = scenario_.stars && c.camera.stars;
+  view.star_gain = scenario_.star_gain * c.camera.star_gain;
+  view.star_psf_sigma = std::max(0.5, c.camera.psf_sigma);
+  return view;
+}
+
+Status Simulator::processLidar(SensorState& sensor, double t, Timestamp available, Rng& rng) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  LidarFaults faults;
+  for (const FaultConfig& f : scenario_.faults) {
+    if (!f.appliesTo(c.name) || !f.activeAt(t)) continue;
+    if (f.type == FaultType::kLidarDropout) faults.extra_dropout += f.probability;
+    if (f.type == FaultType::kLidarSpurious) faults.extra_spurious += f.rate;
+  }
+  const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
+  const RelativePose pose = [this, frame_T_servicer](double s) {
+    return frame_T_servicer * world_->servicerTtarget(s);
+  };
+  auto cloud = sensor.lidar->scan(*caster_, target_, pose, t, faults, rng);
+  if (!cloud) return cloud.status().withContext(c.name);
+  cloud->stamp = stamp;
+  cloud->frame_id = c.frame();
+  // A scan is complete (and published) one revolution after it started.
+  queue(prefix + "/points", available + micros(sensor.lidar->period()), std::move(cloud).value());
+  queue("/truth/" + c.name + "/target_pose", stamp,
+        truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
+  return Status::ok();
+}
+
+Status Simulator::processTof(SensorState& sensor, double t, Timestamp available, Rng& rng) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  double dropout = 0;
+  for (const FaultConfig& f : scenario_.faults)
+    if (f.appliesTo(c.name) && f.activeAt(t) && f.type == FaultType::kLidarDropout)
+      dropout += f.probability;
+  auto depth = sensor.tof->capture(*caster_, target_, sensorTtarget(c, t), dropout, rng);
+  if (!depth) return depth.status().withContext(c.name);
+  depth->image.stamp = stamp;
+  depth->image.frame_id = c.frame();
+  queue(prefix + "/depth", available, std::move(depth).value());
+  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.tof.model});
+  queue("/truth/" + c.name + "/target_pose", stamp,
+        truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
+  return Status::ok();
+}
+
+Status Simulator::processImu(SensorState& sensor, double t, Timestamp available) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  std::vector<ImuBiasJump> jumps;
+  for (const FaultConfig& f : scenario_.faults)
+    if (f.appliesTo(c.name) && f.type == FaultType::kImuBiasJump)
+      jumps.push_back({f.start, f.gyro, f.accel});
+  auto sample = sensor.imu->sample(*world_, t, jumps);
+  if (!sample) return sample.status();
+  sample->stamp = stamp;
+  sample->frame_id = c.frame();
+  queue(prefix, available, std::move(sample).value());
+  return Status::ok();
+}
+
+Status Simulator::processAhrs(SensorState& sensor, double t, Timestamp available, Rng& rng) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  // The servicer body's attitude (an AHRS reports its host's attitude, whatever its
+  // mounting), inertial_T_servicer; only the attitude is measured: the translation is zero,
+  // with a zero covariance block.
+  Eigen::Quaterniond attitude(world_->servicer(t).lvlh_T_body.linear());
+  std::string inertial = "lvlh";
+  if (scenario_.orbit.enabled) {
+    attitude = Eigen::Quaterniond(scenario_.orbit.eciRotationLvlh(t)) * attitude;
+    inertial = "eci";
+  }
+  const double sigma = c.ahrs.noise ? c.ahrs.attitude_sigma : 0.0;
+  const Eigen::Vector3d error(rng.normal(0, sigma), rng.normal(0, sigma), rng.normal(0, sigma));
+  PoseWithCovariance m;
+  m.pose.stamp = stamp;
+  m.pose.parent_frame = inertial;
+  m.pose.child_frame = "servicer";
+  m.pose.translation.setZero();
+  m.pose.rotation = (expSO3(error) * attitude).normalized();
+  m.covariance.setZero();
+  // Perturbation in the inertial frame, as the EstimationFilter expects.
+  m.covariance.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::max(sigma * sigma, 1e-12);
+  queue(prefix + "/attitude", available, std::move(m));
+  return Status::ok();
+}
+
+Status Simulator::processRadar(SensorState& sensor, double t, Timestamp available, Rng& rng) {
+  const SensorConfig& c = *sensor.config;
+  const Timestamp stamp = micros(t);
+  const std::string prefix = c.channelPrefix();
+  const Eigen::Isometry3d frame_T_servicer = sensor.frame_T_servicer;
+  const RelativePose pose = [this, frame_T_servicer](double s) {
+    return frame_T_servicer * world_->servicerTtarget(s);
+  };
+  auto m = measureRadar(c.radar, *caster_, pose, t, rng);
+  if (!m) return m.status().withContext(c.name);
+  m->stamp = stamp;
+  m->frame_id = c.frame();
+  queue(prefix + "/range", available, std::move(m).value());
   return Status::ok();
 }
 

@@ -67,7 +67,21 @@ class Simulator {
  private:
   Simulator() = default;
   struct SensorState;
+  // The steps of create().
+  Status loadModels();
+  Status createSensors(bool& cameras, bool& rays);  // says which need a renderer, a ray caster
+  Status prepareRendering(bool cameras, bool rays);
+  // A measurement of `sensor` at time t, with its frame-level faults; then, by sensor type, the
+  // measurement made available at `available` with this measurement's noise stream `rng`.
   Status process(SensorState& sensor, double t);
+  Status processCamera(SensorState& sensor, double t, Timestamp available, Rng& rng);
+  Status processLidar(SensorState& sensor, double t, Timestamp available, Rng& rng);
+  Status processTof(SensorState& sensor, double t, Timestamp available, Rng& rng);
+  Status processImu(SensorState& sensor, double t, Timestamp available);
+  Status processAhrs(SensorState& sensor, double t, Timestamp available, Rng& rng);
+  Status processRadar(SensorState& sensor, double t, Timestamp available, Rng& rng);
+  CameraFaults cameraFaults(const std::string& name, double t) const;  // active at t
+  BackgroundView backgroundView(const SensorState& sensor, double t) const;
   Status processTruth(double t);
   Status renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders,
                       const CameraSensor& camera);

@@ -77,17 +77,12 @@ std::string listChannels(const std::map<std::string, Series>& series) {
   return out.empty() ? "none" : out;
 }
 
-}  // namespace
+void addNote(RecordingEvaluationNotes* notes, std::string text) {
+  if (notes) notes->notes.push_back(std::move(text));
+}
 
-Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths,
-                                           const RecordingEvaluationOptions& options,
-                                           RecordingEvaluationNotes* notes) {
-  auto note = [&](std::string text) {
-    if (notes) notes->notes.push_back(std::move(text));
-  };
-  io::Replay replay;
-  CDFF_RETURN_IF_ERROR(replay.open(paths));
-
+// What the evaluation reads from a recording.
+struct RecordingContents {
   std::map<std::string, Series> products, truths;
   // dfpc -> the states its track-state changes left, in recording order, after the state before
   // the first change. A product takes the state of the changes recorded before it (not those
@@ -96,8 +91,26 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   // state, so that the initial state of an UNINITIALISED track is not a tracked estimate.
   std::map<std::string, std::vector<std::optional<TrackState>>> track_states;
   std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
-  std::set<std::string> wanted(options.products.begin(), options.products.end());
+};
 
+// A "track_state_changed" event ("BEFORE -> AFTER") of /cdff/events, into track_states.
+void addTrackStateChange(const nlohmann::json& j,
+                         std::map<std::string, std::vector<std::optional<TrackState>>>& track_states) {
+  if (j.value("type", "") != "track_state_changed") return;
+  const std::string text = j.value("message", "");
+  const std::size_t arrow = text.find("-> ");
+  if (arrow == std::string::npos) return;
+  std::vector<std::optional<TrackState>>& states = track_states[j.value("dfpc", "")];
+  if (states.empty()) {
+    std::string before = text.substr(0, arrow);
+    while (!before.empty() && before.back() == ' ') before.pop_back();
+    states.push_back(parseTrackState(before));
+  }
+  states.push_back(parseTrackState(text.substr(arrow + 3)));
+}
+
+// The pose products and truths of the recording, with the DFPCs' track states and step times.
+Status readRecording(io::Replay& replay, RecordingContents& out) {
   while (replay.next()) {
     const io::ReplayMessage& m = replay.message();
     const std::string& channel = m.channel();
@@ -105,39 +118,104 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     if (channel == "/cdff/events") {
       Result<std::shared_ptr<const nlohmann::json>> e = m.decode<nlohmann::json>();
       if (!e) return e.status();
-      const nlohmann::json& j = **e;
-      if (j.value("type", "") != "track_state_changed") continue;
-      const std::string text = j.value("message", "");
-      const std::size_t arrow = text.find("-> ");
-      if (arrow == std::string::npos) continue;
-      std::vector<std::optional<TrackState>>& states = track_states[j.value("dfpc", "")];
-      if (states.empty()) {
-        std::string before = text.substr(0, arrow);
-        while (!before.empty() && before.back() == ' ') before.pop_back();
-        states.push_back(parseTrackState(before));
-      }
-      states.push_back(parseTrackState(text.substr(arrow + 3)));
+      addTrackStateChange(**e, out.track_states);
     } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
-      step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
+      out.step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
     } else if (isPoseType(m.type()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
       const bool is_truth = dfpc.empty();
       Result<DecodedPose> decoded = decodePose(m);
       if (!decoded) return decoded.status();
-      Series& s = (is_truth ? truths : products)[channel];
+      Series& s = (is_truth ? out.truths : out.products)[channel];
       s.type = std::string(m.type().name());
       s.poses.push_back(decoded->pose);
       s.covariances.push_back(decoded->covariance);
       if (!is_truth) {
-        const auto states = track_states.find(dfpc);
-        s.changes_before.push_back(states == track_states.end() ? 0 : states->second.size() - 1);
+        const auto states = out.track_states.find(dfpc);
+        s.changes_before.push_back(states == out.track_states.end() ? 0
+                                                                    : states->second.size() - 1);
       }
     }
   }
+  return Status::ok();
+}
+
+// The truth channel to measure `product` (on `channel`) against: the one --pair names, else the
+// one of the same transform; "" (with a note) when there is none.
+Result<std::string> truthChannelFor(const std::string& channel, const Series& product,
+                                    const std::map<std::string, Series>& truths,
+                                    const RecordingEvaluationOptions& options,
+                                    RecordingEvaluationNotes* notes) {
+  if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
+    if (!truths.count(p->second))
+      return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
+                      p->second, p->second, listChannels(truths));
+    return p->second;
+  }
+  std::vector<std::string> candidates;
+  for (const auto& [name, t] : truths)
+    if (framesOf(t) == framesOf(product)) candidates.push_back(name);
+  if (candidates.empty()) {
+    addNote(notes,
+            fmt::format("{} ({}): no truth channel of the same transform; truth channels: {}",
+                        channel, framesOf(product), listChannels(truths)));
+    return std::string();
+  }
+  std::string truth_channel = candidates.front();
+  // Several: the documented preference, or the first by name and the user is told.
+  if (candidates.size() > 1) {
+    if (std::find(candidates.begin(), candidates.end(), "/truth/target_pose") != candidates.end())
+      truth_channel = "/truth/target_pose";
+    else
+      addNote(notes,
+              fmt::format("{}: {} truth channels hold {}; measured against {} (--pair chooses)",
+                          channel, candidates.size(), framesOf(product), truth_channel));
+  }
+  return truth_channel;
+}
+
+// The product's poses as estimates, in stamp order: not valid where not finite or while its
+// DFPC's track was not tracking (`states`); with the latency of the step that made them.
+std::vector<EstimateSample> estimatesOf(const Series& product,
+                                        const std::vector<std::optional<TrackState>>& states,
+                                        const std::map<Timestamp, double>& walls) {
+  std::vector<EstimateSample> estimates;
+  estimates.reserve(product.poses.size());
+  for (std::size_t i = 0; i < product.poses.size(); ++i) {
+    const Transform& pose = product.poses[i];
+    EstimateSample e;
+    e.pose = pose;
+    e.covariance = product.covariances[i];
+    e.valid = isFinite(pose);
+    if (!states.empty()) {
+      // A state this version does not know (an older recording's) is taken as tracked.
+      const std::optional<TrackState>& state = states[product.changes_before[i]];
+      if (state && !isTracked(*state)) e.valid = false;
+    }
+    if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
+    estimates.push_back(e);
+  }
+  std::stable_sort(estimates.begin(), estimates.end(),
+                   [](const auto& a, const auto& b) { return a.pose.stamp < b.pose.stamp; });
+  return estimates;
+}
+
+}  // namespace
+
+Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths,
+                                           const RecordingEvaluationOptions& options,
+                                           RecordingEvaluationNotes* notes) {
+  io::Replay replay;
+  CDFF_RETURN_IF_ERROR(replay.open(paths));
+  RecordingContents contents;
+  CDFF_RETURN_IF_ERROR(readRecording(replay, contents));
+  auto& [products, truths, track_states, step_wall_s] = contents;
+  const std::set<std::string> wanted(options.products.begin(), options.products.end());
   // A damaged recording is evaluated up to the damage, and says so.
   if (Status s = replay.status(); !s.isOk())
-    note(fmt::format("the recording is damaged; evaluated up to the damage: {}", s.message()));
+    addNote(notes,
+            fmt::format("the recording is damaged; evaluated up to the damage: {}", s.message()));
 
   for (const std::string& w : wanted)
     if (!products.count(w))
@@ -162,64 +240,21 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   report.input = fmt::format("{}", fmt::join(paths, ", "));
   report.statistic = toString(options.statistic);
   for (auto& [channel, product] : products) {
-    // Which truth.
-    std::string truth_channel;
-    if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
-      if (!truths.count(p->second))
-        return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
-                        p->second, p->second, listChannels(truths));
-      truth_channel = p->second;
-    } else {
-      std::vector<std::string> candidates;
-      for (const auto& [name, t] : truths)
-        if (framesOf(t) == framesOf(product)) candidates.push_back(name);
-      if (candidates.empty()) {
-        note(fmt::format("{} ({}): no truth channel of the same transform; truth channels: {}",
-                         channel, framesOf(product), listChannels(truths)));
-        continue;
-      }
-      truth_channel = candidates.front();
-      // Several: the documented preference, or the first by name and the user is told.
-      if (candidates.size() > 1) {
-        if (std::find(candidates.begin(), candidates.end(), "/truth/target_pose") !=
-            candidates.end())
-          truth_channel = "/truth/target_pose";
-        else
-          note(fmt::format("{}: {} truth channels hold {}; measured against {} (--pair chooses)",
-                           channel, candidates.size(), framesOf(product), truth_channel));
-      }
-    }
-
+    Result<std::string> truth_channel = truthChannelFor(channel, product, truths, options, notes);
+    if (!truth_channel) return truth_channel.status();
+    if (truth_channel->empty()) continue;
     const std::string dfpc = dfpcOf(channel);
-    const auto& states = track_states[dfpc];
-    const auto& walls = step_wall_s[dfpc];
-    std::vector<EstimateSample> estimates;
-    estimates.reserve(product.poses.size());
-    for (std::size_t i = 0; i < product.poses.size(); ++i) {
-      const Transform& pose = product.poses[i];
-      EstimateSample e;
-      e.pose = pose;
-      e.covariance = product.covariances[i];
-      e.valid = isFinite(pose);
-      if (!states.empty()) {
-        // A state this version does not know (an older recording's) is taken as tracked.
-        const std::optional<TrackState>& state = states[product.changes_before[i]];
-        if (state && !isTracked(*state)) e.valid = false;
-      }
-      if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
-      estimates.push_back(e);
-    }
-    std::stable_sort(estimates.begin(), estimates.end(),
-                     [](const auto& a, const auto& b) { return a.pose.stamp < b.pose.stamp; });
-    std::vector<Transform> truth = truths[truth_channel].poses;
+    const std::vector<EstimateSample> estimates =
+        estimatesOf(product, track_states[dfpc], step_wall_s[dfpc]);
+    std::vector<Transform> truth = truths[*truth_channel].poses;
     std::stable_sort(truth.begin(), truth.end(),
                      [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
     Result<PoseEvaluation> evaluation = evaluatePoses(estimates, truth, options.pose);
     if (!evaluation)
       return evaluation.status().withContext(
-          fmt::format("evaluating {} against {}", channel, truth_channel));
+          fmt::format("evaluating {} against {}", channel, *truth_channel));
     evaluation->channel = channel;
-    evaluation->truth_channel = truth_channel;
+    evaluation->truth_channel = *truth_channel;
     for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
       report.requirements.push_back(std::move(v));
     report.products.push_back(std::move(evaluation).value());

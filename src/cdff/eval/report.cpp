@@ -242,8 +242,10 @@ std::string toText(const EvaluationReport& report) {
   return text;
 }
 
-std::string toHtml(const EvaluationReport& report) {
-  std::string html = R"(<!DOCTYPE html>
+namespace {
+
+// The page's head: title and style sheet.
+constexpr const char* kHtmlHead = R"(<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>CDFF evaluation</title>
 <style>
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; }
@@ -258,6 +260,79 @@ th:first-child, td:first-child { text-align: left; }
 .plot .point { fill: #1f77b4; } .plot .threshold { stroke: #d62728; stroke-dasharray: 5 4; }
 </style></head><body>
 )";
+
+// One product's summary: its truth and rates, its error statistics.
+std::string productHtml(const PoseEvaluation& p) {
+  std::string html;
+  html += fmt::format(
+      "<h2>{}</h2><p>Truth: <code>{}</code> ({}_T_{}). {} frames, {} valid, "
+      "{} matched with truth; tracked {:.1f} %; rate {} Hz (worst {} Hz).</p>\n",
+      escapeHtml(p.channel), escapeHtml(p.truth_channel), escapeHtml(p.parent_frame),
+      escapeHtml(p.child_frame), p.frames, p.valid_frames, p.matched_frames,
+      100.0 * p.tracked_fraction, formatValue(p.rate_hz, "{:.3g}"),
+      formatValue(p.min_rate_hz, "{:.3g}"));
+  html += "<table><tr><th>error</th><th>RMSE</th><th>p95</th><th>max</th></tr>\n";
+  const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
+    html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", name,
+                        formatValue(s.rmse * scale), formatValue(s.p95 * scale),
+                        formatValue(s.max * scale));
+  };
+  row("position [mm]", p.position_error_m, 1e3);
+  row("position [% of range]", p.position_error_pct_range, 1.0);
+  row("angle [deg]", p.angle_error_deg, 1.0);
+  if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
+  html += "</table>\n";
+  if (const std::string c = consistencyText(p.covariance); !c.empty())
+    html += fmt::format("<p>The product's {}.</p>\n", escapeHtml(c));
+  return html;
+}
+
+// One product's plots: errors over time and over range, NEES.
+std::string productPlotsHtml(const PoseEvaluation& p) {
+  std::string html;
+  Series position, angle, percent_by_range, nees;
+  const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
+  for (const MatchedError& e : p.errors) {
+    const double t = toSeconds(e.stamp - t0);
+    position.x.push_back(t);
+    position.y.push_back(e.position_error_m);
+    angle.x.push_back(t);
+    angle.y.push_back(e.angle_error_deg);
+    if (std::isfinite(e.nees)) {
+      nees.x.push_back(t);
+      nees.y.push_back(e.nees);
+    }
+    if (e.range_m > 0) {
+      percent_by_range.x.push_back(e.range_m);
+      percent_by_range.y.push_back(100.0 * e.position_error_m / e.range_m);
+    }
+  }
+  // The requirement line only when one threshold holds over the whole plotted span.
+  const double range_lo = p.min_range_m, range_hi = p.max_range_m;
+  const auto oneThreshold = [&](const std::string& quantity) {
+    const double a = thresholdFor(quantity, range_lo);
+    const double b = thresholdFor(quantity, range_hi);
+    return a == b ? a : NAN;
+  };
+  html += "<div>";
+  html += svgPlot("Position error over time", "time since first estimate [s]", "position error [m]",
+                  position, oneThreshold("position_error_m"));
+  html += svgPlot("Angle error over time", "time since first estimate [s]", "angle error [deg]",
+                  angle, oneThreshold("angle_error_deg"));
+  html += svgPlot("Position error over range", "true range [m]", "position error [% of range]",
+                  percent_by_range, NAN, false);
+  if (!nees.x.empty())
+    html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
+                    "time since first estimate [s]", "NEES (6 dof)", nees,
+                    CovarianceConsistency::kChiSquare6Dof95);
+  html += "</div>\n";
+  return html;
+}
+
+}  // namespace
+
+std::string toHtml(const EvaluationReport& report) {
+  std::string html = kHtmlHead;
   html += fmt::format(
       "<h1>CDFF evaluation</h1><p>Input: <code>{}</code>. Verdicts use the {} of "
       "the errors in each requirement's range band.</p>\n",
@@ -277,63 +352,8 @@ th:first-child, td:first-child { text-align: left; }
   html += "</table>\n";
 
   for (const PoseEvaluation& p : report.products) {
-    html += fmt::format(
-        "<h2>{}</h2><p>Truth: <code>{}</code> ({}_T_{}). {} frames, {} valid, "
-        "{} matched with truth; tracked {:.1f} %; rate {} Hz (worst {} Hz).</p>\n",
-        escapeHtml(p.channel), escapeHtml(p.truth_channel), escapeHtml(p.parent_frame),
-        escapeHtml(p.child_frame), p.frames, p.valid_frames, p.matched_frames,
-        100.0 * p.tracked_fraction, formatValue(p.rate_hz, "{:.3g}"),
-        formatValue(p.min_rate_hz, "{:.3g}"));
-    html += "<table><tr><th>error</th><th>RMSE</th><th>p95</th><th>max</th></tr>\n";
-    const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
-      html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", name,
-                          formatValue(s.rmse * scale), formatValue(s.p95 * scale),
-                          formatValue(s.max * scale));
-    };
-    row("position [mm]", p.position_error_m, 1e3);
-    row("position [% of range]", p.position_error_pct_range, 1.0);
-    row("angle [deg]", p.angle_error_deg, 1.0);
-    if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
-    html += "</table>\n";
-    if (const std::string c = consistencyText(p.covariance); !c.empty())
-      html += fmt::format("<p>The product's {}.</p>\n", escapeHtml(c));
-
-    Series position, angle, percent_by_range, nees;
-    const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
-    for (const MatchedError& e : p.errors) {
-      const double t = toSeconds(e.stamp - t0);
-      position.x.push_back(t);
-      position.y.push_back(e.position_error_m);
-      angle.x.push_back(t);
-      angle.y.push_back(e.angle_error_deg);
-      if (std::isfinite(e.nees)) {
-        nees.x.push_back(t);
-        nees.y.push_back(e.nees);
-      }
-      if (e.range_m > 0) {
-        percent_by_range.x.push_back(e.range_m);
-        percent_by_range.y.push_back(100.0 * e.position_error_m / e.range_m);
-      }
-    }
-    // The requirement line only when one threshold holds over the whole plotted span.
-    const double range_lo = p.min_range_m, range_hi = p.max_range_m;
-    const auto oneThreshold = [&](const std::string& quantity) {
-      const double a = thresholdFor(quantity, range_lo);
-      const double b = thresholdFor(quantity, range_hi);
-      return a == b ? a : NAN;
-    };
-    html += "<div>";
-    html += svgPlot("Position error over time", "time since first estimate [s]",
-                    "position error [m]", position, oneThreshold("position_error_m"));
-    html += svgPlot("Angle error over time", "time since first estimate [s]", "angle error [deg]",
-                    angle, oneThreshold("angle_error_deg"));
-    html += svgPlot("Position error over range", "true range [m]", "position error [% of range]",
-                    percent_by_range, NAN, false);
-    if (!nees.x.empty())
-      html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
-                      "time since first estimate [s]", "NEES (6 dof)", nees,
-                      CovarianceConsistency::kChiSquare6Dof95);
-    html += "</div>\n";
+    html += productHtml(p);
+    html += productPlotsHtml(p);
   }
   html += "</body></html>\n";
   return html;

@@ -282,6 +282,9 @@ struct McapWriter::Impl {
     channel_in_chunk[channel.id - 1] = generation;
   }
 
+  // The summary section (from byte offset summary_start), its summary offsets and the footer.
+  ByteVector summary(std::uint64_t summary_start) const;
+
   Status check() const {
     if (fd < 0) return {StatusCode::kInvalidInput, "MCAP writer is not open"};
     return error;
@@ -510,99 +513,7 @@ Status McapWriter::close() {
     status = w.writeParts({Bytes(b)}, false);
   }
   if (status.isOk()) {
-    const std::uint64_t summary_start = w.position;
-    ByteVector s;
-    struct Group {
-      std::uint8_t opcode;
-      std::uint64_t start, length;
-    };
-    std::vector<Group> groups;
-    auto group = [&](std::uint8_t opcode, std::size_t begin) {
-      if (s.size() > begin) groups.push_back({opcode, summary_start + begin, s.size() - begin});
-    };
-    std::size_t begin = s.size();
-    for (const Schema& schema : w.schemas) putSchema(s, schema);
-    group(kSchema, begin);
-    begin = s.size();
-    for (const Channel& channel : w.channels) putChannel(s, channel);
-    group(kChannel, begin);
-
-    begin = s.size();
-    std::size_t at = beginRecord(s, kStatistics);
-    putU64(s, w.stats.message_count);
-    putU16(s, w.stats.schema_count);
-    putU32(s, w.stats.channel_count);
-    putU32(s, w.stats.attachment_count);
-    putU32(s, w.stats.metadata_count);
-    putU32(s, w.stats.chunk_count);
-    putU64(s, w.stats.message_start_time);
-    putU64(s, w.stats.message_end_time);
-    putU32(s, static_cast<std::uint32_t>(w.stats.channel_message_counts.size() * 10));
-    for (const auto& [id, count] : w.stats.channel_message_counts) {
-      putU16(s, id);
-      putU64(s, count);
-    }
-    endRecord(s, at);
-    group(kStatistics, begin);
-
-    begin = s.size();
-    for (const ChunkIndexRecord& c : w.chunk_indexes) {
-      at = beginRecord(s, kChunkIndex);
-      putU64(s, c.start);
-      putU64(s, c.end);
-      putU64(s, c.offset);
-      putU64(s, c.length);
-      putU32(s, static_cast<std::uint32_t>(c.message_index_offsets.size() * 10));
-      for (const auto& [id, offset] : c.message_index_offsets) {
-        putU16(s, id);
-        putU64(s, offset);
-      }
-      putU64(s, c.message_index_length);
-      putString(s, mcapName(c.compression));
-      putU64(s, c.compressed_size);
-      putU64(s, c.uncompressed_size);
-      endRecord(s, at);
-    }
-    group(kChunkIndex, begin);
-
-    begin = s.size();
-    for (const AttachmentInfo& a : w.attachment_indexes) {
-      at = beginRecord(s, kAttachmentIndex);
-      putU64(s, a.offset);
-      putU64(s, a.length);
-      putU64(s, a.log_time);
-      putU64(s, a.create_time);
-      putU64(s, a.data_size);
-      putString(s, a.name);
-      putString(s, a.media_type);
-      endRecord(s, at);
-    }
-    group(kAttachmentIndex, begin);
-
-    begin = s.size();
-    for (const MetadataInfo& m : w.metadata_indexes) {
-      at = beginRecord(s, kMetadataIndex);
-      putU64(s, m.offset);
-      putU64(s, m.length);
-      putString(s, m.name);
-      endRecord(s, at);
-    }
-    group(kMetadataIndex, begin);
-
-    const std::uint64_t summary_offset_start = summary_start + s.size();
-    for (const Group& g : groups) {
-      at = beginRecord(s, kSummaryOffset);
-      putU8(s, g.opcode);
-      putU64(s, g.start);
-      putU64(s, g.length);
-      endRecord(s, at);
-    }
-    s.push_back(kFooter);
-    putU64(s, kFooterContent);
-    putU64(s, summary_start);
-    putU64(s, summary_offset_start);
-    putU32(s, crc32(s));
-    putBytes(s, kMagic, sizeof(kMagic));
+    const ByteVector s = w.summary(w.position);
     status = w.writeParts({Bytes(s)}, false);
   }
   if (status.isOk() && w.options.sync_each_chunk && ::fsync(w.fd) != 0)
@@ -612,6 +523,109 @@ Status McapWriter::close() {
   w.fd = -1;
   if (!status.isOk()) (void)w.fail(status);
   return status;
+}
+
+namespace {
+
+void putStatistics(ByteVector& s, const Statistics& stats) {
+  const std::size_t at = beginRecord(s, kStatistics);
+  putU64(s, stats.message_count);
+  putU16(s, stats.schema_count);
+  putU32(s, stats.channel_count);
+  putU32(s, stats.attachment_count);
+  putU32(s, stats.metadata_count);
+  putU32(s, stats.chunk_count);
+  putU64(s, stats.message_start_time);
+  putU64(s, stats.message_end_time);
+  putU32(s, static_cast<std::uint32_t>(stats.channel_message_counts.size() * 10));
+  for (const auto& [id, count] : stats.channel_message_counts) {
+    putU16(s, id);
+    putU64(s, count);
+  }
+  endRecord(s, at);
+}
+
+void putChunkIndex(ByteVector& s, const ChunkIndexRecord& c) {
+  const std::size_t at = beginRecord(s, kChunkIndex);
+  putU64(s, c.start);
+  putU64(s, c.end);
+  putU64(s, c.offset);
+  putU64(s, c.length);
+  putU32(s, static_cast<std::uint32_t>(c.message_index_offsets.size() * 10));
+  for (const auto& [id, offset] : c.message_index_offsets) {
+    putU16(s, id);
+    putU64(s, offset);
+  }
+  putU64(s, c.message_index_length);
+  putString(s, mcapName(c.compression));
+  putU64(s, c.compressed_size);
+  putU64(s, c.uncompressed_size);
+  endRecord(s, at);
+}
+
+void putAttachmentIndex(ByteVector& s, const AttachmentInfo& a) {
+  const std::size_t at = beginRecord(s, kAttachmentIndex);
+  putU64(s, a.offset);
+  putU64(s, a.length);
+  putU64(s, a.log_time);
+  putU64(s, a.create_time);
+  putU64(s, a.data_size);
+  putString(s, a.name);
+  putString(s, a.media_type);
+  endRecord(s, at);
+}
+
+void putMetadataIndex(ByteVector& s, const MetadataInfo& m) {
+  const std::size_t at = beginRecord(s, kMetadataIndex);
+  putU64(s, m.offset);
+  putU64(s, m.length);
+  putString(s, m.name);
+  endRecord(s, at);
+}
+
+}  // namespace
+
+ByteVector McapWriter::Impl::summary(std::uint64_t summary_start) const {
+  ByteVector s;
+  struct Group {
+    std::uint8_t opcode;
+    std::uint64_t start, length;
+  };
+  std::vector<Group> groups;
+  std::size_t begin = 0;
+  // Ends the group of records of `opcode` that started at `begin` (none: no group).
+  auto group = [&](std::uint8_t opcode) {
+    if (s.size() > begin) groups.push_back({opcode, summary_start + begin, s.size() - begin});
+    begin = s.size();
+  };
+  for (const Schema& schema : schemas) putSchema(s, schema);
+  group(kSchema);
+  for (const Channel& channel : channels) putChannel(s, channel);
+  group(kChannel);
+  putStatistics(s, stats);
+  group(kStatistics);
+  for (const ChunkIndexRecord& c : chunk_indexes) putChunkIndex(s, c);
+  group(kChunkIndex);
+  for (const AttachmentInfo& a : attachment_indexes) putAttachmentIndex(s, a);
+  group(kAttachmentIndex);
+  for (const MetadataInfo& m : metadata_indexes) putMetadataIndex(s, m);
+  group(kMetadataIndex);
+
+  const std::uint64_t summary_offset_start = summary_start + s.size();
+  for (const Group& g : groups) {
+    const std::size_t at = beginRecord(s, kSummaryOffset);
+    putU8(s, g.opcode);
+    putU64(s, g.start);
+    putU64(s, g.length);
+    endRecord(s, at);
+  }
+  s.push_back(kFooter);
+  putU64(s, kFooterContent);
+  putU64(s, summary_start);
+  putU64(s, summary_offset_start);
+  putU32(s, crc32(s));
+  putBytes(s, kMagic, sizeof(kMagic));
+  return s;
 }
 
 const Statistics& McapWriter::statistics() const {
