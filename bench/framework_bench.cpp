@@ -55,7 +55,7 @@ void BM_ImageThrough10TypeErasedPorts(benchmark::State& state) {
     for (int i = 0; i < kHops; ++i) {
       InputPortBase& in = *inputs[i];
       const OutputPortBase& out = *outputs[i];
-      benchmark::DoNotOptimize(in.setAny(out.anyValue(), out.type()));
+      benchmark::DoNotOptimize(in.setAny(out.anyValue()));
       if (i + 1 < kHops) outputs[i + 1]->set(inputs[i]->shared());
     }
     benchmark::DoNotOptimize(inputs.back()->get());

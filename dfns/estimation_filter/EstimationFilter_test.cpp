@@ -194,7 +194,7 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   const RigidBodyState s0 = knownState();  // at 1 s
   ekf->in.initial_state.set(s0);
   ASSERT_OK(ekf->process());
-  EXPECT_EQ(*ekf->out.track_state, "ACQUIRING");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kAcquiring);
   // While acquiring, a measurement far from the initial state re-initialises the pose (no gate)
   // and keeps the twist.
   PoseWithCovariance z;
@@ -205,22 +205,22 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   ekf->in.pose_measurement.set(z);
   ASSERT_OK(ekf->process());
   EXPECT_TRUE(*ekf->out.measurement_accepted);
-  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kTracking);
   EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
   EXPECT_EQ(ekf->out.state->twist.linear, s0.twist.linear);
   // Predictions only: TRACKING for 1 s after the last fix, LOST after.
   ekf->in.time.set(Timestamp{2'100'000});
   ASSERT_OK(ekf->process());
-  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kTracking);
   ekf->in.time.set(Timestamp{2'150'000});
   ASSERT_OK(ekf->process());
-  EXPECT_EQ(*ekf->out.track_state, "LOST");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kLost);
   // Lost: a measurement far from the coasted prediction re-acquires, gate or not.
   z.pose.stamp = 2'200'000;
   z.pose.translation += Eigen::Vector3d(0, 2.0, 0);
   ekf->in.pose_measurement.set(z);
   ASSERT_OK(ekf->process());
-  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kTracking);
   EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
   // Tracking: the same jump is gated out again.
   z.pose.stamp = 2'300'000;
@@ -228,7 +228,7 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   ekf->in.pose_measurement.set(z);
   ASSERT_OK(ekf->process());
   EXPECT_FALSE(*ekf->out.measurement_accepted);
-  EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kTracking);
   // Without reacquire (the default), a lost filter keeps gating.
   auto plain = make(fmt::format("{{innovation_gate: {}, lost_after: 1.0}}", gate));
   plain->in.initial_state.set(s0);
@@ -237,7 +237,7 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   plain->in.pose_measurement.set(z);
   ASSERT_OK(plain->process());
   EXPECT_FALSE(*plain->out.measurement_accepted);
-  EXPECT_EQ(*plain->out.track_state, "ACQUIRING");
+  EXPECT_EQ(*plain->out.track_state, TrackState::kAcquiring);
 }
 
 TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost) {
@@ -268,12 +268,12 @@ TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost)
     ASSERT_OK(ekf->process());
     ekf->in.pose_measurement.set(fix);  // acquires: TRACKING
     ASSERT_OK(ekf->process());
-    ASSERT_EQ(*ekf->out.track_state, "TRACKING");
+    ASSERT_EQ(*ekf->out.track_state, TrackState::kTracking);
     for (int k = 1; k <= 3; ++k) {
       ekf->in.pose_measurement.set(elsewhere(1'050'000 + 100'000 * k));
       ASSERT_OK(ekf->process());
       EXPECT_FALSE(*ekf->out.measurement_accepted) << k;
-      EXPECT_EQ(*ekf->out.track_state, after > 0 && k == 3 ? "LOST" : "TRACKING") << k;
+      EXPECT_EQ(*ekf->out.track_state, after > 0 && k == 3 ? TrackState::kLost : TrackState::kTracking) << k;
     }
     if (after == 0) continue;
     // LOST: the next measurement re-acquires, and the count starts again.
@@ -281,7 +281,7 @@ TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost)
     ekf->in.pose_measurement.set(z);
     ASSERT_OK(ekf->process());
     EXPECT_TRUE(*ekf->out.measurement_accepted);
-    EXPECT_EQ(*ekf->out.track_state, "TRACKING");
+    EXPECT_EQ(*ekf->out.track_state, TrackState::kTracking);
     EXPECT_LT((ekf->out.state->pose.translation - z.pose.translation).norm(), 1e-12);
   }
   auto node = Registry::instance().create("EstimationFilter", "ExtendedKalman");

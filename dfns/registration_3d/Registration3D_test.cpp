@@ -141,11 +141,11 @@ TYPED_TEST(Registration3DTest, ACallWithoutAScanPreparesTheModelAndChangesNoOutp
   ASSERT_TRUE(icp->out.transform.hasValue());
   EXPECT_LT(testing::poseError(icp->out.transform->isometry(), truth).translation, 0.01);
 
-  const void* registered = icp->out.transform.anyValue().get();
+  const void* registered = icp->out.transform.anyValue().raw();
   icp->in.model.set(satelliteModel());
   icp->in.initial_guess.set(guessOf(truth));
   ASSERT_OK(icp->process());
-  EXPECT_EQ(icp->out.transform.anyValue().get(), registered);
+  EXPECT_EQ(icp->out.transform.anyValue().raw(), registered);
 
   // A bad model is still reported without a scan.
   PointCloud bare = satelliteModel();

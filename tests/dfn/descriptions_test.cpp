@@ -118,29 +118,35 @@ TEST(Descriptions, EveryDfnAreaHasAUnitTest) {
 }
 
 TEST(Descriptions, EveryPortTypeNameResolvesToTheRunningPortsType) {
-  // The DFPC layer checks connections and reads recordings by type name (findPortType); the name
+  // The DFPC layer checks connections and reads recordings by type name (findType); the name
   // must give the very type the generated ports hold.
   std::set<std::string_view> names;
-  for (const PortType& t : allPortTypes()) {
-    EXPECT_TRUE(names.insert(t.name).second) << "port type name " << t.name << " is used twice";
-    ASSERT_NE(findPortType(t.name), nullptr) << t.name;
-    EXPECT_EQ(*findPortType(t.name), t);
+  for (TypeId t : allTypes()) {
+    EXPECT_TRUE(names.insert(t.name()).second) << "type name " << t.name() << " is used twice";
+    EXPECT_EQ(findType(t.name()), t);
   }
-  EXPECT_EQ(findPortType("Imgae"), nullptr);
-  EXPECT_EQ(PortType().name, "none");
+  EXPECT_FALSE(findType("Imgae").valid());
+  EXPECT_EQ(TypeId().name(), "none");
   for (const DfnDescription* d : Registry::instance().descriptions()) {
     for (const auto& impl : d->implementations) {
       auto node = Registry::instance().create(d->name, impl.name);
       ASSERT_TRUE(node.isOk()) << node.status().toString();
       for (const InputPortBase* in : node.value()->inputs()) {
-        const PortType* t = findPortType(in->type().name);
-        ASSERT_NE(t, nullptr) << d->name << " input " << in->name();
-        EXPECT_EQ(*t, in->type()) << d->name << " input " << in->name();
+        EXPECT_EQ(findType(in->type().name()), in->type()) << d->name << " input " << in->name();
+        const PortSpec* spec = nullptr;
+        for (const PortSpec& p : d->inputs)
+          if (p.name == in->name()) spec = &p;
+        ASSERT_NE(spec, nullptr) << d->name << " input " << in->name();
+        EXPECT_EQ(spec->type, in->type().name()) << d->name << " input " << in->name();
       }
       for (const OutputPortBase* out : node.value()->outputs()) {
-        const PortType* t = findPortType(out->type().name);
-        ASSERT_NE(t, nullptr) << d->name << " output " << out->name();
-        EXPECT_EQ(*t, out->type()) << d->name << " output " << out->name();
+        EXPECT_EQ(findType(out->type().name()), out->type())
+            << d->name << " output " << out->name();
+        const PortSpec* spec = nullptr;
+        for (const PortSpec& p : d->outputs)
+          if (p.name == out->name()) spec = &p;
+        ASSERT_NE(spec, nullptr) << d->name << " output " << out->name();
+        EXPECT_EQ(spec->type, out->type().name()) << d->name << " output " << out->name();
       }
     }
   }

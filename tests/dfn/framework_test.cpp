@@ -221,13 +221,13 @@ TEST(Ports, TypeErasedAccessChecksTheType) {
   auto probe = makeProbe();
   InputPortBase* value = probe->findInput("value");
   ASSERT_NE(value, nullptr);
-  EXPECT_EQ(value->type().name, "Double");
-  Status s = value->setAny(std::make_shared<const int>(3), PortType::of<int>());
+  EXPECT_EQ(value->type().name(), "Double");
+  Status s = value->setAny(Value::of(3));
   EXPECT_EQ(s.code(), StatusCode::kInvalidInput);
   EXPECT_NE(s.message().find("port 'value' has type Double; got a value of type Int"),
             std::string::npos)
       << s.message();
-  ASSERT_OK(value->setAny(std::make_shared<const double>(4.0), PortType::of<double>()));
+  ASSERT_OK(value->setAny(Value::of(4.0)));
   EXPECT_TRUE(value->isFresh());
   ASSERT_OK(probe->process());
   EXPECT_DOUBLE_EQ(*probe->out.result, 8.0);

@@ -262,7 +262,7 @@ TEST(Activation, DetectorWakesOnLossAndSleepsWhileTracking) {
                                         {EventType::kActivated, fromSeconds(7)},
                                         {EventType::kDeactivated, fromSeconds(9)}}));
   const DfpcStatus status = o->status("visual_tracking").value();
-  EXPECT_EQ(status.track_state, "TRACKING");
+  EXPECT_EQ(status.track_state, TrackState::kTracking);
   const InstanceStatus& detector = status.instances[0];
   EXPECT_EQ(detector.name, "detector");
   EXPECT_EQ(detector.calls, 4u);  // frames 0, 4, 7, 8

@@ -204,7 +204,7 @@ TEST(Faults, ADivergenceFlagIsRecoveredByLosingTheTrackAndWakingTheDetector) {
   EXPECT_EQ(detector, (Timeline{{EventType::kDeactivated, fromSeconds(1)},
                                 {EventType::kActivated, fromSeconds(4)},
                                 {EventType::kDeactivated, fromSeconds(5)}}));
-  EXPECT_EQ(o->status("tracking")->track_state, "TRACKING");
+  EXPECT_EQ(o->status("tracking")->track_state, TrackState::kTracking);
 }
 
 TEST(Faults, NoProductForTooLongIsAFaultInStreamTime) {
@@ -249,7 +249,7 @@ nodes:
   detector:
     dfn: ProbeDetector
     dfi: Oracle
-    active_when: track_state == NEVER
+    active_when: track_state == DEGRADED  # never: no track state is declared
   tracker:
     dfn: ProbeTracker
     dfi: Gated

@@ -163,7 +163,7 @@ TEST(RecordingRun, PoseFilteringFromOneRecordingIntoAnother) {
       *result->summary.last);
   EXPECT_EQ(result->dfpcs.at(0).state, DfpcState::kStopped);
   // The graph declares no track state, so none is reported.
-  EXPECT_TRUE(result->dfpcs.at(0).track_state.empty());
+  EXPECT_FALSE(result->dfpcs.at(0).track_state.has_value());
   EXPECT_EQ(o.events.size(), result->summary.events);
 }
 

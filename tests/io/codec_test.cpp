@@ -9,9 +9,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cdff/dfn/port.hpp"
-#include "cdff/io/codec.hpp"
+#include "cdff/types/codec/codec.hpp"
 #include "cdff/io/inspect.hpp"
-#include "cdff/io/protobuf.hpp"
+#include "cdff/types/codec/protobuf.hpp"
 #include "cdff/io/recorder.hpp"
 #include "cdff/io/replay.hpp"
 #include "samples.hpp"
@@ -20,6 +20,8 @@ namespace cdff::io {
 namespace {
 
 namespace fs = std::filesystem;
+namespace pb = ::cdff::codec::pb;
+using codec::Encoded;
 using testing::IoSamples;
 
 fs::path tempDir() {
@@ -121,9 +123,9 @@ void checkSamples(Replay& replay, const IoSamples& s, std::size_t* count = nullp
     ++n;
     SCOPED_TRACE(c);
     // Every channel decodes through the type-erased path to its type.
-    auto any = m.decode();
+    Result<Value> any = m.decode();
     ASSERT_TRUE(any.isOk()) << any.status().toString();
-    EXPECT_EQ(any->type_name, m.cdffType());
+    EXPECT_EQ(any->type(), m.type());
     if (c == "/chaser/camera/left/image") {
       expectSame(*m.decode<Image>().value(), s.image_mono);
       EXPECT_NE(any->as<Image>(), nullptr);
@@ -292,30 +294,12 @@ INSTANTIATE_TEST_SUITE_P(Compressions, CodecRoundTrip,
                                            Compression::kZstd),
                          [](const auto& info) { return std::string(toString(info.param)); });
 
-TEST(Codec, TypeNamesAreThoseOfTheDfnPorts) {
-  EXPECT_EQ(TypeName<Image>::value, dfn::PortTypeName<Image>::value);
-  EXPECT_EQ(TypeName<StereoImagePair>::value, dfn::PortTypeName<StereoImagePair>::value);
-  EXPECT_EQ(TypeName<DepthMap>::value, dfn::PortTypeName<DepthMap>::value);
-  EXPECT_EQ(TypeName<CameraModel>::value, dfn::PortTypeName<CameraModel>::value);
-  EXPECT_EQ(TypeName<PointCloud>::value, dfn::PortTypeName<PointCloud>::value);
-  EXPECT_EQ(TypeName<Transform>::value, dfn::PortTypeName<Transform>::value);
-  EXPECT_EQ(TypeName<PoseWithCovariance>::value, dfn::PortTypeName<PoseWithCovariance>::value);
-  EXPECT_EQ(TypeName<RigidBodyState>::value, dfn::PortTypeName<RigidBodyState>::value);
-  EXPECT_EQ(TypeName<ImuSample>::value, dfn::PortTypeName<ImuSample>::value);
-  EXPECT_EQ(TypeName<Wrench>::value, dfn::PortTypeName<Wrench>::value);
-  EXPECT_EQ(TypeName<JointState>::value, dfn::PortTypeName<JointState>::value);
-  EXPECT_EQ(TypeName<Features2D>::value, dfn::PortTypeName<Features2D>::value);
-  EXPECT_EQ(TypeName<Features3D>::value, dfn::PortTypeName<Features3D>::value);
-  EXPECT_EQ(TypeName<Matches>::value, dfn::PortTypeName<Matches>::value);
-  EXPECT_EQ(TypeName<Correspondences2D>::value, dfn::PortTypeName<Correspondences2D>::value);
-  EXPECT_EQ(TypeName<Correspondences3D>::value, dfn::PortTypeName<Correspondences3D>::value);
-  EXPECT_EQ(TypeName<Correspondences2D3D>::value, dfn::PortTypeName<Correspondences2D3D>::value);
-  EXPECT_EQ(TypeName<TriangleMesh>::value, dfn::PortTypeName<TriangleMesh>::value);
-  EXPECT_EQ(TypeName<double>::value, dfn::PortTypeName<double>::value);
-  EXPECT_EQ(TypeName<bool>::value, dfn::PortTypeName<bool>::value);
-  EXPECT_EQ(TypeName<int>::value, dfn::PortTypeName<int>::value);
-  EXPECT_EQ(TypeName<Timestamp>::value, dfn::PortTypeName<Timestamp>::value);
-  EXPECT_EQ(TypeName<std::string>::value, dfn::PortTypeName<std::string>::value);
+TEST(Codec, RecordedTypesAreTheRegistrysTypes) {
+  // A channel's type is found in the registry by the name its metadata records, the name the
+  // DFN ports use: every name finds its own entry, and a port's type is that entry.
+  for (TypeId t : allTypes()) EXPECT_EQ(findType(t.name()), t) << t.name();
+  EXPECT_EQ(dfn::InputPort<PointCloud>("cloud").type(), findType("PointCloud"));
+  EXPECT_FALSE(findType("Imgae").valid());
 }
 
 TEST(Recorder, ScalarsRoundTripWithTheirPortTypes) {
@@ -323,13 +307,16 @@ TEST(Recorder, ScalarsRoundTripWithTheirPortTypes) {
   {
     Recorder rec;
     ASSERT_TRUE(rec.open(path).isOk());
-    ASSERT_TRUE(rec.writeScalar("/nis", 3.25, 10).isOk());
-    ASSERT_TRUE(rec.writeScalar("/nis", std::nan(""), 20).isOk());
-    ASSERT_TRUE(rec.writeScalar("/ok", true, 10).isOk());
-    ASSERT_TRUE(rec.writeScalar("/count", 42, 10).isOk());
-    ASSERT_TRUE(rec.writeScalar("/time", Timestamp{1234567890123}, 10).isOk());
-    ASSERT_TRUE(rec.writeScalar("/status", std::string("TRACKING"), 10).isOk());
-    EXPECT_EQ(rec.writeScalar("/status", 1.0, 11).code(), StatusCode::kInvalidInput);
+    ASSERT_TRUE(rec.write("/nis", 3.25, 10).isOk());
+    ASSERT_TRUE(rec.write("/nis", std::nan(""), 20).isOk());
+    ASSERT_TRUE(rec.write("/ok", true, 10).isOk());
+    ASSERT_TRUE(rec.write("/count", 42, 10).isOk());
+    ASSERT_TRUE(rec.write("/time", Timestamp{1234567890123}, 10).isOk());
+    ASSERT_TRUE(rec.write("/status", std::string("TRACKING"), 10).isOk());
+    ASSERT_TRUE(rec.write("/state", TrackState::kDegraded, 10).isOk());
+    const Status wrong = rec.write("/status", 1.0, 11);
+    EXPECT_EQ(wrong.code(), StatusCode::kInvalidInput);
+    EXPECT_NE(wrong.message().find("String"), std::string::npos) << wrong.message();
     ASSERT_TRUE(rec.close().isOk());
   }
   Replay replay;
@@ -337,9 +324,9 @@ TEST(Recorder, ScalarsRoundTripWithTheirPortTypes) {
   std::vector<std::string> seen;
   while (replay.next()) {
     const ReplayMessage& m = replay.message();
-    Result<AnyValue> any = m.decode();
+    Result<Value> any = m.decode();
     ASSERT_TRUE(any.isOk()) << any.status().toString();
-    EXPECT_EQ(any->type_name, m.cdffType());
+    EXPECT_EQ(any->type(), m.type());
     if (m.channel() == "/nis") {
       const double v = *any->as<double>();
       EXPECT_TRUE(m.logTime() == 10 ? v == 3.25 : std::isnan(v)) << v;
@@ -349,28 +336,29 @@ TEST(Recorder, ScalarsRoundTripWithTheirPortTypes) {
       EXPECT_EQ(*any->as<int>(), 42);
     } else if (m.channel() == "/time") {
       EXPECT_EQ(*any->as<Timestamp>(), 1234567890123);
+    } else if (m.channel() == "/state") {
+      EXPECT_EQ(*any->as<TrackState>(), TrackState::kDegraded);
     } else {
       EXPECT_EQ(*any->as<std::string>(), "TRACKING");
     }
-    seen.push_back(std::string(m.cdffType()));
+    seen.push_back(std::string(m.type().name()));
   }
   EXPECT_TRUE(replay.status().isOk());
-  EXPECT_EQ(seen.size(), 6u);
+  EXPECT_EQ(seen.size(), 7u);
 }
 
 TEST(Codec, DecodedValuesFeedPortsThroughTheTypeErasedPath) {
   const IoSamples s = testing::makeIoSamples(1, 5);
   Encoded e;
-  ASSERT_TRUE(encode(s.cloud, e).isOk());
-  std::vector<std::uint8_t> flat;
-  for (Bytes p : e.parts()) flat.insert(flat.end(), p.begin(), p.end());
-  auto any = decodeAny("PointCloud", flat, nullptr);
+  ASSERT_TRUE(codec::encode(s.cloud, 5, e).isOk());
+  const std::vector<std::uint8_t> flat = e.flatten();
+  Result<Value> any = TypeId::of<PointCloud>().info().decode(flat, nullptr);
   ASSERT_TRUE(any.isOk());
   dfn::InputPort<PointCloud> port("cloud");
-  ASSERT_TRUE(port.setAny(any->value, dfn::PortType{any->type, any->type_name}).isOk());
+  ASSERT_TRUE(port.setAny(*any).isOk());
   EXPECT_EQ(port.get()->size(), s.cloud.size());
   dfn::InputPort<Image> wrong("image");
-  EXPECT_FALSE(wrong.setAny(any->value, dfn::PortType{any->type, any->type_name}).isOk());
+  EXPECT_FALSE(wrong.setAny(*any).isOk());
 }
 
 TEST(Codec, ImagePixelsAreSharedWithTheChunkNotCopied) {
@@ -396,10 +384,9 @@ TEST(Codec, ImagePixelsAreSharedWithTheChunkNotCopied) {
 }
 
 TEST(Codec, EmbeddedDescriptorsParseBackWithFoxgloveFieldNumbers) {
-  const TypeFormat* image = formatOf("Image");
-  ASSERT_NE(image, nullptr);
-  EXPECT_EQ(image->schema_name, "foxglove.RawImage");
-  auto pool = pb::DescriptorPool::parse(image->schema_data);
+  const TypeInfo& image = TypeId::of<Image>().info();
+  EXPECT_EQ(image.schema_name, "foxglove.RawImage");
+  auto pool = pb::DescriptorPool::parse(image.schemaData());
   ASSERT_TRUE(pool.isOk()) << pool.status().toString();
   const pb::MessageDef* raw = pool->message("foxglove.RawImage");
   ASSERT_NE(raw, nullptr);
@@ -411,7 +398,7 @@ TEST(Codec, EmbeddedDescriptorsParseBackWithFoxgloveFieldNumbers) {
   ASSERT_NE(pool->message("foxglove.CameraCalibration"), nullptr);
   EXPECT_EQ(raw->file, "foxglove/RawImage.proto");
 
-  auto scene = pb::DescriptorPool::parse(formatOf("TriangleMesh")->schema_data);
+  auto scene = pb::DescriptorPool::parse(TypeId::of<TriangleMesh>().info().schemaData());
   ASSERT_TRUE(scene.isOk());
   for (const char* name :
        {"foxglove.SceneUpdate", "foxglove.SceneEntity", "foxglove.ArrowPrimitive",
@@ -420,16 +407,17 @@ TEST(Codec, EmbeddedDescriptorsParseBackWithFoxgloveFieldNumbers) {
   EXPECT_NE(scene->enumType("foxglove.LinePrimitive.Type"), nullptr);
   EXPECT_EQ(scene->message("foxglove.SceneEntity")->field(12)->name, "triangles");
 
-  for (const TypeFormat& f : allFormats()) {
-    ASSERT_FALSE(f.schema_data.empty()) << f.cdff_type;
-    if (f.schema_encoding == "protobuf") {
-      auto p = pb::DescriptorPool::parse(f.schema_data);
-      ASSERT_TRUE(p.isOk()) << f.cdff_type;
-      EXPECT_NE(p->message(f.schema_name), nullptr) << f.cdff_type;
+  for (TypeId t : allTypes()) {
+    const TypeInfo& f = t.info();
+    const Bytes data = f.schemaData();
+    ASSERT_FALSE(data.empty()) << f.name;
+    if (f.schemaEncoding() == "protobuf") {
+      auto p = pb::DescriptorPool::parse(data);
+      ASSERT_TRUE(p.isOk()) << f.name;
+      EXPECT_NE(p->message(f.schema_name), nullptr) << f.name;
     } else {
-      const auto j =
-          nlohmann::json::parse(f.schema_data.begin(), f.schema_data.end(), nullptr, false);
-      ASSERT_FALSE(j.is_discarded()) << f.cdff_type;
+      const auto j = nlohmann::json::parse(data.begin(), data.end(), nullptr, false);
+      ASSERT_FALSE(j.is_discarded()) << f.name;
       EXPECT_EQ(j["title"], f.schema_name);
     }
   }
@@ -438,33 +426,29 @@ TEST(Codec, EmbeddedDescriptorsParseBackWithFoxgloveFieldNumbers) {
 TEST(Codec, MalformedMessagesAreRefusedWithTheFieldAndOffset) {
   const IoSamples s = testing::makeIoSamples(0, 10);
   Encoded e;
-  ASSERT_TRUE(encode(s.image_mono, e).isOk());
-  std::vector<std::uint8_t> flat;
-  for (Bytes p : e.parts()) flat.insert(flat.end(), p.begin(), p.end());
+  ASSERT_TRUE(codec::encode(s.image_mono, 10, e).isOk());
+  const std::vector<std::uint8_t> flat = e.flatten();
   // Cut inside the pixel data.
   std::vector<std::uint8_t> cut(flat.begin(), flat.end() - 10);
   Image image;
-  Status st = decode(cut, nullptr, image);
+  Status st = codec::decode(cut, nullptr, image);
   EXPECT_EQ(st.code(), StatusCode::kCorruptData);
   EXPECT_NE(st.message().find("foxglove.RawImage"), std::string::npos) << st.message();
   EXPECT_NE(st.message().find("byte offset"), std::string::npos) << st.message();
   // Every truncation of every type fails cleanly or decodes; nothing crashes.
-  for (const char* type : {"Image", "PointCloud", "TriangleMesh", "Features2D", "ImuSample",
-                           "PoseWithCovariance", "StereoImagePair"}) {
+  const std::vector<Value> values = {Value::of(s.image_mono), Value::of(s.cloud),
+                                     Value::of(s.mesh),       Value::of(s.features2d),
+                                     Value::of(s.imu),        Value::of(s.pose),
+                                     Value::of(s.stereo)};
+  for (const Value& v : values) {
+    const TypeInfo& type = v.type().info();
     Encoded enc;
-    if (std::string_view(type) == "Image") (void)encode(s.image_mono, enc);
-    if (std::string_view(type) == "PointCloud") (void)encode(s.cloud, enc);
-    if (std::string_view(type) == "TriangleMesh") (void)encode(s.mesh, enc);
-    if (std::string_view(type) == "Features2D") (void)encode(s.features2d, enc);
-    if (std::string_view(type) == "ImuSample") (void)encode(s.imu, enc);
-    if (std::string_view(type) == "PoseWithCovariance") (void)encode(s.pose, enc);
-    if (std::string_view(type) == "StereoImagePair") (void)encode(s.stereo, enc);
-    std::vector<std::uint8_t> bytes;
-    for (Bytes p : enc.parts()) bytes.insert(bytes.end(), p.begin(), p.end());
+    ASSERT_TRUE(type.encode(v.raw(), 10, enc).isOk()) << type.name;
+    const std::vector<std::uint8_t> bytes = enc.flatten();
     for (std::size_t n = 0; n < bytes.size(); n += 1 + bytes.size() / 97) {
-      auto r = decodeAny(type, Bytes(bytes.data(), n), nullptr);
+      Result<Value> r = type.decode(Bytes(bytes.data(), n), nullptr);
       if (!r.isOk()) {
-        EXPECT_EQ(r.status().code(), StatusCode::kCorruptData) << type << " " << n;
+        EXPECT_EQ(r.status().code(), StatusCode::kCorruptData) << type.name << " " << n;
       }
     }
   }

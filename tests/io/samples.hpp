@@ -6,7 +6,7 @@
 #include <string>
 
 #include <nlohmann/json.hpp>
-#include "cdff/io/codec.hpp"
+#include "cdff/types/codec/codec.hpp"
 
 #include "cdff/io/recorder.hpp"
 
@@ -17,7 +17,7 @@ struct IoSamples {
   Image image_bgr;     // 8UC3 without camera
   Image image_float;   // 32FC1
   CameraModel camera;  // also inside image_mono
-  io::CompressedImage compressed;
+  CompressedImage compressed;
   StereoImagePair stereo;
   DepthMap depth_m;      // 32FC1, metres
   DepthMap depth_mm;     // 16UC1, millimetres
@@ -26,7 +26,7 @@ struct IoSamples {
   Transform transform;
   PoseWithCovariance pose;
   RigidBodyState state;
-  io::PoseArray trajectory;
+  PoseArray trajectory;
   TriangleMesh mesh;
   Features2D features2d;
   Features3D features3d;

@@ -162,7 +162,7 @@ std::vector<std::pair<Transform, std::string>> posesWithTrackState(const Trackin
     if (m.channel == "/cdff/lidar_tracking/pose")
       if (const RigidBodyState* s = m.as<RigidBodyState>()) poses.push_back(s->pose);
     if (m.channel == "/cdff/lidar_tracking/track_state")
-      if (const std::string* s = m.as<std::string>()) states.push_back(*s);
+      if (const TrackState* s = m.as<TrackState>()) states.push_back(std::string(toString(*s)));
   }
   std::vector<std::pair<Transform, std::string>> out;
   for (std::size_t i = 0; i < std::min(poses.size(), states.size()); ++i)
@@ -283,7 +283,7 @@ TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
   // The track_state product follows, and tracking after re-acquisition meets the targets.
   std::size_t lost_products = 0;
   for (const dfpc::Message& m : r->products)
-    if (m.channel == "/cdff/lidar_tracking/track_state" && *m.as<std::string>() == "LOST")
+    if (m.channel == "/cdff/lidar_tracking/track_state" && *m.as<TrackState>() == TrackState::kLost)
       ++lost_products;
   EXPECT_GE(lost_products, 30u);
   const auto [pct, angle] = p95After(*r, back.front() + fromSeconds(kSettle));

@@ -30,13 +30,13 @@ std::unique_ptr<T> makeDfn(const std::string& dfn, const std::string& dfi,
 inline void expectRejected(dfn::Node& node, const std::string& fragment,
                            StatusCode code = StatusCode::kInvalidInput) {
   std::vector<const void*> before;
-  for (const dfn::OutputPortBase* out : node.outputs()) before.push_back(out->anyValue().get());
+  for (const dfn::OutputPortBase* out : node.outputs()) before.push_back(out->anyValue().raw());
   const Status s = node.process();
   EXPECT_EQ(s.code(), code) << s.toString();
   EXPECT_NE(s.message().find(fragment), std::string::npos)
       << "'" << fragment << "' not in: " << s.message();
   for (std::size_t i = 0; i < before.size(); ++i)
-    EXPECT_EQ(node.outputs()[i]->anyValue().get(), before[i])
+    EXPECT_EQ(node.outputs()[i]->anyValue().raw(), before[i])
         << "output '" << node.outputs()[i]->name() << "' changed by a rejected call";
 }
 

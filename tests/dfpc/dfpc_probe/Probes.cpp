@@ -54,19 +54,19 @@ class ProbeTrackerGated final : public ProbeTrackerGatedBase {
     if (in.measurement.isFresh()) {
       const double m = *in.measurement;
       if (!initialised_) {
-        out.status.set(std::string("UNINITIALISED"));
+        out.status.set(TrackState::kUninitialised);
         return Status::ok();
       }
       if (!std::isfinite(m) || std::abs(m - estimate_) > params_.gate) {
         initialised_ = false;
-        out.status.set(std::string("LOST"));
+        out.status.set(TrackState::kLost);
         return Status::ok();
       }
       estimate_ = m;
     }
     if (initialised_) {
       out.estimate.set(estimate_);
-      out.status.set(std::string("TRACKING"));
+      out.status.set(TrackState::kTracking);
     }
     return Status::ok();
   }
