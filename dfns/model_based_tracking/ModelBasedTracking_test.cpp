@@ -298,7 +298,9 @@ TEST(ModelBasedTracking, ChainsWithTheEstimationFilter) {
     // The filter's first prediction carries an unknown velocity: its spread in the image exceeds
     // the search, so frame 1 is an acquisition, DEGRADED (ACQUIRING) until frame 2 confirms it.
     EXPECT_EQ(*tracker->out.status, dark ? kLost : k == 1 ? kDegraded : kTracking);
-    if (k == 1) EXPECT_EQ(*tracker->out.track_state, TrackState::kAcquiring);
+    if (k == 1) {
+      EXPECT_EQ(*tracker->out.track_state, TrackState::kAcquiring);
+    }
     if (*tracker->out.status == kLost) continue;  // the DFPC's gate
     connect(tracker->findOutput("pose"), filter->findInput("pose_measurement"));
     ASSERT_OK(filter->process());

@@ -93,7 +93,7 @@ Status readDefault(RawParameter& raw) {
   ParameterSpec& p = raw.spec;
   const Field& f = raw.default_field;
   p.default_text = f.text();
-  const schema::Range range{p.min ? *p.min : -HUGE_VAL, p.max ? *p.max : HUGE_VAL};
+  const schema::Range range = schema::Range::closed(p.min ? *p.min : -HUGE_VAL, p.max ? *p.max : HUGE_VAL);
   switch (p.type) {
     case ParameterType::kBool: {
       bool v = false;

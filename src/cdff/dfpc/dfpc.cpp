@@ -48,199 +48,6 @@ const char* toString(DfpcState state) {
 Dfpc::Dfpc(GraphSpec spec) : spec_(std::move(spec)) {}
 Dfpc::~Dfpc() = default;
 
-Result<std::unique_ptr<Dfpc>> Dfpc::create(GraphSpec spec) {
-  std::vector<Status> problems = checkGraph(spec);
-  if (!problems.empty()) {
-    std::vector<std::string> lines;
-    for (const Status& s : problems) lines.push_back(s.message());
-    return Status(problems.front().code(), fmt::format("{}", fmt::join(lines, "\n")));
-  }
-  std::unique_ptr<Dfpc> dfpc(new Dfpc(std::move(spec)));
-  CDFF_RETURN_IF_ERROR(dfpc->build());
-  return dfpc;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Construction
-
-Status Dfpc::createNode(Instance& inst, const std::string& dfi, const YAML::Node& parameters,
-                        const std::string& source, std::unique_ptr<dfn::Node>& out) const {
-  Result<std::unique_ptr<dfn::Node>> node = dfn::Registry::instance().create(inst.spec->dfn, dfi);
-  if (!node)
-    return node.status().withContext("instance '" + inst.spec->name + "'").at(inst.spec->at());
-  node.value()->setName(spec_.name + "." + inst.spec->name);
-  Status configured = node.value()->configure(parameters, source);
-  if (!configured)  // a parameter's own location (its line) stays first, else the instance's
-    return configured
-        .withContext(fmt::format("instance '{}' ({}/{})", inst.spec->name, inst.spec->dfn, dfi))
-        .at(inst.spec->at("parameters"));
-  out = std::move(node).value();
-  return Status::ok();
-}
-
-Result<Dfpc::BoundCondition> Dfpc::bindCondition(const std::string& text,
-                                                 const SourceLocation& at) const {
-  Result<Condition> parsed = Condition::parse(text, at);
-  if (!parsed) return parsed.status();
-  BoundCondition b{std::move(parsed).value(), {}};
-  std::vector<TypeId> types;
-  for (const Condition::Ref& r : b.condition.refs()) {
-    if (r.instance.empty()) {
-      b.refs.emplace_back(-1, -1);
-      types.push_back(TypeId::of<TrackState>());
-      continue;
-    }
-    const std::size_t n = index_.at(r.instance);
-    const dfn::Node& node = *instances_[n].node;
-    const auto& outs = node.outputs();
-    std::size_t o = 0;
-    while (o < outs.size() && outs[o]->name() != r.port) ++o;
-    if (o == outs.size())
-      return Status(StatusCode::kNotFound, fmt::format("no output '{}'", r.text()), at);
-    b.refs.emplace_back(static_cast<int>(n), static_cast<int>(o));
-    types.push_back(outs[o]->type());
-  }
-  CDFF_RETURN_IF_ERROR(b.condition.bind(types, at));
-  return b;
-}
-
-Status Dfpc::build() {
-  // Topological order of the instances over connections without delay (stable: declaration
-  // order among independent instances). checkGraph() has ruled out cycles.
-  const std::size_t count = spec_.instances.size();
-  std::map<std::string, std::size_t> declared;
-  for (std::size_t i = 0; i < count; ++i) declared[spec_.instances[i].name] = i;
-  std::vector<std::set<std::size_t>> successors(count);
-  std::vector<int> indegree(count, 0);
-  for (const ConnectionSpec& c : spec_.connections) {
-    if (c.delay || c.from.isDfpcPort() || c.to.isDfpcPort()) continue;
-    const std::size_t a = declared.at(c.from.instance), b = declared.at(c.to.instance);
-    if (successors[a].insert(b).second) ++indegree[b];
-  }
-  std::vector<std::size_t> order;
-  std::vector<bool> placed(count, false);
-  while (order.size() < count) {
-    std::size_t next = kNone;
-    for (std::size_t i = 0; i < count && next == kNone; ++i)
-      if (!placed[i] && indegree[i] == 0) next = i;
-    if (next == kNone) return Status(StatusCode::kInternal, "cycle left in a checked graph");
-    placed[next] = true;
-    order.push_back(next);
-    for (std::size_t s : successors[next]) --indegree[s];
-  }
-
-  instances_.resize(count);
-  for (std::size_t k = 0; k < count; ++k) {
-    Instance& inst = instances_[k];
-    inst.spec = &spec_.instances[order[k]];
-    inst.dfi = inst.spec->dfi;
-    index_[inst.spec->name] = k;
-    CDFF_RETURN_IF_ERROR(
-        createNode(inst, inst.dfi, inst.spec->parameters, inst.spec->parameters_source, inst.node));
-    if (inst.spec->fallback) {  // configure the fallback once now, so its parameters are checked
-      std::unique_ptr<dfn::Node> probe;
-      CDFF_RETURN_IF_ERROR(createNode(inst, inst.spec->fallback->dfi,
-                                      inst.spec->fallback->parameters,
-                                      inst.spec->fallback->parameters_source, probe));
-    }
-    inst.inputs.resize(inst.node->inputs().size());
-    inst.outputs.resize(inst.node->outputs().size());
-    inst.before.resize(inst.node->outputs().size());
-  }
-
-  auto inputOf = [](const dfn::Node& node, const std::string& port) {
-    for (std::size_t i = 0; i < node.inputs().size(); ++i)
-      if (node.inputs()[i]->name() == port) return i;
-    return kNone;
-  };
-  auto outputOf = [](const dfn::Node& node, const std::string& port) {
-    for (std::size_t i = 0; i < node.outputs().size(); ++i)
-      if (node.outputs()[i]->name() == port) return i;
-    return kNone;
-  };
-
-  input_edges_.resize(spec_.inputs.size());
-  for (const DfpcInputSpec& in : spec_.inputs) input_types_.push_back(findType(in.type));
-  outputs_.resize(spec_.outputs.size());
-  for (std::size_t o = 0; o < spec_.outputs.size(); ++o) {
-    outputs_[o].type = findType(spec_.outputs[o].type);
-    has_watchdog_ = has_watchdog_ || spec_.outputs[o].timeout_s > 0;
-  }
-
-  std::vector<std::vector<bool>> fed_without_delay(count);
-  for (std::size_t k = 0; k < count; ++k)
-    fed_without_delay[k].assign(instances_[k].inputs.size(), false);
-  for (const ConnectionSpec& c : spec_.connections) {
-    if (c.to.isDfpcPort()) {  // instance output -> DFPC output
-      const std::size_t n = index_.at(c.from.instance);
-      const std::size_t o = outputOf(*instances_[n].node, c.from.port);
-      for (std::size_t d = 0; d < spec_.outputs.size(); ++d)
-        if (spec_.outputs[d].name == c.to.port) instances_[n].outputs[o].dfpc_outputs.push_back(d);
-      continue;
-    }
-    const std::size_t target = index_.at(c.to.instance);
-    const Edge edge{target, inputOf(*instances_[target].node, c.to.port), c.delay > 0};
-    if (!edge.delayed) fed_without_delay[target][edge.input] = true;
-    if (c.from.isDfpcPort()) {
-      for (std::size_t i = 0; i < spec_.inputs.size(); ++i)
-        if (spec_.inputs[i].name == c.from.port) input_edges_[i].push_back(edge);
-    } else {
-      const std::size_t n = index_.at(c.from.instance);
-      instances_[n].outputs[outputOf(*instances_[n].node, c.from.port)].edges.push_back(edge);
-    }
-  }
-  if (spec_.track_state && !spec_.track_state->from.port.empty()) {
-    const std::size_t n = index_.at(spec_.track_state->from.instance);
-    const std::size_t o = outputOf(*instances_[n].node, spec_.track_state->from.port);
-    instances_[n].outputs[o].feeds_track_state = true;
-    track_state_source_ = std::make_pair(n, o);
-  }
-
-  for (std::size_t k = 0; k < count; ++k) {
-    Instance& inst = instances_[k];
-    const TriggerSpec& t = inst.spec->trigger;
-    for (std::size_t i = 0; i < inst.inputs.size(); ++i) {
-      const std::string& port = inst.node->inputs()[i]->name();
-      inst.inputs[i].trigger = t.on_given ? std::count(t.on.begin(), t.on.end(), port) > 0
-                                          : static_cast<bool>(fed_without_delay[k][i]);
-    }
-    if (t.sync != SyncPolicy::kNone) {
-      has_sync_ = true;
-      for (const std::string& port : t.on) {
-        const std::size_t i = inputOf(*inst.node, port);
-        inst.inputs[i].sync = static_cast<int>(inst.sync_inputs.size());
-        inst.sync_inputs.push_back(i);
-      }
-      inst.queues.resize(inst.sync_inputs.size());
-      inst.tolerance = t.sync == SyncPolicy::kNearest ? fromSeconds(t.tolerance_s) : 0;
-      inst.queue_limit = static_cast<std::size_t>(t.queue);
-    }
-    if (t.period_s > 0) {
-      has_periodic_ = true;
-      inst.period = std::max<Timestamp>(fromSeconds(t.period_s), 1);
-      if (!t.time_input.empty())
-        inst.time_input = static_cast<int>(inputOf(*inst.node, t.time_input));
-    }
-  }
-  // Conditions last: they refer to instances by index.
-  for (Instance& inst : instances_) {
-    auto bind = [&](const std::string& text, const char* field,
-                    std::optional<BoundCondition>& out) -> Status {
-      if (text.empty()) return Status::ok();
-      Result<BoundCondition> b = bindCondition(text, inst.spec->at(field));
-      if (!b) return b.status();
-      out = std::move(b).value();
-      return Status::ok();
-    };
-    CDFF_RETURN_IF_ERROR(bind(inst.spec->active_when, "active_when", inst.active_when));
-    CDFF_RETURN_IF_ERROR(bind(inst.spec->diverged_when, "diverged_when", inst.diverged_when));
-    CDFF_RETURN_IF_ERROR(bind(inst.spec->trigger.tick_when, "tick_when", inst.tick_when));
-  }
-  clearRuntime();
-  first_pending_ = instances_.size();
-  return Status::ok();
-}
-
 void Dfpc::clearRuntime() {
   for (Instance& inst : instances_) {
     for (auto& q : inst.queues) q.clear();
@@ -403,42 +210,19 @@ void Dfpc::runNode(std::size_t n) {
   Instance& inst = instances_[n];
   dfn::Node& node = *inst.node;
   const Timestamp stamp = inst.pending_stamp;
-
-  if (inst.active_when) {
-    const bool active = inst.woken || evaluate(*inst.active_when);
-    if (active != inst.active) {
-      inst.active = active;
-      emit(active ? EventType::kActivated : EventType::kDeactivated, inst.spec->name,
-           fmt::format("{} '{}'",
-                       active ? (inst.woken ? "woken" : "condition holds")
-                              : "asleep: condition does not hold",
-                       inst.spec->active_when));
-    }
-    if (!active) {
-      for (dfn::InputPortBase* in : node.inputs()) in->markConsumed();
-      ++inst.skipped;
-      return;
-    }
+  if (!updateActivation(inst)) {
+    for (dfn::InputPortBase* in : node.inputs()) in->markConsumed();
+    ++inst.skipped;
+    return;
   }
 
   const auto& outs = node.outputs();
   for (std::size_t o = 0; o < outs.size(); ++o) inst.before[o] = outs[o]->anyValue().raw();
-
   const Timestamp t0 = execution_clock_ ? execution_clock_->now() : 0;
   const Status status = node.process();
   const dfn::Diagnostics& d = node.diagnostics();
   const double wall = execution_clock_ ? toSeconds(execution_clock_->now() - t0) : d.last_wall_s;
-
-  if (timing_enabled_ && observer_)
-    observer_->onTiming({stamp, spec_.name, inst.spec->name, inst.spec->dfn, inst.dfi, wall,
-                         d.last_cpu_s, status.code()});
-  if (d.warning_count != inst.warnings_seen) {
-    const std::uint64_t fresh = d.warning_count - inst.warnings_seen;
-    const std::size_t kept = d.warnings.size();
-    for (std::size_t i = kept - std::min<std::size_t>(kept, fresh); i < kept; ++i)
-      emit(EventType::kDfnWarning, inst.spec->name, d.warnings[i]);
-    inst.warnings_seen = d.warning_count;
-  }
+  reportRun(inst, stamp, wall, status.code());
 
   auto recoveryFor = [&](FaultKind kind) -> const RecoverySpec* {
     auto it = inst.spec->on_fault.find(kind);
@@ -456,7 +240,47 @@ void Dfpc::runNode(std::size_t n) {
     return;
   }
   inst.woken = false;  // a woken instance has done its run; its condition governs again
+  passOutputs(inst, stamp);
+  if (inst.spec->budget_s > 0 && wall > inst.spec->budget_s) {
+    fault(
+        n, FaultKind::kOverBudget,
+        fmt::format("call took {:.3f} ms; budget {:.3f} ms", wall * 1e3, inst.spec->budget_s * 1e3),
+        recoveryFor(FaultKind::kOverBudget));
+    return;
+  }
+  inst.consecutive = {};
+}
 
+bool Dfpc::updateActivation(Instance& inst) {
+  if (!inst.active_when) return true;
+  const bool active = inst.woken || evaluate(*inst.active_when);
+  if (active != inst.active) {
+    inst.active = active;
+    emit(active ? EventType::kActivated : EventType::kDeactivated, inst.spec->name,
+         fmt::format("{} '{}'",
+                     active ? (inst.woken ? "woken" : "condition holds")
+                            : "asleep: condition does not hold",
+                     inst.spec->active_when));
+  }
+  return active;
+}
+
+void Dfpc::reportRun(Instance& inst, Timestamp stamp, double wall, StatusCode code) {
+  const dfn::Diagnostics& d = inst.node->diagnostics();
+  if (timing_enabled_ && observer_)
+    observer_->onTiming(
+        {stamp, spec_.name, inst.spec->name, inst.spec->dfn, inst.dfi, wall, d.last_cpu_s, code});
+  if (d.warning_count != inst.warnings_seen) {
+    const std::uint64_t fresh = d.warning_count - inst.warnings_seen;
+    const std::size_t kept = d.warnings.size();
+    for (std::size_t i = kept - std::min<std::size_t>(kept, fresh); i < kept; ++i)
+      emit(EventType::kDfnWarning, inst.spec->name, d.warnings[i]);
+    inst.warnings_seen = d.warning_count;
+  }
+}
+
+void Dfpc::passOutputs(Instance& inst, Timestamp stamp) {
+  const auto& outs = inst.node->outputs();
   for (std::size_t o = 0; o < outs.size(); ++o) {
     const Value& value = outs[o]->anyValue();
     if (value.raw() == inst.before[o] || value.empty()) continue;
@@ -475,15 +299,6 @@ void Dfpc::runNode(std::size_t n) {
     }
     if (slot.feeds_track_state) setTrackState(*value.get<TrackState>());
   }
-
-  if (inst.spec->budget_s > 0 && wall > inst.spec->budget_s) {
-    fault(
-        n, FaultKind::kOverBudget,
-        fmt::format("call took {:.3f} ms; budget {:.3f} ms", wall * 1e3, inst.spec->budget_s * 1e3),
-        recoveryFor(FaultKind::kOverBudget));
-    return;
-  }
-  inst.consecutive = {};
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -178,6 +178,13 @@ class Dfpc {
 
   explicit Dfpc(GraphSpec spec);
   Status build();
+  Result<std::vector<std::size_t>> executionOrder() const;
+  Status createInstances(const std::vector<std::size_t>& order);
+  /// Wires connections into instance slots; returns, per instance input, whether a connection
+  /// without delay feeds it (such inputs trigger by default).
+  std::vector<std::vector<bool>> connectPorts();
+  void configureTriggers(const std::vector<std::vector<bool>>& fed_without_delay);
+  Status bindConditions();
   Status createNode(Instance& inst, const std::string& dfi, const YAML::Node& parameters,
                     const std::string& source, std::unique_ptr<dfn::Node>& out) const;
   Result<BoundCondition> bindCondition(const std::string& text, const SourceLocation& at) const;
@@ -189,6 +196,12 @@ class Dfpc {
   void markPending(std::size_t n, Timestamp stamp);
   void runPending();
   void runNode(std::size_t n);
+  /// Evaluates an instance's active_when (reporting a change); false when it sleeps.
+  bool updateActivation(Instance& inst);
+  /// The run's timing record and the DFN's new warnings.
+  void reportRun(Instance& inst, Timestamp stamp, double wall_s, StatusCode code);
+  /// Passes the outputs the run set to their connections, the DFPC outputs and the track state.
+  void passOutputs(Instance& inst, Timestamp stamp);
   void pushSync(std::size_t n, int queue, const Value& value, Timestamp stamp);
   void trySync(std::size_t n, Timestamp now, bool final);
   void dropSync(std::size_t n, int queue, Timestamp stamp, const char* why);
