@@ -1,7 +1,8 @@
-// cdff demo: the end-to-end job that `make demo` runs.
+// cdff demo: the foundation DFNs end to end (`make demo` runs the tracking chains instead,
+// scripts/demo.sh).
 //
-// Until the tracking chains exist, the demo runs every foundation DFN on synthetic data with
-// known ground truth and reports how well each did and what it cost:
+// The demo runs every foundation DFN on synthetic data with known ground truth and reports how
+// well each did and what it cost:
 //  1. a camera chain: a textured scene seen by a distorted 1624x1234 camera (the seed's
 //     Prosilica GC1600H with a 6 mm lens) from two viewpoints related by a known homography ->
 //     ImageUndistortion -> EdgeDetection, FeaturesExtraction2D -> FeaturesMatching2D, checked

@@ -644,8 +644,8 @@ std::vector<SensorConfig> defaultSensors() {
   radar.rate = 1.0;
   radar.servicer_T_mount = mountAt({0.45, 0.0, 0.0});
   sensors.push_back(radar);
-  // Off by default: recordings without it stay as they were; the LIDAR tracking DFPC uses it
-  // when present.
+  // Off by default: a scenario's recording (and its digest) changes only when the scenario
+  // enables it; the LIDAR tracking DFPC uses it when present.
   SensorConfig ahrs;
   ahrs.name = "ahrs";
   ahrs.type = SensorType::kAhrs;

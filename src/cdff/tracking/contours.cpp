@@ -202,8 +202,8 @@ Result<ModelContours> computeContours(const TrackingModel& model, const CameraMo
                          const Eigen::Vector3d& d) { in.clip(h.n.dot(p) - h.d, h.n.dot(d)); };
 
   // The occluders' image boxes and faces side by side: the box test rejects most edge-occluder
-  // pairs, and scanning these compact arrays instead of the occluders themselves (their
-  // half-spaces in vectors) was most of the visibility determination's time.
+  // pairs, which makes it the visibility determination's inner loop, so it scans these compact
+  // arrays rather than the occluders themselves (whose half-spaces sit in vectors).
   struct OccluderBox {
     double x0, y0, x1, y1;
     std::int32_t face;
