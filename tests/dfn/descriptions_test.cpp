@@ -60,13 +60,13 @@ TEST(Descriptions, InstancesHaveTheDescribedPortsAndParameters) {
       ASSERT_EQ(n.inputs().size(), d->inputs.size());
       for (std::size_t i = 0; i < d->inputs.size(); ++i) {
         EXPECT_EQ(n.inputs()[i]->name(), d->inputs[i].name);
-        EXPECT_EQ(n.inputs()[i]->type().name, d->inputs[i].type);
+        EXPECT_EQ(n.inputs()[i]->type().name(), d->inputs[i].type);
         EXPECT_EQ(n.inputs()[i]->optional(), d->inputs[i].optional);
       }
       ASSERT_EQ(n.outputs().size(), d->outputs.size());
       for (std::size_t i = 0; i < d->outputs.size(); ++i) {
         EXPECT_EQ(n.outputs()[i]->name(), d->outputs[i].name);
-        EXPECT_EQ(n.outputs()[i]->type().name, d->outputs[i].type);
+        EXPECT_EQ(n.outputs()[i]->type().name(), d->outputs[i].type);
       }
       // The defaults written in the description are accepted by the code.
       EXPECT_OK(n.configureDefaults());

@@ -563,7 +563,7 @@ TEST(Replay, MergesFilesInTimeOrderAndSeeksByTimeAndChannel) {
   ASSERT_TRUE(replay.open({a, b}).isOk());
   EXPECT_EQ(replay.channels().size(), 2u);
   EXPECT_EQ(replay.channel("/chaser/imu")->message_count, 200u);
-  EXPECT_EQ(replay.channel("/truth/target_pose")->cdff_type, "PoseWithCovariance");
+  EXPECT_EQ(replay.channel("/truth/target_pose")->type, TypeId::of<PoseWithCovariance>());
   EXPECT_EQ(replay.startTime(), 1000);
   EXPECT_EQ(replay.endTime(), 200'000);
   Timestamp last = -1;

@@ -383,8 +383,8 @@ int checkFiles(const std::string& dir) {
         fail(any.status().toString());
         continue;
       }
-      if (any->type_name != e.at("cdff_type").get<std::string>()) {
-        fail(fmt::format("{} {}: decoded as {}, expected {}", path, m.channel(), any->type_name,
+      if (any->type().name() != e.at("cdff_type").get<std::string>()) {
+        fail(fmt::format("{} {}: decoded as {}, expected {}", path, m.channel(), any->type().name(),
                          e.at("cdff_type").get<std::string>()));
         continue;
       }
