@@ -40,6 +40,116 @@ bool sameIntrinsics(const visp_bridge::Intrinsics& a, const visp_bridge::Intrins
          a.cx == b.cx && a.cy == b.cy;
 }
 
+// ViSP's tracker needs at least one image, undistorted.
+Status checkCameras(const mbt::Cameras& cameras) {
+  if (cameras.frames.empty())
+    return invalidInput("no 'image' or 'stereo_images'; ViSP's tracker needs at least one image");
+  for (const tracking::CameraFrame& f : cameras.frames)
+    if (f.camera.hasDistortion())
+      return invalidInput(
+          "an image has {} distortion; expected undistorted images (run "
+          "ImageUndistortion first)",
+          toString(f.camera.distortion_model));
+  return Status::ok();
+}
+
+// The images handed to ViSP, one per camera. ViSP needs an image for every camera: a missing
+// frame becomes a black one, kept in `black`.
+struct ViewImages {
+  std::vector<Image> black;
+  std::vector<visp_bridge::GreyImage> grey;
+};
+
+ViewImages viewImages(const mbt::Cameras& cameras) {
+  ViewImages out;
+  for (const tracking::CameraFrame& f : cameras.frames) {
+    const Image* image = f.image;
+    if (!image) {
+      std::vector<std::uint8_t> zeros(static_cast<std::size_t>(f.camera.width) * f.camera.height,
+                                      0);
+      out.black.push_back(
+          Image::fromBytes(std::move(zeros), f.camera.width, f.camera.height, PixelFormat::kGray8)
+              .value());
+      image = &out.black.back();
+    }
+    out.grey.push_back({image->pixels.data(), image->width, image->height, image->stride_bytes});
+  }
+  return out;
+}
+
+// The depth map as ViSP takes it (metres per pixel, 0 where there is no measurement) and the
+// depth camera in the rig.
+struct DepthInput {
+  std::vector<float> metres;
+  int width = 0, height = 0;
+  visp_bridge::Camera camera;
+  visp_bridge::DepthImage image() const { return {metres.data(), width, height}; }
+};
+
+Result<DepthInput> depthInput(const DepthMap& depth, const Eigen::Isometry3d& depth_T_camera) {
+  CDFF_RETURN_IF_ERROR(depth.validate().withContext("input 'depth'"));
+  if (!depth.image.camera)
+    return invalidInput(
+        "input 'depth' has no camera model; expected the depth camera's "
+        "intrinsics with the image");
+  const Image& d = depth.image;
+  DepthInput out;
+  out.metres.resize(static_cast<std::size_t>(d.width) * d.height);
+  for (int v = 0; v < d.height; ++v)
+    for (int u = 0; u < d.width; ++u) {
+      const double z = d.format == PixelFormat::kFloat32
+                           ? d.at<float>(u, v) * depth.meters_per_unit
+                           : d.at<std::uint16_t>(u, v) * depth.meters_per_unit;
+      out.metres[static_cast<std::size_t>(v) * d.width + u] =
+          std::isfinite(z) && z > 0 ? static_cast<float>(z) : 0.0f;
+    }
+  out.width = d.width;
+  out.height = d.height;
+  out.camera.intrinsics = intrinsicsOf(*d.camera);
+  out.camera.camera_T_reference = toMatrix4(depth_T_camera);
+  return out;
+}
+
+// Whether the model's bounding sphere at `prediction` reaches in front of a camera's near
+// clipping plane: ViSP does not check it, and a prediction behind them all is a lost track
+// before ViSP sees it.
+struct Placement {
+  bool in_front = false;
+  double centre_z = 0;  // m, in the reference frame (for the message)
+  double radius = 0;    // m
+};
+
+Placement placeModel(const PolygonModel& model, const std::vector<tracking::CameraFrame>& frames,
+                     const Eigen::Isometry3d& prediction, double near_clipping) {
+  const Eigen::AlignedBox3d box = model.bounds();
+  Placement out;
+  out.radius = 0.5 * box.diagonal().norm();
+  for (const tracking::CameraFrame& f : frames)
+    out.in_front = out.in_front ||
+                   (f.camera_T_reference.isometry() * prediction * box.center()).z() + out.radius >
+                       near_clipping;
+  out.centre_z = (prediction * box.center()).z();
+  return out;
+}
+
+// ViSP's covariance of the estimate in the conventions' parent-frame perturbation. ViSP updates
+// cMo <- exp(v)^-1 cMo with the twist v = (nu, omega) of the camera: dt = -nu + [t]x omega,
+// dtheta = -omega. Not finite: zero.
+Matrix6d parentFrameCovariance(const std::array<double, 36>& visp,
+                               const Eigen::Isometry3d& estimate) {
+  Matrix6d visp_cov;
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) visp_cov(r, c) = visp[static_cast<std::size_t>(r * 6 + c)];
+  Matrix6d J = Matrix6d::Zero();
+  J.topLeftCorner<3, 3>() = -Eigen::Matrix3d::Identity();
+  J.topRightCorner<3, 3>() = skew(estimate.translation());
+  J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
+  Matrix6d covariance = J * visp_cov * J.transpose();
+  covariance = (0.5 * (covariance + covariance.transpose())).eval();
+  if (!covariance.allFinite()) covariance.setZero();
+  return covariance;
+}
+
 }  // namespace
 
 class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
@@ -104,98 +214,29 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     CDFF_RETURN_IF_ERROR((*model)->validate("model"));
     Result<mbt::Cameras> cameras = mbt::gatherCameras(in, predicted.pose.parent_frame);
     if (!cameras) return cameras.status();
-    if (cameras->frames.empty())
-      return invalidInput("no 'image' or 'stereo_images'; ViSP's tracker needs at least one image");
-    for (const tracking::CameraFrame& f : cameras->frames)
-      if (f.camera.hasDistortion())
-        return invalidInput(
-            "an image has {} distortion; expected undistorted images (run "
-            "ImageUndistortion first)",
-            toString(f.camera.distortion_model));
+    CDFF_RETURN_IF_ERROR(checkCameras(*cameras));
     if (wants_depth_ && !in.depth.hasValue())
       return invalidInput("mode '{}' needs the 'depth' input; expected a depth map", params_.mode);
 
-    // ViSP needs an image for every camera: a missing frame becomes a black one.
-    std::vector<Image> black;
-    std::vector<visp_bridge::GreyImage> images;
-    for (const tracking::CameraFrame& f : cameras->frames) {
-      const Image* image = f.image;
-      if (!image) {
-        std::vector<std::uint8_t> zeros(static_cast<std::size_t>(f.camera.width) * f.camera.height,
-                                        0);
-        black.push_back(
-            Image::fromBytes(std::move(zeros), f.camera.width, f.camera.height, PixelFormat::kGray8)
-                .value());
-        image = &black.back();
-        warn("a camera missed its frame: ViSP tracks on a black image in its place");
-      }
-      images.push_back({image->pixels.data(), image->width, image->height, image->stride_bytes});
-    }
-
-    std::vector<float> depth_metres;
-    visp_bridge::DepthImage depth_image;
-    visp_bridge::Camera depth_camera;
+    const ViewImages images = viewImages(*cameras);
+    for (std::size_t i = 0; i < images.black.size(); ++i)
+      warn("a camera missed its frame: ViSP tracks on a black image in its place");
+    DepthInput depth;
     if (wants_depth_) {
-      const DepthMap& depth = *in.depth;
-      CDFF_RETURN_IF_ERROR(depth.validate().withContext("input 'depth'"));
-      if (!depth.image.camera)
-        return invalidInput(
-            "input 'depth' has no camera model; expected the depth camera's "
-            "intrinsics with the image");
-      const Image& d = depth.image;
-      depth_metres.resize(static_cast<std::size_t>(d.width) * d.height);
-      for (int v = 0; v < d.height; ++v)
-        for (int u = 0; u < d.width; ++u) {
-          const double z = d.format == PixelFormat::kFloat32
-                               ? d.at<float>(u, v) * depth.meters_per_unit
-                               : d.at<std::uint16_t>(u, v) * depth.meters_per_unit;
-          depth_metres[static_cast<std::size_t>(v) * d.width + u] =
-              std::isfinite(z) && z > 0 ? static_cast<float>(z) : 0.0f;
-        }
-      depth_image = {depth_metres.data(), d.width, d.height};
-      depth_camera.intrinsics = intrinsicsOf(*d.camera);
-      depth_camera.camera_T_reference = toMatrix4(depth_T_camera_);
+      Result<DepthInput> read = depthInput(*in.depth, depth_T_camera_);
+      if (!read) return read.status();
+      depth = std::move(read).value();
     }
-
-    // (Re)build the ViSP tracker when the model or the rig changed.
-    Key key;
-    key.model = model->get();
-    for (const tracking::CameraFrame& f : cameras->frames)
-      key.cameras.push_back({intrinsicsOf(f.camera), toMatrix4(f.camera_T_reference.isometry())});
-    key.depth = wants_depth_;
-    if (wants_depth_) key.depth_camera = depth_camera;
-    if (model_changed || !configured_key_ || !configured_key_->same(key)) {
-      std::string path;
-      if (in.model.hasValue() || models_.file().empty()) {
-        Result<std::string> written = writeTemporaryModel(**model);
-        if (!written) return written.status();
-        path = *written;
-      } else {
-        path = models_.file();
-      }
-      const std::string error =
-          tracker_.configure(settings_, key.cameras, wants_depth_ ? &depth_camera : nullptr, path);
-      removeTemporaryModel();  // ViSP has read it
-      if (!error.empty())
-        return Status(StatusCode::kInvalidInput, fmt::format("model '{}': {}", path, error));
-      configured_key_ = key;
-    }
+    CDFF_RETURN_IF_ERROR(configureTracker(*model, model_changed, *cameras, depth.camera));
 
     const Eigen::Isometry3d prediction = predicted.pose.isometry();
-    // ViSP does not check that the model is in front of a camera: a prediction behind them all
-    // is a lost track before ViSP sees it.
-    const Eigen::AlignedBox3d box = (*model)->bounds();
-    const double radius = 0.5 * box.diagonal().norm();
-    bool in_front = false;
-    for (const tracking::CameraFrame& f : cameras->frames)
-      in_front =
-          in_front || (f.camera_T_reference.isometry() * prediction * box.center()).z() + radius >
-                          params_.near_clipping;
-    if (!in_front) {
+    const Placement placement =
+        placeModel(**model, cameras->frames, prediction, params_.near_clipping);
+    if (!placement.in_front) {
       warn(
           fmt::format("lost: the predicted pose puts the model behind the camera (centre at z = "
                       "{:.3f} m, radius {:.3f} m)",
-                      (prediction * box.center()).z(), radius));
+                      placement.centre_z, placement.radius));
       PoseWithCovariance lost = predicted;
       lost.covariance = tracking::noInformationCovariance();
       out.pose.set(std::move(lost));
@@ -204,57 +245,13 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       out.feature_count.set(0);
       return Status::ok();
     }
-    const Eigen::Isometry3d current = fromMatrix4(tracker_.pose());
-    const bool reseed =
-        !tracker_.hasPose() || (current.translation() - prediction.translation()).norm() > 1e-6 ||
-        Eigen::AngleAxisd(current.linear().transpose() * prediction.linear()).angle() > 1e-6;
-    if (reseed) {
-      const std::string error = tracker_.setPose(images, toMatrix4(prediction));
-      if (!error.empty()) return Status(StatusCode::kInvalidInput, error);
-    }
+    CDFF_RETURN_IF_ERROR(seed(images.grey, prediction));
 
     visp_bridge::TrackOutput result;
-    const std::string error = tracker_.track(images, wants_depth_ ? &depth_image : nullptr, result);
-    TrackingStatus status = TrackingStatus::kTracking;
-    PoseWithCovariance pose = predicted;
-    pose.covariance = tracking::noInformationCovariance();  // until an estimate replaces it
-    if (!error.empty()) {
-      status = TrackingStatus::kLost;
-      warn(fmt::format("lost: {}", error));
-      configured_key_.reset();  // start afresh from the next prediction
-    } else if (result.inlier_ratio < params_.min_inlier_ratio) {
-      status = TrackingStatus::kLost;
-      warn(fmt::format("lost: inlier ratio {:.2f} is below min_inlier_ratio {:.2f}",
-                       result.inlier_ratio, params_.min_inlier_ratio));
-    } else {
-      const Eigen::Isometry3d estimate = fromMatrix4(result.reference_T_model);
-      pose.pose = Transform::fromIsometry(estimate, predicted.pose.parent_frame,
-                                          predicted.pose.child_frame, predicted.pose.stamp);
-      for (const tracking::CameraFrame& f : cameras->frames)
-        if (f.image && f.image->stamp != 0) {
-          pose.pose.stamp = f.image->stamp;
-          break;
-        }
-      // ViSP updates cMo <- exp(v)^-1 cMo with the twist v = (nu, omega) of the camera:
-      // dt = -nu + [t]x omega, dtheta = -omega in the conventions' parent-frame perturbation.
-      Matrix6d visp_cov;
-      for (int r = 0; r < 6; ++r)
-        for (int c = 0; c < 6; ++c)
-          visp_cov(r, c) = result.covariance[static_cast<std::size_t>(r * 6 + c)];
-      Matrix6d J = Matrix6d::Zero();
-      J.topLeftCorner<3, 3>() = -Eigen::Matrix3d::Identity();
-      J.topRightCorner<3, 3>() = skew(estimate.translation());
-      J.bottomRightCorner<3, 3>() = -Eigen::Matrix3d::Identity();
-      pose.covariance = J * visp_cov * J.transpose();
-      pose.covariance = (0.5 * (pose.covariance + pose.covariance.transpose())).eval();
-      if (!pose.covariance.allFinite()) pose.covariance.setZero();
-      if (cameras->stereo && (!cameras->frames[0].image || !cameras->frames[1].image))
-        status = TrackingStatus::kDegraded;
-    }
-    out.pose.set(std::move(pose));
-    mbt::publishStatus(out, status);
-    out.inlier_ratio.set(error.empty() ? result.inlier_ratio : 0.0);
-    out.feature_count.set(error.empty() ? result.feature_count : 0);
+    const visp_bridge::DepthImage depth_image = depth.image();
+    const std::string error =
+        tracker_.track(images.grey, wants_depth_ ? &depth_image : nullptr, result);
+    publishEstimate(predicted, *cameras, error, result);
     return Status::ok();
   }
 
@@ -274,6 +271,84 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
                         depth_camera.camera_T_reference == o.depth_camera.camera_T_reference);
     }
   };
+
+  // (Re)builds the ViSP tracker when the model or the rig changed.
+  Status configureTracker(const std::shared_ptr<const PolygonModel>& model, bool model_changed,
+                          const mbt::Cameras& cameras, const visp_bridge::Camera& depth_camera) {
+    Key key;
+    key.model = model.get();
+    for (const tracking::CameraFrame& f : cameras.frames)
+      key.cameras.push_back({intrinsicsOf(f.camera), toMatrix4(f.camera_T_reference.isometry())});
+    key.depth = wants_depth_;
+    if (wants_depth_) key.depth_camera = depth_camera;
+    if (model_changed || !configured_key_ || !configured_key_->same(key)) {
+      std::string path;
+      if (in.model.hasValue() || models_.file().empty()) {
+        Result<std::string> written = writeTemporaryModel(*model);
+        if (!written) return written.status();
+        path = *written;
+      } else {
+        path = models_.file();
+      }
+      const std::string error =
+          tracker_.configure(settings_, key.cameras, wants_depth_ ? &depth_camera : nullptr, path);
+      removeTemporaryModel();  // ViSP has read it
+      if (!error.empty())
+        return Status(StatusCode::kInvalidInput, fmt::format("model '{}': {}", path, error));
+      configured_key_ = key;
+    }
+    return Status::ok();
+  }
+
+  // Seeds ViSP with the prediction unless it already holds that pose (its last estimate fed
+  // back as the prediction).
+  Status seed(const std::vector<visp_bridge::GreyImage>& images,
+              const Eigen::Isometry3d& prediction) {
+    const Eigen::Isometry3d current = fromMatrix4(tracker_.pose());
+    const bool reseed =
+        !tracker_.hasPose() || (current.translation() - prediction.translation()).norm() > 1e-6 ||
+        Eigen::AngleAxisd(current.linear().transpose() * prediction.linear()).angle() > 1e-6;
+    if (reseed) {
+      const std::string error = tracker_.setPose(images, toMatrix4(prediction));
+      if (!error.empty()) return Status(StatusCode::kInvalidInput, error);
+    }
+    return Status::ok();
+  }
+
+  // The outputs from ViSP's result: its estimate, or the prediction with no information when
+  // it failed (`error`) or its inlier ratio is too low; degraded when a stereo camera missed
+  // its frame.
+  void publishEstimate(const PoseWithCovariance& predicted, const mbt::Cameras& cameras,
+                       const std::string& error, const visp_bridge::TrackOutput& result) {
+    TrackingStatus status = TrackingStatus::kTracking;
+    PoseWithCovariance pose = predicted;
+    pose.covariance = tracking::noInformationCovariance();  // until an estimate replaces it
+    if (!error.empty()) {
+      status = TrackingStatus::kLost;
+      warn(fmt::format("lost: {}", error));
+      configured_key_.reset();  // start afresh from the next prediction
+    } else if (result.inlier_ratio < params_.min_inlier_ratio) {
+      status = TrackingStatus::kLost;
+      warn(fmt::format("lost: inlier ratio {:.2f} is below min_inlier_ratio {:.2f}",
+                       result.inlier_ratio, params_.min_inlier_ratio));
+    } else {
+      const Eigen::Isometry3d estimate = fromMatrix4(result.reference_T_model);
+      pose.pose = Transform::fromIsometry(estimate, predicted.pose.parent_frame,
+                                          predicted.pose.child_frame, predicted.pose.stamp);
+      for (const tracking::CameraFrame& f : cameras.frames)
+        if (f.image && f.image->stamp != 0) {
+          pose.pose.stamp = f.image->stamp;
+          break;
+        }
+      pose.covariance = parentFrameCovariance(result.covariance, estimate);
+      if (cameras.stereo && (!cameras.frames[0].image || !cameras.frames[1].image))
+        status = TrackingStatus::kDegraded;
+    }
+    out.pose.set(std::move(pose));
+    mbt::publishStatus(out, status);
+    out.inlier_ratio.set(error.empty() ? result.inlier_ratio : 0.0);
+    out.feature_count.set(error.empty() ? result.feature_count : 0);
+  }
 
   // ViSP loads models from files: a model that came through the input is written as .cao.
   Result<std::string> writeTemporaryModel(const PolygonModel& model) {

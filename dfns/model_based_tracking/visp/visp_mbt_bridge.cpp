@@ -32,6 +32,74 @@ Matrix4 fromVisp(const vpHomogeneousMatrix& h) {
   return m;
 }
 
+// Each camera's intrinsics (pinhole, no distortion) and camera_T_reference under ViSP's name
+// for it: the image cameras, then the depth one.
+void setCameras(vpMbGenericTracker& t, const std::vector<std::string>& names,
+                const std::vector<Camera>& cameras, const Camera* depth) {
+  std::map<std::string, vpCameraParameters> intrinsics;
+  std::map<std::string, vpHomogeneousMatrix> extrinsics;
+  const std::size_t n = cameras.size() + (depth ? 1 : 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Camera& c = i < cameras.size() ? cameras[i] : *depth;
+    vpCameraParameters p;
+    p.initPersProjWithoutDistortion(c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx,
+                                    c.intrinsics.cy);
+    intrinsics[names[i]] = p;
+    extrinsics[names[i]] = toVisp(c.camera_T_reference);
+  }
+  t.setCameraParameters(intrinsics);
+  t.setCameraTransformationMatrix(extrinsics);
+}
+
+// The settings of the features ViSP tracks (moving edges, KLT points, dense depth) and of its
+// visibility test.
+void setTracking(vpMbGenericTracker& t, const Settings& s, bool depth) {
+  vpMe me;
+  me.setMaskSize(static_cast<unsigned>(s.me_mask_size));
+  me.setMaskNumber(static_cast<unsigned>(s.me_mask_number));
+  me.setRange(static_cast<unsigned>(s.me_range));
+  me.setThreshold(s.me_threshold);
+  me.setMu1(s.me_mu1);
+  me.setMu2(s.me_mu2);
+  me.setSampleStep(s.me_sample_step);
+  if (s.edges) t.setMovingEdge(me);
+  if (s.klt) {
+    vpKltOpencv klt;
+    klt.setMaxFeatures(s.klt_max_features);
+    klt.setWindowSize(s.klt_window_size);
+    klt.setQuality(s.klt_quality);
+    klt.setMinDistance(s.klt_min_distance);
+    klt.setHarrisFreeParameter(s.klt_harris);
+    klt.setBlockSize(s.klt_block_size);
+    klt.setPyramidLevels(s.klt_pyramid_levels);
+    t.setKltOpencv(klt);
+    t.setKltMaskBorder(static_cast<unsigned>(s.klt_mask_border));
+  }
+  if (depth)
+    t.setDepthDenseSamplingStep(static_cast<unsigned>(s.depth_dense_step),
+                                static_cast<unsigned>(s.depth_dense_step));
+  t.setAngleAppear(s.angle_appear);
+  t.setAngleDisappear(s.angle_disappear);
+  t.setNearClippingDistance(s.near_clipping);
+  t.setFarClippingDistance(s.far_clipping);
+  if (s.fov_clipping) t.setClipping(t.getClipping() | vpMbtPolygon::FOV_CLIPPING);
+  t.setScanLineVisibilityTest(s.scanline_visibility);
+  t.setCovarianceComputation(s.covariance);
+}
+
+// ViSP reports what it read on std::cout; the DFI reports through its status instead.
+void loadModelQuietly(vpMbGenericTracker& t, const std::string& model_path) {
+  std::ostringstream chatter;
+  std::streambuf* previous = std::cout.rdbuf(chatter.rdbuf());
+  try {
+    t.loadModel(model_path);
+  } catch (...) {
+    std::cout.rdbuf(previous);
+    throw;
+  }
+  std::cout.rdbuf(previous);
+}
+
 }  // namespace
 
 struct MbtTracker::Impl {
@@ -93,64 +161,10 @@ std::string MbtTracker::configure(const Settings& s, const std::vector<Camera>& 
       return "ViSP created " + std::to_string(impl_->names.size()) + " cameras; expected " +
              std::to_string(types.size());
 
-    std::map<std::string, vpCameraParameters> intrinsics;
-    std::map<std::string, vpHomogeneousMatrix> extrinsics;
-    const std::size_t n = cameras.size() + (depth ? 1 : 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Camera& c = i < cameras.size() ? cameras[i] : *depth;
-      vpCameraParameters p;
-      p.initPersProjWithoutDistortion(c.intrinsics.fx, c.intrinsics.fy, c.intrinsics.cx,
-                                      c.intrinsics.cy);
-      intrinsics[impl_->names[i]] = p;
-      extrinsics[impl_->names[i]] = toVisp(c.camera_T_reference);
-    }
-    t.setCameraParameters(intrinsics);
-    t.setCameraTransformationMatrix(extrinsics);
-
-    vpMe me;
-    me.setMaskSize(static_cast<unsigned>(s.me_mask_size));
-    me.setMaskNumber(static_cast<unsigned>(s.me_mask_number));
-    me.setRange(static_cast<unsigned>(s.me_range));
-    me.setThreshold(s.me_threshold);
-    me.setMu1(s.me_mu1);
-    me.setMu2(s.me_mu2);
-    me.setSampleStep(s.me_sample_step);
-    if (s.edges) t.setMovingEdge(me);
-    if (s.klt) {
-      vpKltOpencv klt;
-      klt.setMaxFeatures(s.klt_max_features);
-      klt.setWindowSize(s.klt_window_size);
-      klt.setQuality(s.klt_quality);
-      klt.setMinDistance(s.klt_min_distance);
-      klt.setHarrisFreeParameter(s.klt_harris);
-      klt.setBlockSize(s.klt_block_size);
-      klt.setPyramidLevels(s.klt_pyramid_levels);
-      t.setKltOpencv(klt);
-      t.setKltMaskBorder(static_cast<unsigned>(s.klt_mask_border));
-    }
-    if (depth)
-      t.setDepthDenseSamplingStep(static_cast<unsigned>(s.depth_dense_step),
-                                  static_cast<unsigned>(s.depth_dense_step));
-    t.setAngleAppear(s.angle_appear);
-    t.setAngleDisappear(s.angle_disappear);
-    t.setNearClippingDistance(s.near_clipping);
-    t.setFarClippingDistance(s.far_clipping);
-    if (s.fov_clipping) t.setClipping(t.getClipping() | vpMbtPolygon::FOV_CLIPPING);
-    t.setScanLineVisibilityTest(s.scanline_visibility);
-    t.setCovarianceComputation(s.covariance);
+    setCameras(t, impl_->names, cameras, depth);
+    setTracking(t, s, depth != nullptr);
     impl_->covariance = s.covariance;
-    {
-      // ViSP reports what it read on std::cout; the DFI reports through its status instead.
-      std::ostringstream chatter;
-      std::streambuf* previous = std::cout.rdbuf(chatter.rdbuf());
-      try {
-        t.loadModel(model_path);
-      } catch (...) {
-        std::cout.rdbuf(previous);
-        throw;
-      }
-      std::cout.rdbuf(previous);
-    }
+    loadModelQuietly(t, model_path);
     return {};
   } catch (const vpException& e) {
     impl_->tracker.reset();

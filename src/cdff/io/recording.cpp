@@ -1,6 +1,8 @@
 // Recorder (typed writing) and Replay (merged, typed reading).
 #include <algorithm>
 #include <limits>
+#include <tuple>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -203,6 +205,117 @@ struct Replay::Impl {
   }
 };
 
+namespace {
+
+// The channels of all the files, matched by topic (a topic recorded in several files is one
+// channel of the replay), and each file's channel ids with their CDFF types.
+struct ChannelIndex {
+  std::vector<ReplayChannel> channels;
+  std::vector<std::map<std::uint16_t, TypeId>> types;  // per file, by channel id
+};
+
+// A topic must have the same schema and encoding in every file: the replay decodes all of its
+// messages alike.
+Result<ChannelIndex> indexChannels(const std::vector<std::unique_ptr<McapReader>>& readers,
+                                   const std::vector<std::string>& paths) {
+  ChannelIndex index;
+  for (std::size_t f = 0; f < readers.size(); ++f) {
+    const McapReader& r = *readers[f];
+    auto& types = index.types.emplace_back();
+    for (const auto& entry : r.channels()) {
+      const std::uint16_t id = entry.first;
+      const Channel& ch = entry.second;  // named: lambdas below capture it (clang 14)
+      const Schema* schema = r.schemaOf(ch);
+      const TypeId type = typeOfChannel(ch, schema);
+      types[id] = type;
+      const std::string schema_name = schema ? schema->name : std::string();
+      auto it = std::find_if(index.channels.begin(), index.channels.end(),
+                             [&](const ReplayChannel& c) { return c.topic == ch.topic; });
+      if (it == index.channels.end()) {
+        index.channels.push_back({ch.topic, type, schema_name, ch.message_encoding, 0, {}});
+        it = index.channels.end() - 1;
+      } else if (it->schema_name != schema_name || it->message_encoding != ch.message_encoding) {
+        return invalidInput("channel '{}' is {} ({}) in '{}' but {} ({}) in '{}'", ch.topic,
+                            it->schema_name, it->message_encoding, paths[it->files.front()],
+                            schema_name, ch.message_encoding, paths[f]);
+      }
+      if (auto c = r.statistics().channel_message_counts.find(id);
+          c != r.statistics().channel_message_counts.end())
+        it->message_count += c->second;
+      it->files.push_back(f);
+    }
+  }
+  return index;
+}
+
+// A requested topic that no file has is an error, not an empty replay: it is most likely a typo,
+// and the message lists the topics there are.
+Status checkTopicsExist(const std::vector<std::string>& topics,
+                        const std::vector<ReplayChannel>& channels,
+                        const std::vector<std::string>& paths) {
+  for (const std::string& topic : topics) {
+    if (std::none_of(channels.begin(), channels.end(),
+                     [&](const ReplayChannel& c) { return c.topic == topic; })) {
+      std::string known;
+      for (const ReplayChannel& c : channels) known += (known.empty() ? "" : ", ") + c.topic;
+      std::string files;
+      for (const std::string& p : paths) files += (files.empty() ? "'" : ", '") + p + "'";
+      return notFound("no channel '{}' in {}; channels are: {}", topic, files,
+                      known.empty() ? "(none)" : known);
+    }
+  }
+  return Status::ok();
+}
+
+// The time range of the selection: the files' statistics (no message read), narrowed to the
+// requested start and end.
+std::pair<Timestamp, Timestamp> selectionRange(
+    const std::vector<std::unique_ptr<McapReader>>& readers, const ReplayOptions& options) {
+  bool any = false;
+  std::uint64_t lo = std::numeric_limits<std::uint64_t>::max(), hi = 0;
+  for (const auto& r : readers) {
+    const Statistics& s = r->statistics();
+    if (s.message_count == 0) continue;
+    lo = std::min(lo, s.message_start_time);
+    hi = std::max(hi, s.message_end_time);
+    any = true;
+  }
+  Timestamp start = any ? fromMcapTime(lo) : 0;
+  Timestamp end = any ? fromMcapTime(hi) : 0;
+  if (options.start) start = std::max(start, *options.start);
+  if (options.end) end = std::min(end, *options.end);
+  return {start, end};
+}
+
+// What to read of one file: the requested time range in MCAP nanoseconds (the end's whole last
+// microsecond) and the ids of the requested topics in this file; an empty range when the file
+// has none of them or the range ends before time 0.
+ReadOptions readOptionsFor(const McapReader& r, const ReplayOptions& options) {
+  ReadOptions ro;
+  if (options.start) ro.start_time = toMcapTime(std::max<Timestamp>(*options.start, 0));
+  if (options.end) {
+    if (*options.end < 0) {
+      ro.end_time = 0;
+      ro.start_time = 1;  // an empty range
+    } else {
+      ro.end_time = toMcapTime(*options.end) + 999;  // the whole last microsecond
+    }
+  }
+  if (!options.channels.empty()) {
+    for (const auto& [id, ch] : r.channels())
+      if (std::find(options.channels.begin(), options.channels.end(), ch.topic) !=
+          options.channels.end())
+        ro.channels.push_back(id);
+    if (ro.channels.empty()) {
+      ro.start_time = 1;  // nothing wanted in this file
+      ro.end_time = 0;
+    }
+  }
+  return ro;
+}
+
+}  // namespace
+
 Replay::Replay() = default;
 Replay::~Replay() = default;
 
@@ -219,84 +332,14 @@ Status Replay::open(const std::vector<std::string>& paths, const ReplayOptions& 
       impl->open_damages.push_back(fmt::format("'{}': {}", path, d.toString()));
     impl->readers.push_back(std::move(reader));
   }
-  // Channels, matched by topic across files.
-  for (std::size_t f = 0; f < impl->readers.size(); ++f) {
-    const McapReader& r = *impl->readers[f];
-    auto& types = impl->types.emplace_back();
-    for (const auto& entry : r.channels()) {
-      const std::uint16_t id = entry.first;
-      const Channel& ch = entry.second;  // named: lambdas below capture it (clang 14)
-      const Schema* schema = r.schemaOf(ch);
-      const TypeId type = typeOfChannel(ch, schema);
-      types[id] = type;
-      const std::string schema_name = schema ? schema->name : std::string();
-      auto it = std::find_if(impl->channels.begin(), impl->channels.end(),
-                             [&](const ReplayChannel& c) { return c.topic == ch.topic; });
-      if (it == impl->channels.end()) {
-        impl->channels.push_back(
-            {ch.topic, type, schema_name, ch.message_encoding, 0, {}});
-        it = impl->channels.end() - 1;
-      } else if (it->schema_name != schema_name || it->message_encoding != ch.message_encoding) {
-        return invalidInput("channel '{}' is {} ({}) in '{}' but {} ({}) in '{}'", ch.topic,
-                            it->schema_name, it->message_encoding, paths[it->files.front()],
-                            schema_name, ch.message_encoding, paths[f]);
-      }
-      if (auto c = r.statistics().channel_message_counts.find(id);
-          c != r.statistics().channel_message_counts.end())
-        it->message_count += c->second;
-      it->files.push_back(f);
-    }
-  }
-  for (const std::string& topic : options.channels) {
-    if (std::none_of(impl->channels.begin(), impl->channels.end(),
-                     [&](const ReplayChannel& c) { return c.topic == topic; })) {
-      std::string known;
-      for (const ReplayChannel& c : impl->channels) known += (known.empty() ? "" : ", ") + c.topic;
-      std::string files;
-      for (const std::string& p : paths) files += (files.empty() ? "'" : ", '") + p + "'";
-      return notFound("no channel '{}' in {}; channels are: {}", topic, files,
-                      known.empty() ? "(none)" : known);
-    }
-  }
-  // Time range of the selection, from the statistics.
-  bool any = false;
-  std::uint64_t lo = std::numeric_limits<std::uint64_t>::max(), hi = 0;
-  for (const auto& r : impl->readers) {
-    const Statistics& s = r->statistics();
-    if (s.message_count == 0) continue;
-    lo = std::min(lo, s.message_start_time);
-    hi = std::max(hi, s.message_end_time);
-    any = true;
-  }
-  impl->start = any ? fromMcapTime(lo) : 0;
-  impl->end = any ? fromMcapTime(hi) : 0;
-  if (options.start) impl->start = std::max(impl->start, *options.start);
-  if (options.end) impl->end = std::min(impl->end, *options.end);
-
-  for (std::size_t f = 0; f < impl->readers.size(); ++f) {
-    const McapReader& r = *impl->readers[f];
-    ReadOptions ro;
-    if (options.start) ro.start_time = toMcapTime(std::max<Timestamp>(*options.start, 0));
-    if (options.end) {
-      if (*options.end < 0) {
-        ro.end_time = 0;
-        ro.start_time = 1;  // an empty range
-      } else {
-        ro.end_time = toMcapTime(*options.end) + 999;  // the whole last microsecond
-      }
-    }
-    if (!options.channels.empty()) {
-      for (const auto& [id, ch] : r.channels())
-        if (std::find(options.channels.begin(), options.channels.end(), ch.topic) !=
-            options.channels.end())
-          ro.channels.push_back(id);
-      if (ro.channels.empty()) {
-        ro.start_time = 1;  // nothing wanted in this file
-        ro.end_time = 0;
-      }
-    }
-    impl->iterators.push_back(r.messages(ro));
-  }
+  Result<ChannelIndex> index = indexChannels(impl->readers, paths);
+  if (!index) return index.status();
+  impl->channels = std::move(index->channels);
+  impl->types = std::move(index->types);
+  CDFF_RETURN_IF_ERROR(checkTopicsExist(options.channels, impl->channels, paths));
+  std::tie(impl->start, impl->end) = selectionRange(impl->readers, options);
+  for (const auto& r : impl->readers)
+    impl->iterators.push_back(r->messages(readOptionsFor(*r, options)));
   impl_ = std::move(impl);
   return Status::ok();
 }

@@ -1,6 +1,7 @@
 #include "cdff/tracking/edge_tracker.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace cdff::tracking {
 
@@ -112,12 +113,11 @@ Result<std::shared_ptr<const ModelContours>> EdgeTracker::contoursFor(
   return cached.contours;
 }
 
-Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
-                                          const DepthMap* depth,
-                                          const Eigen::Isometry3d& depth_T_reference,
-                                          const Transform& predicted,
-                                          const EdgeTrackerOptions& options) {
-  if (!model_) return invalidInput("no model; expected a polygon model before tracking");
+namespace {
+
+// Input errors: each image 8UC1 and the size of its pinhole camera, a valid prediction.
+Status checkTrackingInputs(std::span<const CameraFrame> cameras, const DepthMap* depth,
+                           const Transform& predicted) {
   if (cameras.empty() && !depth)
     return invalidInput("no camera and no depth map; expected at least one image");
   CDFF_RETURN_IF_ERROR(predicted.validate().withContext("predicted pose"));
@@ -132,116 +132,60 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
                             frame.camera.height);
     }
   }
+  return Status::ok();
+}
 
-  TrackingResult result;
-  result.reference_T_model = predicted;
-  result.covariance = noInformationCovariance();  // until an estimate replaces it
-  result.camera_used.assign(cameras.size(), false);
-  Eigen::Isometry3d pose = predicted.isometry();
-
-  // The model must be in front of at least one sensor.
+// Whether the model's bounding sphere at `pose` reaches in front of some sensor's near
+// clipping plane, and the largest depth of its centre in the sensors (for the message when not).
+struct Placement {
   bool in_front = false;
   double nearest = -std::numeric_limits<double>::infinity();
+};
+
+Placement placeModel(const TrackingModel& model, std::span<const CameraFrame> cameras,
+                     const DepthMap* depth, const Eigen::Isometry3d& depth_T_reference,
+                     const Eigen::Isometry3d& pose, double near_clipping) {
+  Placement out;
   for (const CameraFrame& frame : cameras) {
-    const double z = (frame.camera_T_reference.isometry() * pose * model_->centre).z();
-    nearest = std::max(nearest, z);
-    in_front = in_front || z + model_->radius > options.visibility.near_clipping;
+    const double z = (frame.camera_T_reference.isometry() * pose * model.centre).z();
+    out.nearest = std::max(out.nearest, z);
+    out.in_front = out.in_front || z + model.radius > near_clipping;
   }
   if (depth) {
-    const double z = (depth_T_reference * pose * model_->centre).z();
-    nearest = std::max(nearest, z);
-    in_front = in_front || z + model_->radius > options.visibility.near_clipping;
+    const double z = (depth_T_reference * pose * model.centre).z();
+    out.nearest = std::max(out.nearest, z);
+    out.in_front = out.in_front || z + model.radius > near_clipping;
   }
-  if (!in_front) {
-    result.reason = fmt::format(
-        "the predicted pose puts the model behind the camera (centre at "
-        "z = {:.3f} m, radius {:.3f} m)",
-        nearest, model_->radius);
-    matches_.assign(cameras.size(), ContourSamples{});
-    return result;
-  }
+  return out;
+}
 
-  const int passes = 1 + std::max(0, options.refinement_passes);
-  PoseSolution solution;
-  bool solved = false;
-  for (int pass = 0; pass < passes; ++pass) {
-    const Transform pose_t = Transform::fromIsometry(pose, predicted.parent_frame,
-                                                     predicted.child_frame, predicted.stamp);
-    matches_.assign(cameras.size(), ContourSamples{});
-    std::vector<EdgeView> views;
-    std::vector<bool> used(cameras.size(), false);
-    EdgeSearchOptions search = options.search;
-    if (pass > 0) search.search_distance = std::max(1, options.refinement_search_distance);
-    for (std::size_t c = 0; c < cameras.size(); ++c) {
-      const CameraFrame& frame = cameras[c];
-      if (!frame.image || frame.image->empty()) continue;
-      const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * pose;
-      Result<Transform> camera_T_model = frame.camera_T_reference.compose(pose_t);
-      if (!camera_T_model) return camera_T_model.status().withContext(fmt::format("camera {}", c));
-      auto contours = contoursFor(c, frame, c_T_m, *camera_T_model, options);
-      if (!contours) return contours.status();
-      ContourSamples samples = sampleContours(*contours, options.sampling);
-      if (samples.samples.empty()) continue;
-      Result<ContourSamples> matched = searchEdges(*frame.image, samples, search);
-      if (!matched) return matched.status();
-      const double ratio = static_cast<double>(matched->matchedCount()) /
-                           static_cast<double>(matched->samples.size());
-      matches_[c] = std::move(matched).value();
-      if (ratio < options.min_camera_match_ratio) continue;
-      used[c] = true;
-    }
-    for (std::size_t c = 0; c < cameras.size(); ++c)
-      if (used[c]) views.push_back({&matches_[c]});
+// The depth points on the faces the depth camera sees at `pose`.
+Result<DepthPoints> depthPoints(const TrackingModel& model, const DepthMap& depth,
+                                const Eigen::Isometry3d& depth_T_reference,
+                                const Eigen::Isometry3d& pose, const Transform& predicted,
+                                const EdgeTrackerOptions& options) {
+  if (!depth.image.camera)
+    return invalidInput(
+        "depth map has no camera model; expected the depth camera's "
+        "intrinsics with the image");
+  const Eigen::Isometry3d d_T_m = depth_T_reference * pose;
+  Transform d_T_m_t =
+      Transform::fromIsometry(d_T_m, depth.image.frame_id, predicted.child_frame, predicted.stamp);
+  VisibilityOptions faces_only = options.visibility;
+  faces_only.compute_segments = false;
+  Result<ModelContours> seen = computeContours(
+      model, *depth.image.camera, d_T_m_t,
+      Transform::fromIsometry(depth_T_reference, depth.image.frame_id, predicted.parent_frame),
+      faces_only);
+  if (!seen) return seen.status();
+  return associateDepth(depth, depth_T_reference, seen->faces, pose, options.depth);
+}
 
-    DepthPoints depth_points;
-    if (depth) {
-      if (!depth->image.camera)
-        return invalidInput(
-            "depth map has no camera model; expected the depth camera's "
-            "intrinsics with the image");
-      const Eigen::Isometry3d d_T_m = depth_T_reference * pose;
-      Transform d_T_m_t = Transform::fromIsometry(d_T_m, depth->image.frame_id,
-                                                  predicted.child_frame, predicted.stamp);
-      VisibilityOptions faces_only = options.visibility;
-      faces_only.compute_segments = false;
-      Result<ModelContours> seen = computeContours(
-          *model_, *depth->image.camera, d_T_m_t,
-          Transform::fromIsometry(depth_T_reference, depth->image.frame_id, predicted.parent_frame),
-          faces_only);
-      if (!seen) return seen.status();
-      Result<DepthPoints> associated =
-          associateDepth(*depth, depth_T_reference, seen->faces, pose, options.depth);
-      if (!associated) return associated.status();
-      depth_points = std::move(associated).value();
-    }
-    if (views.empty() && depth_points.points.empty()) {
-      result.reason = cameras.empty() ? "the depth map shows none of the model"
-                                      : "no camera matched enough contour samples to image edges "
-                                        "(dark, saturated or missing images, or the model out of "
-                                        "view)";
-      return result;
-    }
-    Result<PoseSolution> solved_pass =
-        solvePose(pose, views, depth ? &depth_points : nullptr, options.solver);
-    if (!solved_pass) {
-      result.reason = solved_pass.status().message();
-      return result;
-    }
-    solution = std::move(solved_pass).value();
-    result.iterations += solution.iterations;
-    result.camera_used = used;
-    if (solution.diverged) {
-      result.reason = fmt::format(
-          "the pose estimate diverged from the prediction (more than "
-          "{} m or {} rad)",
-          options.solver.divergence_translation, options.solver.divergence_rotation);
-      return result;
-    }
-    pose = solution.reference_T_model;
-    solved = true;
-  }
-  if (!solved) return result;
-
+// The estimate, its statistics and its status into `result`; a lost track keeps the prediction
+// with no information.
+void reportEstimate(const PoseSolution& solution, const Eigen::Isometry3d& pose,
+                    std::span<const CameraFrame> cameras, const Transform& predicted,
+                    const EdgeTrackerOptions& options, TrackingResult& result) {
   result.reference_T_model =
       Transform::fromIsometry(pose, predicted.parent_frame, predicted.child_frame, predicted.stamp);
   for (const CameraFrame& frame : cameras)
@@ -265,6 +209,113 @@ Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
     result.reference_T_model = predicted;
     result.covariance = noInformationCovariance();
   }
+}
+
+}  // namespace
+
+Result<std::vector<bool>> EdgeTracker::matchCameras(std::span<const CameraFrame> cameras,
+                                                    const Eigen::Isometry3d& pose,
+                                                    const Transform& pose_t,
+                                                    const EdgeSearchOptions& search,
+                                                    const EdgeTrackerOptions& options) {
+  matches_.assign(cameras.size(), ContourSamples{});
+  std::vector<bool> used(cameras.size(), false);
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    const CameraFrame& frame = cameras[c];
+    if (!frame.image || frame.image->empty()) continue;
+    const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * pose;
+    Result<Transform> camera_T_model = frame.camera_T_reference.compose(pose_t);
+    if (!camera_T_model) return camera_T_model.status().withContext(fmt::format("camera {}", c));
+    auto contours = contoursFor(c, frame, c_T_m, *camera_T_model, options);
+    if (!contours) return contours.status();
+    ContourSamples samples = sampleContours(*contours, options.sampling);
+    if (samples.samples.empty()) continue;
+    Result<ContourSamples> matched = searchEdges(*frame.image, samples, search);
+    if (!matched) return matched.status();
+    const double ratio =
+        static_cast<double>(matched->matchedCount()) / static_cast<double>(matched->samples.size());
+    matches_[c] = std::move(matched).value();
+    if (ratio < options.min_camera_match_ratio) continue;
+    used[c] = true;
+  }
+  return used;
+}
+
+Result<TrackingResult> EdgeTracker::track(std::span<const CameraFrame> cameras,
+                                          const DepthMap* depth,
+                                          const Eigen::Isometry3d& depth_T_reference,
+                                          const Transform& predicted,
+                                          const EdgeTrackerOptions& options) {
+  if (!model_) return invalidInput("no model; expected a polygon model before tracking");
+  CDFF_RETURN_IF_ERROR(checkTrackingInputs(cameras, depth, predicted));
+
+  TrackingResult result;
+  result.reference_T_model = predicted;
+  result.covariance = noInformationCovariance();  // until an estimate replaces it
+  result.camera_used.assign(cameras.size(), false);
+  Eigen::Isometry3d pose = predicted.isometry();
+
+  // The model must be in front of at least one sensor.
+  const Placement placement = placeModel(*model_, cameras, depth, depth_T_reference, pose,
+                                         options.visibility.near_clipping);
+  if (!placement.in_front) {
+    result.reason = fmt::format(
+        "the predicted pose puts the model behind the camera (centre at "
+        "z = {:.3f} m, radius {:.3f} m)",
+        placement.nearest, model_->radius);
+    matches_.assign(cameras.size(), ContourSamples{});
+    return result;
+  }
+
+  const int passes = 1 + std::max(0, options.refinement_passes);
+  PoseSolution solution;
+  bool solved = false;
+  for (int pass = 0; pass < passes; ++pass) {
+    const Transform pose_t = Transform::fromIsometry(pose, predicted.parent_frame,
+                                                     predicted.child_frame, predicted.stamp);
+    EdgeSearchOptions search = options.search;
+    if (pass > 0) search.search_distance = std::max(1, options.refinement_search_distance);
+    Result<std::vector<bool>> used = matchCameras(cameras, pose, pose_t, search, options);
+    if (!used) return used.status();
+    std::vector<EdgeView> views;
+    for (std::size_t c = 0; c < cameras.size(); ++c)
+      if ((*used)[c]) views.push_back({&matches_[c]});
+
+    DepthPoints depth_points;
+    if (depth) {
+      Result<DepthPoints> associated =
+          depthPoints(*model_, *depth, depth_T_reference, pose, predicted, options);
+      if (!associated) return associated.status();
+      depth_points = std::move(associated).value();
+    }
+    if (views.empty() && depth_points.points.empty()) {
+      result.reason = cameras.empty() ? "the depth map shows none of the model"
+                                      : "no camera matched enough contour samples to image edges "
+                                        "(dark, saturated or missing images, or the model out of "
+                                        "view)";
+      return result;
+    }
+    Result<PoseSolution> solved_pass =
+        solvePose(pose, views, depth ? &depth_points : nullptr, options.solver);
+    if (!solved_pass) {
+      result.reason = solved_pass.status().message();
+      return result;
+    }
+    solution = std::move(solved_pass).value();
+    result.iterations += solution.iterations;
+    result.camera_used = *used;
+    if (solution.diverged) {
+      result.reason = fmt::format(
+          "the pose estimate diverged from the prediction (more than "
+          "{} m or {} rad)",
+          options.solver.divergence_translation, options.solver.divergence_rotation);
+      return result;
+    }
+    pose = solution.reference_T_model;
+    solved = true;
+  }
+  if (!solved) return result;
+  reportEstimate(solution, pose, cameras, predicted, options, result);
   return result;
 }
 

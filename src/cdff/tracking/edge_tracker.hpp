@@ -111,6 +111,12 @@ class EdgeTracker {
                                                            const Eigen::Isometry3d& c_T_m,
                                                            const Transform& camera_T_model,
                                                            const EdgeTrackerOptions& options);
+  // Matches every camera's contour samples at `pose` to its image edges (matches_); whether
+  // each camera matched enough of them to be used.
+  Result<std::vector<bool>> matchCameras(std::span<const CameraFrame> cameras,
+                                         const Eigen::Isometry3d& pose, const Transform& pose_t,
+                                         const EdgeSearchOptions& search,
+                                         const EdgeTrackerOptions& options);
 
   std::optional<TrackingModel> model_;
   std::vector<CachedContours> cache_;

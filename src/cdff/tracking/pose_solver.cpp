@@ -73,61 +73,87 @@ class Problem {
     e.views.resize(views_.size());
     for (std::size_t v = 0; v < views_.size(); ++v) {
       const ContourSamples& cs = *views_[v].samples;
-      const ModelContours& mc = *cs.contours;
-      const CameraModel& k = mc.camera;
-      const Eigen::Isometry3d c_T_r = mc.camera_T_reference.isometry();
-      const Eigen::Matrix3d& Rcr = c_T_r.linear();
       ViewStatistics& stats = e.views[v];
       stats.samples = cs.samples.size();
-      // Per segment: the projected line in pixels and its Jacobian.
-      lines_.resize(mc.segments.size());
-      for (std::size_t s = 0; s < mc.segments.size(); ++s) {
-        const Eigen::Vector3d a = R * mc.segments[s].a, b = R * mc.segments[s].b;
-        const Eigen::Vector3d Ac = Rcr * (a + t) + c_T_r.translation();
-        const Eigen::Vector3d Bc = Rcr * (b + t) + c_T_r.translation();
-        Line& line = lines_[s];
-        line.valid = Ac.z() > 0 && Bc.z() > 0;
-        if (!line.valid) continue;
-        Matrix36 JA, JB;
-        JA << Rcr, -Rcr * skew(a);
-        JB << Rcr, -Rcr * skew(b);
-        const Eigen::Vector3d N = Ac.cross(Bc);
-        line.JN = -skew(Bc) * JA + skew(Ac) * JB;
-        line.l = Eigen::Vector3d(N.x() / k.fx, N.y() / k.fy,
-                                 N.z() - k.cx * N.x() / k.fx - k.cy * N.y() / k.fy);
-        line.r = line.l.head<2>().norm();
-        line.valid = line.r > 1e-12;
-      }
-      for (const ContourSample& s : cs.samples) {
-        if (s.candidate_count == 0) continue;
-        ++stats.matched;
-        const Line& line = lines_[s.segment];
-        if (!line.valid) continue;
-        double best = std::numeric_limits<double>::infinity();
-        Eigen::Vector3d best_m = Eigen::Vector3d::Zero();
-        for (std::uint32_t c = 0; c < s.candidate_count; ++c) {
-          const Eigen::Vector2d m = candidatePixel(s, cs.candidates[s.first_candidate + c]);
-          const Eigen::Vector3d mh(m.x(), m.y(), 1.0);
-          const double d = line.l.dot(mh) / line.r;
-          if (std::abs(d) < std::abs(best)) {
-            best = d;
-            best_m = mh;
-          }
-        }
-        const double s_val = line.l.dot(best_m);
-        const Eigen::Vector3d dl =
-            best_m / line.r -
-            (s_val / (line.r * line.r * line.r)) * Eigen::Vector3d(line.l.x(), line.l.y(), 0.0);
-        // l = K^-T N, so the gradient with respect to N is K^-1 times the one with respect to l.
-        const Eigen::Vector3d dN((dl.x() - k.cx * dl.z()) / k.fx, (dl.y() - k.cy * dl.z()) / k.fy,
-                                 dl.z());
-        const Vector6 J = line.JN.transpose() * dN;
-        edge_r_.push_back(best);
-        edge_j_.push_back(J);
-        edge_view_.push_back(static_cast<std::uint32_t>(v));
-      }
+      projectSegments(*cs.contours, R, t);
+      addEdgeResiduals(cs, static_cast<std::uint32_t>(v), stats);
       e.samples += stats.samples;
     }
+    addEdgeTerms(e);
+    if (depth_ && !depth_->points.empty()) addDepthTerms(R, t, e);
+    return e;
+  }
+
+ private:
+  struct Line {
+    Eigen::Vector3d l;  // the projected line in pixels: l . (u, v, 1) = 0
+    double r = 0;       // |l_xy|
+    Matrix36 JN;        // d(plane normal N)/d(pose)
+    bool valid = false;
+  };
+
+  // Per segment of one view: the projected line in pixels at the pose (R, t) and its Jacobian
+  // (lines_).
+  void projectSegments(const ModelContours& mc, const Eigen::Matrix3d& R,
+                       const Eigen::Vector3d& t) {
+    const CameraModel& k = mc.camera;
+    const Eigen::Isometry3d c_T_r = mc.camera_T_reference.isometry();
+    const Eigen::Matrix3d& Rcr = c_T_r.linear();
+    lines_.resize(mc.segments.size());
+    for (std::size_t s = 0; s < mc.segments.size(); ++s) {
+      const Eigen::Vector3d a = R * mc.segments[s].a, b = R * mc.segments[s].b;
+      const Eigen::Vector3d Ac = Rcr * (a + t) + c_T_r.translation();
+      const Eigen::Vector3d Bc = Rcr * (b + t) + c_T_r.translation();
+      Line& line = lines_[s];
+      line.valid = Ac.z() > 0 && Bc.z() > 0;
+      if (!line.valid) continue;
+      Matrix36 JA, JB;
+      JA << Rcr, -Rcr * skew(a);
+      JB << Rcr, -Rcr * skew(b);
+      const Eigen::Vector3d N = Ac.cross(Bc);
+      line.JN = -skew(Bc) * JA + skew(Ac) * JB;
+      line.l = Eigen::Vector3d(N.x() / k.fx, N.y() / k.fy,
+                               N.z() - k.cx * N.x() / k.fx - k.cy * N.y() / k.fy);
+      line.r = line.l.head<2>().norm();
+      line.valid = line.r > 1e-12;
+    }
+  }
+
+  // The edge residual of every matched sample of view `v` whose line is valid: the signed
+  // distance of its candidate nearest to the projected line, with its Jacobian.
+  void addEdgeResiduals(const ContourSamples& cs, std::uint32_t v, ViewStatistics& stats) {
+    const CameraModel& k = cs.contours->camera;
+    for (const ContourSample& s : cs.samples) {
+      if (s.candidate_count == 0) continue;
+      ++stats.matched;
+      const Line& line = lines_[s.segment];
+      if (!line.valid) continue;
+      double best = std::numeric_limits<double>::infinity();
+      Eigen::Vector3d best_m = Eigen::Vector3d::Zero();
+      for (std::uint32_t c = 0; c < s.candidate_count; ++c) {
+        const Eigen::Vector2d m = candidatePixel(s, cs.candidates[s.first_candidate + c]);
+        const Eigen::Vector3d mh(m.x(), m.y(), 1.0);
+        const double d = line.l.dot(mh) / line.r;
+        if (std::abs(d) < std::abs(best)) {
+          best = d;
+          best_m = mh;
+        }
+      }
+      const double s_val = line.l.dot(best_m);
+      const Eigen::Vector3d dl = best_m / line.r - (s_val / (line.r * line.r * line.r)) *
+                                                       Eigen::Vector3d(line.l.x(), line.l.y(), 0.0);
+      // l = K^-T N, so the gradient with respect to N is K^-1 times the one with respect to l.
+      const Eigen::Vector3d dN((dl.x() - k.cx * dl.z()) / k.fx, (dl.y() - k.cy * dl.z()) / k.fy,
+                               dl.z());
+      const Vector6 J = line.JN.transpose() * dN;
+      edge_r_.push_back(best);
+      edge_j_.push_back(J);
+      edge_view_.push_back(v);
+    }
+  }
+
+  // The edge residuals' robust scale, inlier statistics and Tukey-weighted normal equations.
+  void addEdgeTerms(Evaluation& e) {
     abs_.resize(edge_r_.size());
     for (std::size_t i = 0; i < edge_r_.size(); ++i) abs_[i] = std::abs(edge_r_[i]);
     e.sigma_edge = robustSigma(abs_, o_.min_edge_sigma);
@@ -145,49 +171,42 @@ class Problem {
       e.H.noalias() += (w * ie) * edge_j_[i] * edge_j_[i].transpose();
       e.g.noalias() += (w * ie * edge_r_[i]) * edge_j_[i];
     }
-
-    if (depth_ && !depth_->points.empty()) {
-      const std::size_t n = depth_->points.size();
-      depth_r_.resize(n);
-      abs_.resize(n);
-      for (std::size_t i = 0; i < n; ++i) {
-        const Eigen::Vector3d nr = R * depth_->planes[i].head<3>();
-        depth_r_[i] = nr.dot(depth_->points[i] - t) - depth_->planes[i].w();
-        abs_[i] = std::abs(depth_r_[i]);
-      }
-      e.sigma_depth = robustSigma(abs_, o_.min_depth_sigma);
-      const double cd = o_.tukey_constant * e.sigma_depth;
-      // Dense depth points are strongly correlated (a face off by a fraction of a millimetre
-      // shifts all of its points alike), so together they count as depth_weight times the
-      // number of edge residuals rather than as thousands of independent measurements.
-      const double share = edge_r_.empty() ? 1.0
-                                           : o_.depth_weight * static_cast<double>(edge_r_.size()) /
-                                                 static_cast<double>(n);
-      const double id = share / (e.sigma_depth * e.sigma_depth);
-      e.depth_points = n;
-      for (std::size_t i = 0; i < n; ++i) {
-        const double w = tukey(depth_r_[i], cd);
-        if (w <= 0) continue;
-        ++e.depth_inliers;
-        e.depth_sq += depth_r_[i] * depth_r_[i];
-        ++e.used;
-        const Eigen::Vector3d nr = R * depth_->planes[i].head<3>();
-        Vector6 J;
-        J << -nr, nr.cross(depth_->points[i] - t);
-        e.H.noalias() += (w * id) * J * J.transpose();
-        e.g.noalias() += (w * id * depth_r_[i]) * J;
-      }
-    }
-    return e;
   }
 
- private:
-  struct Line {
-    Eigen::Vector3d l;  // the projected line in pixels: l . (u, v, 1) = 0
-    double r = 0;       // |l_xy|
-    Matrix36 JN;        // d(plane normal N)/d(pose)
-    bool valid = false;
-  };
+  // The depth residuals (point to face plane at the pose (R, t)), their robust scale and their
+  // Tukey-weighted normal equations, after the edges' (whose count sets the depth's share).
+  void addDepthTerms(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, Evaluation& e) {
+    const std::size_t n = depth_->points.size();
+    depth_r_.resize(n);
+    abs_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d nr = R * depth_->planes[i].head<3>();
+      depth_r_[i] = nr.dot(depth_->points[i] - t) - depth_->planes[i].w();
+      abs_[i] = std::abs(depth_r_[i]);
+    }
+    e.sigma_depth = robustSigma(abs_, o_.min_depth_sigma);
+    const double cd = o_.tukey_constant * e.sigma_depth;
+    // Dense depth points are strongly correlated (a face off by a fraction of a millimetre
+    // shifts all of its points alike), so together they count as depth_weight times the
+    // number of edge residuals rather than as thousands of independent measurements.
+    const double share = edge_r_.empty() ? 1.0
+                                         : o_.depth_weight * static_cast<double>(edge_r_.size()) /
+                                               static_cast<double>(n);
+    const double id = share / (e.sigma_depth * e.sigma_depth);
+    e.depth_points = n;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double w = tukey(depth_r_[i], cd);
+      if (w <= 0) continue;
+      ++e.depth_inliers;
+      e.depth_sq += depth_r_[i] * depth_r_[i];
+      ++e.used;
+      const Eigen::Vector3d nr = R * depth_->planes[i].head<3>();
+      Vector6 J;
+      J << -nr, nr.cross(depth_->points[i] - t);
+      e.H.noalias() += (w * id) * J * J.transpose();
+      e.g.noalias() += (w * id * depth_r_[i]) * J;
+    }
+  }
 
   std::span<const EdgeView> views_;
   const DepthPoints* depth_;
@@ -197,6 +216,97 @@ class Problem {
   std::vector<Vector6, Eigen::aligned_allocator<Vector6>> edge_j_;
   std::vector<std::uint32_t> edge_view_;
 };
+
+}  // namespace
+
+namespace {
+
+// The visible faces in the depth camera's frame, clipped to z >= 1 cm so that faces reaching
+// behind the camera still project correctly, with their outlines in pixels.
+std::vector<ProjectedFace> projectFaces(std::span<const VisibleFace> faces,
+                                        const Eigen::Isometry3d& d_T_m, const CameraModel& k) {
+  std::vector<ProjectedFace> projected;
+  for (const VisibleFace& f : faces) {
+    std::vector<Eigen::Vector3d> poly;
+    for (const Eigen::Vector3d& p : f.outline) poly.push_back(d_T_m * p);
+    std::vector<Eigen::Vector3d> clipped;
+    for (std::size_t i = 0; i < poly.size(); ++i) {
+      const Eigen::Vector3d& a = poly[i];
+      const Eigen::Vector3d& b = poly[(i + 1) % poly.size()];
+      const double near = 0.01;
+      if (a.z() >= near) clipped.push_back(a);
+      if ((a.z() >= near) != (b.z() >= near))
+        clipped.push_back(a + (b - a) * ((near - a.z()) / (b.z() - a.z())));
+    }
+    if (clipped.size() < 3) continue;
+    ProjectedFace pf;
+    pf.normal = d_T_m.linear() * f.normal;
+    pf.offset = pf.normal.dot(d_T_m * f.outline.front());
+    for (const Eigen::Vector3d& p : clipped) {
+      const Eigen::Vector2d px(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy);
+      pf.outline.push_back(px);
+      pf.box.extend(px);
+    }
+    projected.push_back(std::move(pf));
+  }
+  return projected;
+}
+
+// The depth pixels used: every step_x-th column and step_y-th row, cell (i, j) centred on pixel
+// (x0 + i step_x, y0 + j step_y).
+struct SamplingGrid {
+  int gw = 0, gh = 0;
+  double x0 = 0, y0 = 0;
+  int step_x = 1, step_y = 1;
+};
+
+// For each grid cell, the projected face nearest to the camera there (-1: none): a depth buffer
+// of the predicted model.
+std::vector<std::int32_t> nearestFaces(const std::vector<ProjectedFace>& projected,
+                                       const SamplingGrid& grid, const CameraModel& k) {
+  const int gw = grid.gw, gh = grid.gh;
+  const double x0 = grid.x0, y0 = grid.y0;
+  std::vector<float> zbuffer(static_cast<std::size_t>(gw) * gh,
+                             std::numeric_limits<float>::infinity());
+  std::vector<std::int32_t> owner(zbuffer.size(), -1);
+  for (std::size_t f = 0; f < projected.size(); ++f) {
+    const ProjectedFace& pf = projected[f];
+    const int i0 = std::max(0, static_cast<int>(std::ceil((pf.box.min().x() - x0) / grid.step_x)));
+    const int i1 =
+        std::min(gw - 1, static_cast<int>(std::floor((pf.box.max().x() - x0) / grid.step_x)));
+    const int j0 = std::max(0, static_cast<int>(std::ceil((pf.box.min().y() - y0) / grid.step_y)));
+    const int j1 =
+        std::min(gh - 1, static_cast<int>(std::floor((pf.box.max().y() - y0) / grid.step_y)));
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) {
+        const Eigen::Vector2d p(x0 + i * grid.step_x, y0 + j * grid.step_y);
+        if (!insidePolygon(pf.outline, p)) continue;
+        const Eigen::Vector3d ray((p.x() - k.cx) / k.fx, (p.y() - k.cy) / k.fy, 1.0);
+        const double denom = pf.normal.dot(ray);
+        if (std::abs(denom) < 1e-12) continue;
+        const double z = pf.offset / denom;
+        const std::size_t cell = static_cast<std::size_t>(j) * gw + i;
+        if (z > 0 && z < zbuffer[cell]) {
+          zbuffer[cell] = static_cast<float>(z);
+          owner[cell] = static_cast<std::int32_t>(f);
+        }
+      }
+  }
+  return owner;
+}
+
+// The depth in metres at pixel (u, v); NaN for a pixel format that holds no depth.
+double depthAt(const DepthMap& depth, int u, int v) {
+  const Image& image = depth.image;
+  switch (image.format) {
+    case PixelFormat::kFloat32:
+      return image.at<float>(u, v) * depth.meters_per_unit;
+    case PixelFormat::kGray16:
+      return image.at<std::uint16_t>(u, v) * depth.meters_per_unit;
+    default:
+      return std::numeric_limits<double>::quiet_NaN();
+  }
+}
 
 }  // namespace
 
@@ -219,84 +329,26 @@ Result<DepthPoints> associateDepth(const DepthMap& depth,
   const Eigen::Isometry3d d_T_m = depth_T_reference * reference_T_model;
   const Eigen::Isometry3d r_T_d = depth_T_reference.inverse();
 
-  std::vector<ProjectedFace> projected;
-  for (const VisibleFace& f : faces) {
-    std::vector<Eigen::Vector3d> poly;
-    for (const Eigen::Vector3d& p : f.outline) poly.push_back(d_T_m * p);
-    // Clip to z >= 1 cm so that faces reaching behind the camera still project correctly.
-    std::vector<Eigen::Vector3d> clipped;
-    for (std::size_t i = 0; i < poly.size(); ++i) {
-      const Eigen::Vector3d& a = poly[i];
-      const Eigen::Vector3d& b = poly[(i + 1) % poly.size()];
-      const double near = 0.01;
-      if (a.z() >= near) clipped.push_back(a);
-      if ((a.z() >= near) != (b.z() >= near))
-        clipped.push_back(a + (b - a) * ((near - a.z()) / (b.z() - a.z())));
-    }
-    if (clipped.size() < 3) continue;
-    ProjectedFace pf;
-    pf.normal = d_T_m.linear() * f.normal;
-    pf.offset = pf.normal.dot(d_T_m * f.outline.front());
-    for (const Eigen::Vector3d& p : clipped) {
-      const Eigen::Vector2d px(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy);
-      pf.outline.push_back(px);
-      pf.box.extend(px);
-    }
-    projected.push_back(std::move(pf));
-  }
+  const std::vector<ProjectedFace> projected = projectFaces(faces, d_T_m, k);
+  SamplingGrid grid;
+  grid.gw = (image.width + options.step_x - 1) / options.step_x;
+  grid.gh = (image.height + options.step_y - 1) / options.step_y;
+  grid.x0 = 0.5 * (options.step_x - 1);
+  grid.y0 = 0.5 * (options.step_y - 1);
+  grid.step_x = options.step_x;
+  grid.step_y = options.step_y;
+  const std::vector<std::int32_t> owner = nearestFaces(projected, grid, k);
 
-  // A depth buffer of the predicted model on the sampling grid.
-  const int gw = (image.width + options.step_x - 1) / options.step_x;
-  const int gh = (image.height + options.step_y - 1) / options.step_y;
-  const double x0 = 0.5 * (options.step_x - 1), y0 = 0.5 * (options.step_y - 1);
-  std::vector<float> zbuffer(static_cast<std::size_t>(gw) * gh,
-                             std::numeric_limits<float>::infinity());
-  std::vector<std::int32_t> owner(zbuffer.size(), -1);
-  for (std::size_t f = 0; f < projected.size(); ++f) {
-    const ProjectedFace& pf = projected[f];
-    const int i0 =
-        std::max(0, static_cast<int>(std::ceil((pf.box.min().x() - x0) / options.step_x)));
-    const int i1 =
-        std::min(gw - 1, static_cast<int>(std::floor((pf.box.max().x() - x0) / options.step_x)));
-    const int j0 =
-        std::max(0, static_cast<int>(std::ceil((pf.box.min().y() - y0) / options.step_y)));
-    const int j1 =
-        std::min(gh - 1, static_cast<int>(std::floor((pf.box.max().y() - y0) / options.step_y)));
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        const Eigen::Vector2d p(x0 + i * options.step_x, y0 + j * options.step_y);
-        if (!insidePolygon(pf.outline, p)) continue;
-        const Eigen::Vector3d ray((p.x() - k.cx) / k.fx, (p.y() - k.cy) / k.fy, 1.0);
-        const double denom = pf.normal.dot(ray);
-        if (std::abs(denom) < 1e-12) continue;
-        const double z = pf.offset / denom;
-        const std::size_t cell = static_cast<std::size_t>(j) * gw + i;
-        if (z > 0 && z < zbuffer[cell]) {
-          zbuffer[cell] = static_cast<float>(z);
-          owner[cell] = static_cast<std::int32_t>(f);
-        }
-      }
-  }
-
+  // A pixel's depth point is kept when it lies near the plane of the face predicted there.
   DepthPoints out;
-  const auto readDepth = [&](int u, int v) -> double {
-    switch (image.format) {
-      case PixelFormat::kFloat32:
-        return image.at<float>(u, v) * depth.meters_per_unit;
-      case PixelFormat::kGray16:
-        return image.at<std::uint16_t>(u, v) * depth.meters_per_unit;
-      default:
-        return std::numeric_limits<double>::quiet_NaN();
-    }
-  };
-  for (int j = 0; j < gh; ++j)
-    for (int i = 0; i < gw; ++i) {
-      const std::int32_t f = owner[static_cast<std::size_t>(j) * gw + i];
+  for (int j = 0; j < grid.gh; ++j)
+    for (int i = 0; i < grid.gw; ++i) {
+      const std::int32_t f = owner[static_cast<std::size_t>(j) * grid.gw + i];
       if (f < 0) continue;
-      const int u = static_cast<int>(x0 + i * options.step_x);
-      const int v = static_cast<int>(y0 + j * options.step_y);
+      const int u = static_cast<int>(grid.x0 + i * options.step_x);
+      const int v = static_cast<int>(grid.y0 + j * options.step_y);
       if (u >= image.width || v >= image.height) continue;
-      const double z = readDepth(u, v);
+      const double z = depthAt(depth, u, v);
       if (!std::isfinite(z) || z <= 0 || z <= options.min_depth || z > options.max_depth) continue;
       const Eigen::Vector3d q(z * (u - k.cx) / k.fx, z * (v - k.cy) / k.fy, z);
       const ProjectedFace& pf = projected[static_cast<std::size_t>(f)];

@@ -114,6 +114,116 @@ std::vector<std::vector<std::uint32_t>> convexPieces(const std::vector<Eigen::Ve
   return triangles;
 }
 
+// The outlines of a model's primitives on the welded points: the faces' loops (the polygons',
+// then the facets of the cylinders), and the explicit lines (the model's, then the circles'
+// segments).
+struct Outlines {
+  std::vector<std::vector<std::uint32_t>> loops;
+  std::vector<bool> loop_is_facet;  // facets of a tessellated cylinder
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> explicit_lines;
+};
+
+// A face's loop on the welded points: repeated points (consecutive or closing the loop) once;
+// fewer than 3 points left is no face.
+void addPolygonFaces(const PolygonModel& model, const std::vector<std::uint32_t>& welded,
+                     Outlines& out) {
+  for (const PolygonModel::Face& face : model.faces) {
+    std::vector<std::uint32_t> loop;
+    for (std::uint32_t p : face.points) {
+      const std::uint32_t w = welded[p];
+      if (loop.empty() || loop.back() != w) loop.push_back(w);
+    }
+    while (loop.size() > 1 && loop.front() == loop.back()) loop.pop_back();
+    if (loop.size() < 3) continue;
+    out.loops.push_back(std::move(loop));
+    out.loop_is_facet.push_back(false);
+  }
+}
+
+// A cylinder as a prism of n facets between two rings of points around its axis.
+void addCylinder(const PolygonModel& model, const PolygonModel::Cylinder& c, int n, Welder& welder,
+                 Outlines& out) {
+  const Eigen::Vector3d a = model.points[c.a], b = model.points[c.b];
+  const Eigen::Vector3d w = (b - a).normalized();
+  const Eigen::Vector3d u = w.unitOrthogonal();
+  const Eigen::Vector3d v = w.cross(u);
+  std::vector<std::uint32_t> ring_a(n), ring_b(n);
+  for (int k = 0; k < n; ++k) {
+    const double phi = 2.0 * M_PI * k / n;
+    const Eigen::Vector3d r = c.radius * (std::cos(phi) * u + std::sin(phi) * v);
+    ring_a[k] = welder.add(a + r);
+    ring_b[k] = welder.add(b + r);
+  }
+  for (int k = 0; k < n; ++k) {
+    const int k1 = (k + 1) % n;
+    out.loops.push_back({ring_a[k], ring_a[k1], ring_b[k1], ring_b[k]});  // normal points outwards
+    out.loop_is_facet.push_back(true);
+  }
+}
+
+// A circle as a closed polygon of n explicit lines.
+void addCircle(const PolygonModel& model, const PolygonModel::Circle& c, int n, Welder& welder,
+               Outlines& out) {
+  const Eigen::Vector3d centre = model.points[c.centre];
+  const Eigen::Vector3d normal =
+      (model.points[c.first] - centre).cross(model.points[c.second] - centre).normalized();
+  const Eigen::Vector3d u = (model.points[c.first] - centre).normalized();
+  const Eigen::Vector3d v = normal.cross(u);
+  std::vector<std::uint32_t> ring(n);
+  for (int k = 0; k < n; ++k) {
+    const double phi = 2.0 * M_PI * k / n;
+    ring[k] = welder.add(centre + c.radius * (std::cos(phi) * u + std::sin(phi) * v));
+  }
+  for (int k = 0; k < n; ++k) out.explicit_lines.emplace_back(ring[k], ring[(k + 1) % n]);
+}
+
+// The faces (planes, centroids, convex pieces) of the loops that are not degenerate after
+// welding, and the unique edges with the faces on either side.
+void addFacesAndEdges(const Outlines& outlines, TrackingModel& out) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> edge_of;
+  const auto edgeIndex = [&](std::uint32_t a, std::uint32_t b) {
+    const auto key = std::minmax(a, b);
+    auto [it, inserted] =
+        edge_of.try_emplace({key.first, key.second}, static_cast<std::uint32_t>(out.edges.size()));
+    if (inserted) {
+      TrackingModel::Edge e;
+      e.a = a;
+      e.b = b;
+      out.edges.push_back(e);
+    }
+    return it->second;
+  };
+  for (std::size_t f = 0; f < outlines.loops.size(); ++f) {
+    TrackingModel::Face face;
+    face.loop = outlines.loops[f];
+    const Eigen::Vector3d n = newellNormal(out.points, face.loop);
+    if (n.norm() <= 1e-18) continue;  // degenerate after welding
+    face.normal = n.normalized();
+    for (std::uint32_t p : face.loop) face.centroid += out.points[p];
+    face.centroid /= static_cast<double>(face.loop.size());
+    face.offset = face.normal.dot(face.centroid);
+    face.convex_pieces = convexPieces(out.points, face.loop, face.normal);
+    const auto face_index = static_cast<std::int32_t>(out.faces.size());
+    for (std::size_t i = 0; i < face.loop.size(); ++i) {
+      TrackingModel::Edge& e =
+          out.edges[edgeIndex(face.loop[i], face.loop[(i + 1) % face.loop.size()])];
+      if (e.face_count < 2) e.faces[e.face_count] = face_index;
+      ++e.face_count;
+      // An edge is smooth only when every face it bounds is a facet of a curved surface.
+      e.smooth = (e.face_count == 1 ? true : e.smooth) && outlines.loop_is_facet[f];
+    }
+    out.faces.push_back(std::move(face));
+  }
+  // Boundary edges of facets (the cylinder's end rims) are real contours.
+  for (TrackingModel::Edge& e : out.edges)
+    if (e.face_count < 2) e.smooth = false;
+  for (const auto& [a, b] : outlines.explicit_lines) {
+    TrackingModel::Edge& e = out.edges[edgeIndex(a, b)];
+    e.explicit_line = true;
+    e.smooth = false;
+  }
+}
+
 }  // namespace
 
 Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
@@ -128,102 +238,17 @@ Result<TrackingModel> TrackingModel::build(const PolygonModel& model,
   Welder welder(options.weld_tolerance > 0 ? options.weld_tolerance : 1e-9);
   std::vector<std::uint32_t> welded(model.points.size());
   for (std::size_t i = 0; i < model.points.size(); ++i) welded[i] = welder.add(model.points[i]);
-
-  std::vector<std::vector<std::uint32_t>> loops;
-  std::vector<bool> loop_is_facet;  // facets of a tessellated cylinder
-  for (const PolygonModel::Face& face : model.faces) {
-    std::vector<std::uint32_t> loop;
-    for (std::uint32_t p : face.points) {
-      const std::uint32_t w = welded[p];
-      if (loop.empty() || loop.back() != w) loop.push_back(w);
-    }
-    while (loop.size() > 1 && loop.front() == loop.back()) loop.pop_back();
-    if (loop.size() < 3) continue;
-    loops.push_back(std::move(loop));
-    loop_is_facet.push_back(false);
-  }
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> explicit_lines;
+  Outlines outlines;
+  addPolygonFaces(model, welded, outlines);
   for (const PolygonModel::Line& line : model.lines)
     if (welded[line.a] != welded[line.b])
-      explicit_lines.emplace_back(welded[line.a], welded[line.b]);
-
-  for (const PolygonModel::Cylinder& c : model.cylinders) {
-    const Eigen::Vector3d a = model.points[c.a], b = model.points[c.b];
-    const Eigen::Vector3d w = (b - a).normalized();
-    const Eigen::Vector3d u = w.unitOrthogonal();
-    const Eigen::Vector3d v = w.cross(u);
-    const int n = options.cylinder_segments;
-    std::vector<std::uint32_t> ring_a(n), ring_b(n);
-    for (int k = 0; k < n; ++k) {
-      const double phi = 2.0 * M_PI * k / n;
-      const Eigen::Vector3d r = c.radius * (std::cos(phi) * u + std::sin(phi) * v);
-      ring_a[k] = welder.add(a + r);
-      ring_b[k] = welder.add(b + r);
-    }
-    for (int k = 0; k < n; ++k) {
-      const int k1 = (k + 1) % n;
-      loops.push_back({ring_a[k], ring_a[k1], ring_b[k1], ring_b[k]});  // normal points outwards
-      loop_is_facet.push_back(true);
-    }
-  }
-  for (const PolygonModel::Circle& c : model.circles) {
-    const Eigen::Vector3d centre = model.points[c.centre];
-    const Eigen::Vector3d normal =
-        (model.points[c.first] - centre).cross(model.points[c.second] - centre).normalized();
-    const Eigen::Vector3d u = (model.points[c.first] - centre).normalized();
-    const Eigen::Vector3d v = normal.cross(u);
-    const int n = options.circle_segments;
-    std::vector<std::uint32_t> ring(n);
-    for (int k = 0; k < n; ++k) {
-      const double phi = 2.0 * M_PI * k / n;
-      ring[k] = welder.add(centre + c.radius * (std::cos(phi) * u + std::sin(phi) * v));
-    }
-    for (int k = 0; k < n; ++k) explicit_lines.emplace_back(ring[k], ring[(k + 1) % n]);
-  }
+      outlines.explicit_lines.emplace_back(welded[line.a], welded[line.b]);
+  for (const PolygonModel::Cylinder& c : model.cylinders)
+    addCylinder(model, c, options.cylinder_segments, welder, outlines);
+  for (const PolygonModel::Circle& c : model.circles)
+    addCircle(model, c, options.circle_segments, welder, outlines);
   out.points = welder.release();
-
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> edge_of;
-  const auto edgeIndex = [&](std::uint32_t a, std::uint32_t b) {
-    const auto key = std::minmax(a, b);
-    auto [it, inserted] =
-        edge_of.try_emplace({key.first, key.second}, static_cast<std::uint32_t>(out.edges.size()));
-    if (inserted) {
-      Edge e;
-      e.a = a;
-      e.b = b;
-      out.edges.push_back(e);
-    }
-    return it->second;
-  };
-  std::vector<std::vector<bool>> facet_edges;
-  for (std::size_t f = 0; f < loops.size(); ++f) {
-    Face face;
-    face.loop = loops[f];
-    const Eigen::Vector3d n = newellNormal(out.points, face.loop);
-    if (n.norm() <= 1e-18) continue;  // degenerate after welding
-    face.normal = n.normalized();
-    for (std::uint32_t p : face.loop) face.centroid += out.points[p];
-    face.centroid /= static_cast<double>(face.loop.size());
-    face.offset = face.normal.dot(face.centroid);
-    face.convex_pieces = convexPieces(out.points, face.loop, face.normal);
-    const auto face_index = static_cast<std::int32_t>(out.faces.size());
-    for (std::size_t i = 0; i < face.loop.size(); ++i) {
-      Edge& e = out.edges[edgeIndex(face.loop[i], face.loop[(i + 1) % face.loop.size()])];
-      if (e.face_count < 2) e.faces[e.face_count] = face_index;
-      ++e.face_count;
-      // An edge is smooth only when every face it bounds is a facet of a curved surface.
-      e.smooth = (e.face_count == 1 ? true : e.smooth) && loop_is_facet[f];
-    }
-    out.faces.push_back(std::move(face));
-  }
-  // Boundary edges of facets (the cylinder's end rims) are real contours.
-  for (Edge& e : out.edges)
-    if (e.face_count < 2) e.smooth = false;
-  for (const auto& [a, b] : explicit_lines) {
-    Edge& e = out.edges[edgeIndex(a, b)];
-    e.explicit_line = true;
-    e.smooth = false;
-  }
+  addFacesAndEdges(outlines, out);
 
   Eigen::AlignedBox3d box;
   for (const Eigen::Vector3d& p : out.points) box.extend(p);

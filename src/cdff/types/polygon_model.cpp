@@ -21,6 +21,72 @@ std::string describe(const char* kind, std::size_t index, const std::string& nam
                       : fmt::format("{} {} ('{}')", kind, index, name);
 }
 
+Status checkIndex(const std::vector<Eigen::Vector3d>& points, std::uint32_t index,
+                  const std::string& primitive, const char* what) {
+  if (index >= points.size())
+    return invalidInput("{} {} refers to point {}; expected an index below {} (the point count)",
+                        what, primitive, index, points.size());
+  return Status::ok();
+}
+
+// A face is a polygon: at least 3 distinct points of the model, none repeated, on one plane
+// (the least-squares plane of its points, within a tolerance) and not all on one line.
+Status checkFace(const std::vector<Eigen::Vector3d>& points, const PolygonModel::Face& face,
+                 const std::string& name, const char* what) {
+  const std::set<std::uint32_t> distinct(face.points.begin(), face.points.end());
+  if (distinct.size() < 3 || distinct.size() != face.points.size())
+    return invalidInput(
+        "{} {} has {} points of which {} distinct; expected at least 3 distinct "
+        "points, none repeated",
+        what, name, face.points.size(), distinct.size());
+  for (std::uint32_t p : face.points) CDFF_RETURN_IF_ERROR(checkIndex(points, p, name, what));
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (std::uint32_t p : face.points) centre += points[p];
+  centre /= static_cast<double>(face.points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  double size = 0;
+  for (std::uint32_t p : face.points) {
+    const Eigen::Vector3d d = points[p] - centre;
+    scatter += d * d.transpose();
+    size = std::max(size, d.norm());
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  const Eigen::Vector3d normal = eigen.eigenvectors().col(0);
+  // Real models are rarely exactly planar (ViSP's chateau.cao has a wall 0.75 mm off):
+  // 2 % of the face's diameter tolerates that and still catches a misplaced point.
+  const double tolerance = std::max(1e-6, 0.02 * 2.0 * size);
+  for (std::uint32_t p : face.points) {
+    const double off = std::abs(normal.dot(points[p] - centre));
+    if (off > tolerance)
+      return invalidInput(
+          "{} {} is not planar: point {} is {:.3g} m off the face's plane; "
+          "expected at most {:.3g} m",
+          what, name, p, off, tolerance);
+  }
+  if (eigen.eigenvalues()(1) <= 1e-18)
+    return invalidInput("{} {} is degenerate (its points are collinear); expected a polygon", what,
+                        name);
+  return Status::ok();
+}
+
+// A circle needs a positive radius and a centre and two plane points that span its plane.
+Status checkCircle(const std::vector<Eigen::Vector3d>& points, const PolygonModel::Circle& circle,
+                   const std::string& name, const char* what) {
+  for (std::uint32_t p : {circle.centre, circle.first, circle.second})
+    CDFF_RETURN_IF_ERROR(checkIndex(points, p, name, what));
+  if (!(circle.radius > 0) || !std::isfinite(circle.radius))
+    return invalidInput("{} {} has radius {}; expected a positive radius in metres", what, name,
+                        circle.radius);
+  const Eigen::Vector3d n = (points[circle.first] - points[circle.centre])
+                                .cross(points[circle.second] - points[circle.centre]);
+  if (n.norm() <= 1e-12)
+    return invalidInput(
+        "{} {}: its centre and plane points {} and {} are collinear; expected "
+        "three points spanning the circle's plane",
+        what, name, circle.first, circle.second);
+  return Status::ok();
+}
+
 }  // namespace
 
 Status PolygonModel::validate(const char* what) const {
@@ -30,61 +96,20 @@ Status PolygonModel::validate(const char* what) const {
     if (!points[i].allFinite())
       return invalidInput("{} point {} is ({}, {}, {}); expected finite coordinates", what, i,
                           points[i].x(), points[i].y(), points[i].z());
-  const auto checkIndex = [&](std::uint32_t index, const std::string& primitive) -> Status {
-    if (index >= points.size())
-      return invalidInput("{} {} refers to point {}; expected an index below {} (the point count)",
-                          what, primitive, index, points.size());
-    return Status::ok();
-  };
-  for (std::size_t f = 0; f < faces.size(); ++f) {
-    const Face& face = faces[f];
-    const std::string name = describe("face", f, face.name);
-    const std::set<std::uint32_t> distinct(face.points.begin(), face.points.end());
-    if (distinct.size() < 3 || distinct.size() != face.points.size())
-      return invalidInput(
-          "{} {} has {} points of which {} distinct; expected at least 3 distinct "
-          "points, none repeated",
-          what, name, face.points.size(), distinct.size());
-    for (std::uint32_t p : face.points) CDFF_RETURN_IF_ERROR(checkIndex(p, name));
-    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (std::uint32_t p : face.points) centre += points[p];
-    centre /= static_cast<double>(face.points.size());
-    Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-    double size = 0;
-    for (std::uint32_t p : face.points) {
-      const Eigen::Vector3d d = points[p] - centre;
-      scatter += d * d.transpose();
-      size = std::max(size, d.norm());
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
-    const Eigen::Vector3d normal = eigen.eigenvectors().col(0);
-    // Real models are rarely exactly planar (ViSP's chateau.cao has a wall 0.75 mm off):
-    // 2 % of the face's diameter tolerates that and still catches a misplaced point.
-    const double tolerance = std::max(1e-6, 0.02 * 2.0 * size);
-    for (std::uint32_t p : face.points) {
-      const double off = std::abs(normal.dot(points[p] - centre));
-      if (off > tolerance)
-        return invalidInput(
-            "{} {} is not planar: point {} is {:.3g} m off the face's plane; "
-            "expected at most {:.3g} m",
-            what, name, p, off, tolerance);
-    }
-    if (eigen.eigenvalues()(1) <= 1e-18)
-      return invalidInput("{} {} is degenerate (its points are collinear); expected a polygon",
-                          what, name);
-  }
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    CDFF_RETURN_IF_ERROR(checkFace(points, faces[f], describe("face", f, faces[f].name), what));
   for (std::size_t l = 0; l < lines.size(); ++l) {
     const std::string name = describe("line", l, lines[l].name);
-    CDFF_RETURN_IF_ERROR(checkIndex(lines[l].a, name));
-    CDFF_RETURN_IF_ERROR(checkIndex(lines[l].b, name));
+    CDFF_RETURN_IF_ERROR(checkIndex(points, lines[l].a, name, what));
+    CDFF_RETURN_IF_ERROR(checkIndex(points, lines[l].b, name, what));
     if ((points[lines[l].a] - points[lines[l].b]).norm() <= 0)
       return invalidInput("{} {} joins point {} to itself; expected two distinct ends", what, name,
                           lines[l].a);
   }
   for (std::size_t c = 0; c < cylinders.size(); ++c) {
     const std::string name = describe("cylinder", c, cylinders[c].name);
-    CDFF_RETURN_IF_ERROR(checkIndex(cylinders[c].a, name));
-    CDFF_RETURN_IF_ERROR(checkIndex(cylinders[c].b, name));
+    CDFF_RETURN_IF_ERROR(checkIndex(points, cylinders[c].a, name, what));
+    CDFF_RETURN_IF_ERROR(checkIndex(points, cylinders[c].b, name, what));
     if ((points[cylinders[c].a] - points[cylinders[c].b]).norm() <= 0)
       return invalidInput("{} {} has a zero-length axis; expected two distinct axis points", what,
                           name);
@@ -92,22 +117,9 @@ Status PolygonModel::validate(const char* what) const {
       return invalidInput("{} {} has radius {}; expected a positive radius in metres", what, name,
                           cylinders[c].radius);
   }
-  for (std::size_t c = 0; c < circles.size(); ++c) {
-    const Circle& circle = circles[c];
-    const std::string name = describe("circle", c, circle.name);
-    for (std::uint32_t p : {circle.centre, circle.first, circle.second})
-      CDFF_RETURN_IF_ERROR(checkIndex(p, name));
-    if (!(circle.radius > 0) || !std::isfinite(circle.radius))
-      return invalidInput("{} {} has radius {}; expected a positive radius in metres", what, name,
-                          circle.radius);
-    const Eigen::Vector3d n = (points[circle.first] - points[circle.centre])
-                                  .cross(points[circle.second] - points[circle.centre]);
-    if (n.norm() <= 1e-12)
-      return invalidInput(
-          "{} {}: its centre and plane points {} and {} are collinear; expected "
-          "three points spanning the circle's plane",
-          what, name, circle.first, circle.second);
-  }
+  for (std::size_t c = 0; c < circles.size(); ++c)
+    CDFF_RETURN_IF_ERROR(
+        checkCircle(points, circles[c], describe("circle", c, circles[c].name), what));
   return Status::ok();
 }
 
@@ -162,7 +174,35 @@ class CaoParser {
 
   Result<PolygonModel> parse() {
     std::size_t i = 0;
-    // Optional version line, then any number of load("...") includes.
+    CDFF_RETURN_IF_ERROR(readVersion(i));
+    PolygonModel model;
+    while (i < lines_.size() && lines_[i][0].text.rfind("load(", 0) == 0) {
+      Result<PolygonModel> included = include(lines_[i]);
+      if (!included) return included.status();
+      model.append(*included);
+      ++i;
+    }
+    PolygonModel own;
+    CDFF_RETURN_IF_ERROR(readPoints(i, own));
+    CDFF_RETURN_IF_ERROR(readLinesAndLineFaces(i, own));
+    CDFF_RETURN_IF_ERROR(readPointFaces(i, own));
+    // ViSP's parser treats the cylinder and circle sections as optional at the end of a file.
+    if (i < lines_.size()) CDFF_RETURN_IF_ERROR(readCylinders(i, own));
+    if (i < lines_.size()) CDFF_RETURN_IF_ERROR(readCircles(i, own));
+    if (i < lines_.size())
+      return error(lines_[i][0].line,
+                   "unexpected '{}' after the last section (3D circles); expected the end of "
+                   "the file",
+                   lines_[i][0].text);
+    model.append(own);
+    return model;
+  }
+
+ private:
+  // The sections below read their records from line `i` on and leave `i` after them.
+
+  // An optional version line: V1 (ViSP's format) or V2, alone on its line.
+  Status readVersion(std::size_t& i) const {
     if (i < lines_.size() && !lines_[i].empty() && lines_[i][0].text.size() >= 2 &&
         (lines_[i][0].text[0] == 'V' || lines_[i][0].text[0] == 'v')) {
       const Token& version = lines_[i][0];
@@ -174,23 +214,24 @@ class CaoParser {
                      lines_[i][1].text);
       ++i;
     }
-    PolygonModel model;
-    while (i < lines_.size() && lines_[i][0].text.rfind("load(", 0) == 0) {
-      Result<PolygonModel> included = include(lines_[i]);
-      if (!included) return included.status();
-      model.append(*included);
-      ++i;
-    }
-    PolygonModel own;
-    std::size_t count = 0;
+    return Status::ok();
+  }
 
+  Status readPoints(std::size_t& i, PolygonModel& own) const {
+    std::size_t count = 0;
     CDFF_RETURN_IF_ERROR(readCount(i, "3D points", count));
     for (std::size_t k = 0; k < count; ++k, ++i) {
       std::vector<double> xyz;
       CDFF_RETURN_IF_ERROR(readNumbers(i, "3D points", k, count, 3, xyz, nullptr));
       own.points.emplace_back(xyz[0], xyz[1], xyz[2]);
     }
+    return Status::ok();
+  }
 
+  // The 3D lines, then the faces made of them: a line that bounds a face is part of that face's
+  // outline, the others stay lines of the model.
+  Status readLinesAndLineFaces(std::size_t& i, PolygonModel& own) const {
+    std::size_t count = 0;
     CDFF_RETURN_IF_ERROR(readCount(i, "3D lines", count));
     std::vector<PolygonModel::Line> lines;
     for (std::size_t k = 0; k < count; ++k, ++i) {
@@ -216,7 +257,11 @@ class CaoParser {
     }
     for (std::size_t l = 0; l < lines.size(); ++l)
       if (!line_in_face[l]) own.lines.push_back(lines[l]);
+    return Status::ok();
+  }
 
+  Status readPointFaces(std::size_t& i, PolygonModel& own) const {
+    std::size_t count = 0;
     CDFF_RETURN_IF_ERROR(readCount(i, "faces from 3D points", count));
     for (std::size_t k = 0; k < count; ++k, ++i) {
       PolygonModel::Face face;
@@ -227,58 +272,55 @@ class CaoParser {
                      face.points.size());
       own.faces.push_back(std::move(face));
     }
-
-    // ViSP's parser treats the cylinder and circle sections as optional at the end of a file.
-    if (i < lines_.size()) {
-      CDFF_RETURN_IF_ERROR(readCount(i, "3D cylinders", count));
-      for (std::size_t k = 0; k < count; ++k, ++i) {
-        std::vector<double> values;
-        std::string name;
-        CDFF_RETURN_IF_ERROR(readNumbers(i, "3D cylinders", k, count, 3, values, &name));
-        PolygonModel::Cylinder cylinder;
-        CDFF_RETURN_IF_ERROR(
-            toIndex(values[0], i, "cylinder axis point", own.points.size(), cylinder.a));
-        CDFF_RETURN_IF_ERROR(
-            toIndex(values[1], i, "cylinder axis point", own.points.size(), cylinder.b));
-        cylinder.radius = values[2];
-        cylinder.name = name;
-        if (!(cylinder.radius > 0))
-          return error(lineOf(i), "cylinder {} of {} has radius {}; expected a positive radius", k,
-                       count, cylinder.radius);
-        own.cylinders.push_back(cylinder);
-      }
-    }
-    if (i < lines_.size()) {
-      CDFF_RETURN_IF_ERROR(readCount(i, "3D circles", count));
-      for (std::size_t k = 0; k < count; ++k, ++i) {
-        std::vector<double> values;
-        std::string name;
-        CDFF_RETURN_IF_ERROR(readNumbers(i, "3D circles", k, count, 4, values, &name));
-        PolygonModel::Circle circle;
-        circle.radius = values[0];
-        CDFF_RETURN_IF_ERROR(
-            toIndex(values[1], i, "circle centre", own.points.size(), circle.centre));
-        CDFF_RETURN_IF_ERROR(
-            toIndex(values[2], i, "circle plane point", own.points.size(), circle.first));
-        CDFF_RETURN_IF_ERROR(
-            toIndex(values[3], i, "circle plane point", own.points.size(), circle.second));
-        circle.name = name;
-        if (!(circle.radius > 0))
-          return error(lineOf(i), "circle {} of {} has radius {}; expected a positive radius", k,
-                       count, circle.radius);
-        own.circles.push_back(circle);
-      }
-    }
-    if (i < lines_.size())
-      return error(lines_[i][0].line,
-                   "unexpected '{}' after the last section (3D circles); expected the end of "
-                   "the file",
-                   lines_[i][0].text);
-    model.append(own);
-    return model;
+    return Status::ok();
   }
 
- private:
+  Status readCylinders(std::size_t& i, PolygonModel& own) const {
+    std::size_t count = 0;
+    CDFF_RETURN_IF_ERROR(readCount(i, "3D cylinders", count));
+    for (std::size_t k = 0; k < count; ++k, ++i) {
+      std::vector<double> values;
+      std::string name;
+      CDFF_RETURN_IF_ERROR(readNumbers(i, "3D cylinders", k, count, 3, values, &name));
+      PolygonModel::Cylinder cylinder;
+      CDFF_RETURN_IF_ERROR(
+          toIndex(values[0], i, "cylinder axis point", own.points.size(), cylinder.a));
+      CDFF_RETURN_IF_ERROR(
+          toIndex(values[1], i, "cylinder axis point", own.points.size(), cylinder.b));
+      cylinder.radius = values[2];
+      cylinder.name = name;
+      if (!(cylinder.radius > 0))
+        return error(lineOf(i), "cylinder {} of {} has radius {}; expected a positive radius", k,
+                     count, cylinder.radius);
+      own.cylinders.push_back(cylinder);
+    }
+    return Status::ok();
+  }
+
+  Status readCircles(std::size_t& i, PolygonModel& own) const {
+    std::size_t count = 0;
+    CDFF_RETURN_IF_ERROR(readCount(i, "3D circles", count));
+    for (std::size_t k = 0; k < count; ++k, ++i) {
+      std::vector<double> values;
+      std::string name;
+      CDFF_RETURN_IF_ERROR(readNumbers(i, "3D circles", k, count, 4, values, &name));
+      PolygonModel::Circle circle;
+      circle.radius = values[0];
+      CDFF_RETURN_IF_ERROR(
+          toIndex(values[1], i, "circle centre", own.points.size(), circle.centre));
+      CDFF_RETURN_IF_ERROR(
+          toIndex(values[2], i, "circle plane point", own.points.size(), circle.first));
+      CDFF_RETURN_IF_ERROR(
+          toIndex(values[3], i, "circle plane point", own.points.size(), circle.second));
+      circle.name = name;
+      if (!(circle.radius > 0))
+        return error(lineOf(i), "circle {} of {} has radius {}; expected a positive radius", k,
+                     count, circle.radius);
+      own.circles.push_back(circle);
+    }
+    return Status::ok();
+  }
+
   template <typename... Args>
   Status error(int line, fmt::format_string<Args...> format, Args&&... args) const {
     return {

@@ -229,29 +229,34 @@ struct PackedField {
   std::int64_t type = 0;
 };
 
-}  // namespace
-
-Status decode(Bytes data, const std::shared_ptr<const void>& owner, PointCloud& out) {
-  out = PointCloud{};
+// A foxglove.PointCloud as read: the header, the pose of the points' frame and the packed points
+// with the layout of their fields.
+struct PackedCloud {
+  Timestamp stamp = 0;
+  std::string frame_id;
   std::map<std::string, PackedField> fields;
   std::uint32_t stride = 0;
   Bytes points;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+};
+
+Result<PackedCloud> readPackedCloud(Bytes data) {
+  PackedCloud c;
   Status inner;
   CDFF_RETURN_IF_ERROR(forFields(data, "foxglove.PointCloud", [&](pb::Reader& r) {
     switch (r.field()) {
       case 1:
-        if (isLen(r)) inner = readTimestamp(r.bytes(), out.stamp);
+        if (isLen(r)) inner = readTimestamp(r.bytes(), c.stamp);
         break;
       case 2:
-        if (isLen(r)) out.frame_id = r.string();
+        if (isLen(r)) c.frame_id = r.string();
         break;
       case 3:
-        if (isLen(r)) inner = readPose(r.bytes(), origin, orientation);
+        if (isLen(r)) inner = readPose(r.bytes(), c.origin, c.orientation);
         break;
       case 4:
-        stride = static_cast<std::uint32_t>(r.u64());
+        c.stride = static_cast<std::uint32_t>(r.u64());
         break;
       case 5:
         if (isLen(r)) {
@@ -263,11 +268,11 @@ Status decode(Bytes data, const std::shared_ptr<const void>& owner, PointCloud& 
             if (fr.field() == 3) f.type = fr.i64();
             return true;
           });
-          fields[name] = f;
+          c.fields[name] = f;
         }
         break;
       case 6:
-        if (isLen(r)) points = r.bytes();
+        if (isLen(r)) c.points = r.bytes();
         break;
       default:
         break;
@@ -275,90 +280,124 @@ Status decode(Bytes data, const std::shared_ptr<const void>& owner, PointCloud& 
     return inner.isOk();
   }));
   CDFF_RETURN_IF_ERROR(inner);
+  return c;
+}
+
+// The layout must be readable before any point is: x, y and z present, every field of a known
+// type inside the stride, and whole points only (a field past the stride would read the next
+// point, or past the data).
+Status checkLayout(const PackedCloud& c) {
   const char* schema = "foxglove.PointCloud";
   for (const char* axis : {"x", "y", "z"})
-    if (!fields.count(axis))
+    if (!c.fields.count(axis))
       return corruptMessage(schema, fmt::format("has no '{}' field; expected x, y and z", axis));
-  for (const auto& [name, f] : fields) {
+  for (const auto& [name, f] : c.fields) {
     const int size = numericSize(f.type);
     if (size == 0)
       return corruptMessage(schema,
                             fmt::format("field '{}' has unknown numeric type {}", name, f.type));
-    if (static_cast<std::uint64_t>(f.offset) + size > stride)
+    if (static_cast<std::uint64_t>(f.offset) + size > c.stride)
       return corruptMessage(schema, fmt::format("field '{}' at offset {} ({} bytes) overruns the "
                                                 "point stride {}",
-                                                name, f.offset, size, stride));
+                                                name, f.offset, size, c.stride));
   }
-  if (points.size() % stride != 0)
+  if (c.points.size() % c.stride != 0)
     return corruptMessage(schema, fmt::format("data holds {} bytes, not a multiple of the point "
                                               "stride {}",
-                                              points.size(), stride));
-  const std::size_t n = points.size() / stride;
-  const bool identity_pose =
-      origin.isZero() && orientation.coeffs() == Eigen::Quaterniond::Identity().coeffs();
-  const auto& fx = fields["x"];
-  const auto& fy = fields["y"];
-  const auto& fz = fields["z"];
-  const bool plain = stride == sizeof(Point4f) && fields.size() == 3 && fx.offset == 0 &&
+                                              c.points.size(), c.stride));
+  return Status::ok();
+}
+
+// Points stored exactly as PointCloud holds them (x, y, z, 1 as floats, nothing else, in the
+// points' own frame) are shared with the message instead of copied, when `owner` keeps the
+// message alive and the data is aligned for Point4f.
+bool sharesPoints(const PackedCloud& c, std::size_t n, bool identity_pose,
+                  const std::shared_ptr<const void>& owner) {
+  const PackedField& fx = c.fields.at("x");
+  const PackedField& fy = c.fields.at("y");
+  const PackedField& fz = c.fields.at("z");
+  const bool plain = c.stride == sizeof(Point4f) && c.fields.size() == 3 && fx.offset == 0 &&
                      fy.offset == 4 && fz.offset == 8 && fx.type == kFloat32 &&
                      fy.type == kFloat32 && fz.type == kFloat32 && identity_pose;
-  if (plain) {
-    bool padded_with_one = true;
-    for (std::size_t i = 0; i < n && padded_with_one; ++i) {
-      float pad;
-      std::memcpy(&pad, points.data() + i * 16 + 12, 4);
-      padded_with_one = pad == 1.0f;
-    }
-    const bool aligned = reinterpret_cast<std::uintptr_t>(points.data()) % alignof(Point4f) == 0;
-    if (owner && aligned && padded_with_one) {
-      out.points = Buffer<Point4f>::view(owner, reinterpret_cast<const Point4f*>(points.data()), n);
-      return Status::ok();
-    }
+  if (!plain) return false;
+  bool padded_with_one = true;
+  for (std::size_t i = 0; i < n && padded_with_one; ++i) {
+    float pad;
+    std::memcpy(&pad, c.points.data() + i * 16 + 12, 4);
+    padded_with_one = pad == 1.0f;
   }
-  std::vector<Point4f> xyz(n);
-  const Eigen::Matrix3d rotation = orientation.normalized().toRotationMatrix();
+  const bool aligned = reinterpret_cast<std::uintptr_t>(c.points.data()) % alignof(Point4f) == 0;
+  return owner && aligned && padded_with_one;
+}
+
+// The vectors of fields (x, y, z) of every point, rotated into the message's frame, and moved
+// by `origin` when given (positions; directions are only rotated).
+std::vector<Point4f> readVectors(const PackedCloud& c, std::size_t n,
+                                 const std::array<const char*, 3>& names, bool identity_pose,
+                                 const Eigen::Matrix3d& rotation, const Eigen::Vector3d* origin) {
+  const PackedField& fx = c.fields.at(names[0]);
+  const PackedField& fy = c.fields.at(names[1]);
+  const PackedField& fz = c.fields.at(names[2]);
+  std::vector<Point4f> out(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint8_t* p = points.data() + i * stride;
+    const std::uint8_t* p = c.points.data() + i * c.stride;
     Eigen::Vector3d v(readAsDouble(p + fx.offset, fx.type), readAsDouble(p + fy.offset, fy.type),
                       readAsDouble(p + fz.offset, fz.type));
-    if (!identity_pose) v = rotation * v + origin;
-    xyz[i] =
+    if (!identity_pose) {
+      if (origin)
+        v = rotation * v + *origin;
+      else
+        v = rotation * v;
+    }
+    out[i] =
         Point4f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
   }
-  out.points = Buffer<Point4f>::fromVector(std::move(xyz));
-  if (fields.count("normal_x") && fields.count("normal_y") && fields.count("normal_z")) {
-    const auto nx = fields["normal_x"], ny = fields["normal_y"], nz = fields["normal_z"];
-    std::vector<Point4f> normals(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint8_t* p = points.data() + i * stride;
-      Eigen::Vector3d v(readAsDouble(p + nx.offset, nx.type), readAsDouble(p + ny.offset, ny.type),
-                        readAsDouble(p + nz.offset, nz.type));
-      if (!identity_pose) v = rotation * v;
-      normals[i] =
-          Point4f(static_cast<float>(v.x()), static_cast<float>(v.y()), static_cast<float>(v.z()));
-    }
-    out.normals = Buffer<Point4f>::fromVector(std::move(normals));
+  return out;
+}
+
+// One scalar per point from `field`, read with `read` (the raw bytes and the numeric type).
+template <typename T, typename Read>
+Buffer<T> readScalars(const PackedCloud& c, std::size_t n, const PackedField& field, Read read) {
+  std::vector<T> values(n);
+  for (std::size_t i = 0; i < n; ++i)
+    values[i] = read(c.points.data() + i * c.stride + field.offset, field.type);
+  return Buffer<T>::fromVector(std::move(values));
+}
+
+}  // namespace
+
+Status decode(Bytes data, const std::shared_ptr<const void>& owner, PointCloud& out) {
+  out = PointCloud{};
+  Result<PackedCloud> read = readPackedCloud(data);
+  if (!read) return read.status();
+  const PackedCloud& c = *read;
+  out.stamp = c.stamp;
+  out.frame_id = c.frame_id;
+  CDFF_RETURN_IF_ERROR(checkLayout(c));
+  const std::size_t n = c.points.size() / c.stride;
+  const bool identity_pose =
+      c.origin.isZero() && c.orientation.coeffs() == Eigen::Quaterniond::Identity().coeffs();
+  if (sharesPoints(c, n, identity_pose, owner)) {
+    out.points = Buffer<Point4f>::view(owner, reinterpret_cast<const Point4f*>(c.points.data()), n);
+    return Status::ok();
   }
-  if (auto it = fields.find("intensity"); it != fields.end()) {
-    std::vector<float> values(n);
-    for (std::size_t i = 0; i < n; ++i)
-      values[i] = readAsFloat(points.data() + i * stride + it->second.offset, it->second.type);
-    out.intensity = Buffer<float>::fromVector(std::move(values));
-  }
-  if (auto it = fields.find("ring"); it != fields.end()) {
-    std::vector<std::uint16_t> values(n);
-    for (std::size_t i = 0; i < n; ++i)
-      values[i] = static_cast<std::uint16_t>(
-          readAsDouble(points.data() + i * stride + it->second.offset, it->second.type));
-    out.ring = Buffer<std::uint16_t>::fromVector(std::move(values));
-  }
-  if (auto it = fields.find("time_offset_us"); it != fields.end()) {
-    std::vector<std::int32_t> values(n);
-    for (std::size_t i = 0; i < n; ++i)
-      values[i] = static_cast<std::int32_t>(
-          readAsDouble(points.data() + i * stride + it->second.offset, it->second.type));
-    out.time_offset_us = Buffer<std::int32_t>::fromVector(std::move(values));
-  }
+  const Eigen::Matrix3d rotation = c.orientation.normalized().toRotationMatrix();
+  out.points = Buffer<Point4f>::fromVector(
+      readVectors(c, n, {"x", "y", "z"}, identity_pose, rotation, &c.origin));
+  if (c.fields.count("normal_x") && c.fields.count("normal_y") && c.fields.count("normal_z"))
+    out.normals = Buffer<Point4f>::fromVector(
+        readVectors(c, n, {"normal_x", "normal_y", "normal_z"}, identity_pose, rotation, nullptr));
+  if (auto it = c.fields.find("intensity"); it != c.fields.end())
+    out.intensity = readScalars<float>(c, n, it->second, readAsFloat);
+  if (auto it = c.fields.find("ring"); it != c.fields.end())
+    out.ring = readScalars<std::uint16_t>(c, n, it->second, [](const std::uint8_t* p, auto type) {
+      return static_cast<std::uint16_t>(readAsDouble(p, type));
+    });
+  if (auto it = c.fields.find("time_offset_us"); it != c.fields.end())
+    out.time_offset_us =
+        readScalars<std::int32_t>(c, n, it->second, [](const std::uint8_t* p, auto type) {
+          return static_cast<std::int32_t>(readAsDouble(p, type));
+        });
   return Status::ok();
 }
 

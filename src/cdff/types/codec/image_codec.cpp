@@ -162,6 +162,35 @@ Status readCalibration(Bytes data, CameraModel& c, Timestamp* stamp, std::string
   return Status::ok();
 }
 
+// The pixel format of a RawImage encoding (ROS names and OpenCV types). RGB has no format of
+// its own: it is stored as BGR with the outer channels swapped.
+struct RawEncoding {
+  PixelFormat format = PixelFormat::kGray8;
+  bool swap_rgb = false;
+};
+
+Result<RawEncoding> rawEncoding(const std::string& encoding) {
+  if (encoding == "mono8" || encoding == "8UC1") return RawEncoding{PixelFormat::kGray8};
+  if (encoding == "bgr8" || encoding == "8UC3") return RawEncoding{PixelFormat::kBgr8};
+  if (encoding == "rgb8") return RawEncoding{PixelFormat::kBgr8, true};
+  if (encoding == "mono16" || encoding == "16UC1") return RawEncoding{PixelFormat::kGray16};
+  if (encoding == "32FC1") return RawEncoding{PixelFormat::kFloat32};
+  return corruptMessage("foxglove.RawImage",
+                        fmt::format("encoding '{}' is not supported; expected mono8, bgr8, "
+                                    "rgb8, mono16 or 32FC1",
+                                    encoding));
+}
+
+// A copy of 3-channel pixels with the first and third channels swapped (RGB to BGR).
+Buffer<std::uint8_t> rgbToBgr(Bytes pixels, std::uint32_t width, std::uint32_t height,
+                              std::uint32_t step) {
+  std::vector<std::uint8_t> bgr(pixels.begin(), pixels.end());
+  for (std::uint32_t y = 0; y < height; ++y)
+    for (std::uint32_t x = 0; x < width; ++x)
+      std::swap(bgr[y * step + 3 * x], bgr[y * step + 3 * x + 2]);
+  return Buffer<std::uint8_t>::fromVector(std::move(bgr));
+}
+
 Status readRawImage(Bytes data, const std::shared_ptr<const void>& owner, Image& im,
                     double* meters_per_unit) {
   im = Image{};
@@ -208,24 +237,9 @@ Status readRawImage(Bytes data, const std::shared_ptr<const void>& owner, Image&
     return inner.isOk();
   }));
   CDFF_RETURN_IF_ERROR(inner);
-  bool swap_rgb = false;
-  if (encoding == "mono8" || encoding == "8UC1") {
-    im.format = PixelFormat::kGray8;
-  } else if (encoding == "bgr8" || encoding == "8UC3") {
-    im.format = PixelFormat::kBgr8;
-  } else if (encoding == "rgb8") {
-    im.format = PixelFormat::kBgr8;
-    swap_rgb = true;
-  } else if (encoding == "mono16" || encoding == "16UC1") {
-    im.format = PixelFormat::kGray16;
-  } else if (encoding == "32FC1") {
-    im.format = PixelFormat::kFloat32;
-  } else {
-    return corruptMessage("foxglove.RawImage",
-                          fmt::format("encoding '{}' is not supported; expected mono8, bgr8, "
-                                      "rgb8, mono16 or 32FC1",
-                                      encoding));
-  }
+  Result<RawEncoding> format = rawEncoding(encoding);
+  if (!format) return format.status();
+  im.format = format->format;
   const std::uint64_t row = static_cast<std::uint64_t>(width) * bytesPerPixel(im.format);
   if (height > 0 && step < row)
     return corruptMessage("foxglove.RawImage",
@@ -240,17 +254,12 @@ Status readRawImage(Bytes data, const std::shared_ptr<const void>& owner, Image&
   im.height = static_cast<int>(height);
   im.stride_bytes = step;
   pixels = pixels.first(static_cast<std::size_t>(need));
-  if (swap_rgb) {
-    std::vector<std::uint8_t> bgr(pixels.begin(), pixels.end());
-    for (std::uint32_t y = 0; y < height; ++y)
-      for (std::uint32_t x = 0; x < width; ++x)
-        std::swap(bgr[y * step + 3 * x], bgr[y * step + 3 * x + 2]);
-    im.pixels = Buffer<std::uint8_t>::fromVector(std::move(bgr));
-  } else {
+  if (format->swap_rgb)
+    im.pixels = rgbToBgr(pixels, width, height, step);
+  else
     im.pixels = shareBytes(
         pixels, owner,
         static_cast<std::size_t>(bytesPerPixel(im.format) == 3 ? 1 : bytesPerPixel(im.format)));
-  }
   return Status::ok();
 }
 

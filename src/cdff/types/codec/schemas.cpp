@@ -28,11 +28,8 @@ pb::MessageDef message(std::string full_name, std::vector<pb::FieldDef> fields,
   return {std::move(full_name), file + ".proto", std::move(fields), std::move(enums)};
 }
 
-// Field numbers are those of the published Foxglove schemas (github.com/foxglove/foxglove-sdk,
-// schemas/proto/foxglove/*.proto); CDFF's additions are numbered from 1000.
-pb::DescriptorPool buildPool() {
-  pb::DescriptorPool p;
-  const std::string ts = "google.protobuf.Timestamp";
+// Protobuf's well-known time types and Foxglove's geometry, which the others are built of.
+void addBasicMessages(pb::DescriptorPool& p) {
   p.add({"google.protobuf.Timestamp",
          "google/protobuf/timestamp.proto",
          {field("seconds", 1, F::kInt64), field("nanos", 2, F::kInt32)},
@@ -53,6 +50,11 @@ pb::DescriptorPool buildPool() {
                                   field("orientation", 2, F::kMessage, "foxglove.Quaternion")}));
   p.add(message("foxglove.KeyValuePair",
                 {field("key", 1, F::kString), field("value", 2, F::kString)}));
+}
+
+// Foxglove's messages of sensor data, transforms and poses.
+void addSensorMessages(pb::DescriptorPool& p) {
+  const std::string ts = "google.protobuf.Timestamp";
   p.add(message(
       "foxglove.CameraCalibration",
       {field("timestamp", 1, F::kMessage, ts), field("frame_id", 9, F::kString),
@@ -103,7 +105,10 @@ pb::DescriptorPool buildPool() {
   p.add(message("foxglove.PosesInFrame",
                 {field("timestamp", 1, F::kMessage, ts), field("frame_id", 2, F::kString),
                  repeated("poses", 3, F::kMessage, "foxglove.Pose")}));
-  // The scene primitives: a SceneEntity refers to all of them.
+}
+
+// The scene primitives: a SceneEntity refers to all of them.
+void addScenePrimitives(pb::DescriptorPool& p) {
   p.add(message(
       "foxglove.ArrowPrimitive",
       {field("pose", 1, F::kMessage, "foxglove.Pose"), field("shaft_length", 2, F::kDouble),
@@ -144,6 +149,11 @@ pb::DescriptorPool buildPool() {
                  field("color", 3, F::kMessage, "foxglove.Color"),
                  field("override_color", 4, F::kBool), field("url", 5, F::kString),
                  field("media_type", 6, F::kString), field("data", 7, F::kBytes)}));
+}
+
+// The scene entities made of the primitives, and the updates that add and delete them.
+void addSceneMessages(pb::DescriptorPool& p) {
+  const std::string ts = "google.protobuf.Timestamp";
   p.add(message(
       "foxglove.SceneEntity",
       {field("timestamp", 1, F::kMessage, ts), field("frame_id", 2, F::kString),
@@ -166,8 +176,11 @@ pb::DescriptorPool buildPool() {
   p.add(message("foxglove.SceneUpdate",
                 {repeated("deletions", 1, F::kMessage, "foxglove.SceneEntityDeletion"),
                  repeated("entities", 2, F::kMessage, "foxglove.SceneEntity")}));
+}
 
-  // CDFF's own schemas.
+// CDFF's own schemas: features, matches, correspondences and stereo pairs.
+void addCdffMessages(pb::DescriptorPool& p) {
+  const std::string ts = "google.protobuf.Timestamp";
   p.add(message(
       "cdff.DescriptorMatrix",
       {field("element", 1, F::kEnum, "cdff.DescriptorMatrix.Element"),
@@ -201,6 +214,18 @@ pb::DescriptorPool buildPool() {
                 {field("left", 1, F::kMessage, "foxglove.RawImage"),
                  field("right", 2, F::kMessage, "foxglove.RawImage"),
                  field("right_T_left", 3, F::kMessage, "foxglove.FrameTransform")}));
+}
+
+// Field numbers are those of the published Foxglove schemas (github.com/foxglove/foxglove-sdk,
+// schemas/proto/foxglove/*.proto); CDFF's additions are numbered from 1000. Messages are added
+// after the messages their fields refer to.
+pb::DescriptorPool buildPool() {
+  pb::DescriptorPool p;
+  addBasicMessages(p);
+  addSensorMessages(p);
+  addScenePrimitives(p);
+  addSceneMessages(p);
+  addCdffMessages(p);
   return p;
 }
 
@@ -300,8 +325,7 @@ const std::map<std::string, std::string, std::less<>>& jsonSchemas() {
        scalarSchema("cdff.Double", R"(["number","null"])", "A real value; null is NaN")},
       {"cdff.Bool", scalarSchema("cdff.Bool", R"("boolean")", "A flag")},
       {"cdff.Int", scalarSchema("cdff.Int", R"("integer")", "An integer")},
-      {"cdff.Timestamp",
-       scalarSchema("cdff.Timestamp", R"("integer")", "A time in microseconds")},
+      {"cdff.Timestamp", scalarSchema("cdff.Timestamp", R"("integer")", "A time in microseconds")},
       {"cdff.String", scalarSchema("cdff.String", R"("string")", "A text, e.g. a tracker status")},
   };
   return schemas;
