@@ -500,9 +500,8 @@ TEST(ModelBasedTracking, ACoarseSearchCannyThresholdOutOfRangeIsRejected) {
     const Status s = node.value()->configure(
         YAML::Load("{acquisition_coarse_search: true, acquisition_canny_low: " + value + "}"));
     EXPECT_EQ(s.code(), StatusCode::kInvalidParameter) << s.toString();
-    EXPECT_NE(s.message().find("'acquisition_canny_low' = " + value +
-                               " is out of range; expected "
-                               "[1, 680]"),
+    EXPECT_NE(s.message().find("acquisition_canny_low = " + value +
+                               ": out of range; expected a number in [1, 680] grey levels/px"),
               std::string::npos)
         << s.message();
   }

@@ -34,7 +34,7 @@ check check-type-mismatch 1 "type_mismatch.yaml:9:5: type mismatch: 'ekf.innovat
   "$cdff" dfpc check "$graphs/type_mismatch.yaml"
 check check-cycle 1 "cycle.yaml:11:5: cycle without a delay: first -> second -> first" -- \
   "$cdff" dfpc check "$graphs/cycle.yaml"
-check check-parameter 1 "bad_parameter.yaml:9:34: instance 'ekf' \\(EstimationFilter/ExtendedKalman\\): .*'position_sigma' = -1 is out of range" -- \
+check check-parameter 1 "bad_parameter.yaml:9:34: instance 'ekf' \\(EstimationFilter/ExtendedKalman\\): .*position_sigma = -1: out of range; expected a number >= 1e-09 m" -- \
   "$cdff" dfpc check "$graphs/bad_parameter.yaml"
 check check-missing-file 1 "nowhere.yaml: cannot open DFPC graph file" -- "$cdff" dfpc check "$graphs/nowhere.yaml"
 check check-several 1 "unknown_dfn.yaml:6:14" -- "$cdff" dfpc check "$root/dfpcs/pose_filtering.yaml" "$graphs/unknown_dfn.yaml"

@@ -114,36 +114,42 @@ TEST(GraphYaml, UnknownPortsAndInstancesInConnections) {
 
 TEST(GraphYaml, DfpcPortsMustBeUsedAndOutputsFedOnce) {
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "  - second.result -> y\n", "")),
-                  "graph.yaml:5:5: DFPC output 'y' is not connected");
+                  "graph.yaml:5:12: DFPC output 'y' is not connected; expected a connection");
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "outputs:",
                                        "  - {name: w, type: Double, channel: /in/w}\n"
                                        "outputs:")),
-                  "graph.yaml:4:5: DFPC input 'w' feeds nothing");
+                  "graph.yaml:4:12: DFPC input 'w' feeds nothing");
   EXPECT_CONTAINS(
       graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x")),
-      "graph.yaml:3:5: DFPC input 'x': unknown type 'Duoble'");
+      "graph.yaml:3:12: DFPC input 'x': unknown type 'Duoble'; expected one of {Image,");
+  EXPECT_EQ(graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x"))
+                .find("type mismatch"),
+            std::string::npos);
 }
 
 TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "    parameters:", "    paramters:")),
-                  "graph.yaml:11:5: instance 'second': unknown key 'paramters'");
+                  "graph.yaml:11:5: nodes.second.paramters: unknown key; expected one of {dfn, dfi, "
+                  "parameters, trigger, active_when, diverged_when, budget_s, fallback, on_fault} "
+                  "(did you mean 'parameters'?)");
   EXPECT_CONTAINS(
       graphErrors(replaced(kChain, "first.result -> second.a", "first.result => second.a")),
-      "graph.yaml:14:5: connection 'first.result => second.a' must read 'from -> to'");
+      "graph.yaml:14:5: connections.1 = first.result => second.a: expected 'from -> to'");
   EXPECT_CONTAINS(
       graphErrors(replaced(kChain, "  - x -> first.a\n", "  - {from: x, to: first.a, delay: 2}\n")),
-      "graph.yaml:13:35: delay = 2; expected 0 or 1");
+      "graph.yaml:13:35: connections.0.delay = 2: out of range; expected an integer in [0, 1]");
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "name: chain", "name: chain\nname: again")),
                   "graph.yaml:");
   EXPECT_CONTAINS(graphErrors("name: broken\nnodes: {a: [1, 2}\n"), "graph.yaml:2:");
-  EXPECT_CONTAINS(graphErrors("name: n\n"), "a DFPC graph needs 'nodes'");
+  EXPECT_CONTAINS(graphErrors("name: n\n"), "graph.yaml:1:1: nodes: missing; expected its DFN instances");
 }
 
 TEST(GraphYaml, ParameterErrorsPointIntoTheGraphFile) {
   const std::string e = graphErrors(replaced(kChain, "{offset: 1}", "{offest: 1}"));
   EXPECT_CONTAINS(e,
-                  "graph.yaml:11:18: instance 'second' (ProbeRelay/Plain): chain.second has "
-                  "no parameter 'offest' (did you mean 'offset'?)");
+                  "graph.yaml:11:18: instance 'second' (ProbeRelay/Plain): chain.second: offest: "
+                  "unknown key; expected one of {fail_above, duration_s, offset} (did you mean "
+                  "'offset'?)");
 }
 
 TEST(GraphYaml, ParametersMayComeFromAFileBesideTheGraph) {
@@ -166,7 +172,7 @@ TEST(GraphYaml, ConditionErrorsPointAtTheCharacter) {
                                           "    parameters: {offset: 1}\n"
                                           "    active_when: first.result in [1, 2\n");
   EXPECT_CONTAINS(graphErrors(bad_syntax),
-                  "graph.yaml:12:18: condition 'first.result in [1, 2': expected ',' or ']', got "
+                  "graph.yaml:12:39: condition 'first.result in [1, 2': expected ',' or ']', got "
                   "'<end>' (at character 22)");
   const std::string bad_type = replaced(kChain, "    parameters: {offset: 1}\n",
                                         "    parameters: {offset: 1}\n"
@@ -193,7 +199,9 @@ TEST(GraphYaml, RecoveriesMustNameWhatTheyActOn) {
                   "on_fault.over_budget needs budget_s > 0");
   EXPECT_CONTAINS(with("    on_fault: {error: [{reinitialise: nobody}]}\n"),
                   "recovery 'reinitialise' names unknown instance 'nobody'");
-  EXPECT_CONTAINS(with("    on_fault: {error: [restart]}\n"), "unknown recovery 'restart'");
+  EXPECT_CONTAINS(with("    on_fault: {error: [restart]}\n"),
+                  "nodes.second.on_fault.error.0 = restart: expected a recovery: one of "
+                  "{reinitialise, wake, switch_dfi, set_track_state}");
   EXPECT_EQ(
       with("    fallback: {dfi: Alternative}\n    budget_s: 0.01\n"
            "    on_fault: {over_budget: [switch_dfi], error: {after: 3, do: [reinitialise]}}\n"),
@@ -209,7 +217,7 @@ TEST(GraphYaml, TriggerErrors) {
   EXPECT_CONTAINS(with("{on: [a], sync: exact}"), "sync: exact needs at least two ports");
   EXPECT_CONTAINS(with("{on: [a, b], sync: nearest}"), "sync: nearest needs tolerance_s > 0");
   EXPECT_CONTAINS(with("{on: [a, b], sync: exact, tolerance_s: 0.1}"),
-                  "tolerance_s applies to sync: nearest");
+                  "trigger.tolerance_s = 0.1: expected no tolerance_s with sync: exact");
   EXPECT_CONTAINS(with("{on: [a], time_input: a, period_s: 1}"),
                   "time_input 'a' has type Double; expected Timestamp");
   EXPECT_EQ(with("{on: [a, b], sync: nearest, tolerance_s: 0.005, queue: 4}"), "");

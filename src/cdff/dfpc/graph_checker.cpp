@@ -256,7 +256,8 @@ class GraphChecker {
     for (const ConnectionSpec& c : g_.connections) {
       const std::string from = endType(c.from, true, c);
       const std::string to = endType(c.to, false, c);
-      if (!from.empty() && !to.empty() && from != to)
+      // An unknown type has its own error; a mismatch with it would only repeat it.
+      if (!from.empty() && !to.empty() && from != to && findType(from) && findType(to))
         error(c.at, "type mismatch: '{}' is {} but '{}' is {}", c.from.toString(), from,
               c.to.toString(), to);
       if (c.delay > 0 && (c.from.isDfpcPort() || c.to.isDfpcPort()))

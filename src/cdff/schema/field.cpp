@@ -52,7 +52,7 @@ std::string Range::describe(std::string_view noun) const {
     text += fmt::format(" {} {}", low_open ? ">" : ">=", formatNumber(low));
   else if (has_high)
     text += fmt::format(" {} {}", high_open ? "<" : "<=", formatNumber(high));
-  if (!unit.empty()) text += " " + unit;
+  if (!unit.empty() && unit != "1") text += " " + unit;  // "1": dimensionless
   return text;
 }
 
@@ -141,9 +141,19 @@ SourceLocation Field::location() const {
 std::string Field::text() const {
   if (!node_.IsDefined() || node_.IsNull()) return "null";
   if (node_.IsScalar()) return node_.Scalar();
+  // Lists and maps on one line, in flow style, whatever style the file wrote them in.
+  YAML::Node flow = YAML::Clone(node_);
+  flow.SetStyle(YAML::EmitterStyle::Flow);
   YAML::Emitter out;
-  out << YAML::Flow << node_;
-  return out.c_str();
+  out << YAML::Flow << flow;
+  std::string text = out.c_str();
+  if (text.size() > 80) text = text.substr(0, 77) + "...";
+  return text;
+}
+
+std::string Field::notA(std::string_view what) const {
+  if (node_.IsScalar()) return fmt::format("not {}", what);
+  return fmt::format("{}, not {}", kind(), what);
 }
 
 Status Field::fail(std::string_view expected, std::string_view problem, StatusCode code) const {
@@ -169,22 +179,24 @@ Status Field::missing(const std::string& key, std::string_view expected) const {
 }
 
 Status Field::read(std::string& out) const {
-  if (!node_.IsScalar()) return fail("a string");
+  if (!node_.IsScalar()) return fail("a string", notA("a string"));
   out = node_.Scalar();
   return Status::ok();
 }
 
 Status Field::read(bool& out) const {
   bool v = false;
-  if (!node_.IsScalar() || !YAML::convert<bool>::decode(node_, v)) return fail("true or false");
+  if (!node_.IsScalar() || !YAML::convert<bool>::decode(node_, v))
+    return fail("true or false", notA("a bool"));
   out = v;
   return Status::ok();
 }
 
 Status Field::read(double& out, const Range& range) const {
   double v = 0;
-  if (!node_.IsScalar() || !YAML::convert<double>::decode(node_, v) || !std::isfinite(v))
-    return fail(range.describe());
+  if (!node_.IsScalar() || !YAML::convert<double>::decode(node_, v))
+    return fail(range.describe(), notA("a number"));
+  if (!std::isfinite(v)) return fail(range.describe(), "not a finite number");
   if (!range.contains(v)) return fail(range.describe(), "out of range");
   out = v;
   return Status::ok();
@@ -207,7 +219,8 @@ Status Field::read(std::int64_t& out, std::int64_t low, std::int64_t high) const
     return std::string("an integer");
   };
   long long v = 0;
-  if (!node_.IsScalar() || !YAML::convert<long long>::decode(node_, v)) return fail(expected());
+  if (!node_.IsScalar() || !YAML::convert<long long>::decode(node_, v))
+    return fail(expected(), notA("an integer"));
   if (v < low || v > high) return fail(expected(), "out of range");
   out = v;
   return Status::ok();
@@ -217,17 +230,17 @@ Status Field::read(std::uint64_t& out) const {
   std::uint64_t v = 0;
   if (!node_.IsScalar() || node_.Scalar().starts_with("-") ||
       !YAML::convert<std::uint64_t>::decode(node_, v))
-    return fail("a non-negative integer");
+    return fail("a non-negative integer", notA("a non-negative integer"));
   out = v;
   return Status::ok();
 }
 
 Status Field::choice(std::string& out, const std::vector<std::string>& choices) const {
   const std::string expected = fmt::format("one of {{{}}}", fmt::join(choices, ", "));
-  if (!node_.IsScalar()) return fail(expected);
+  if (!node_.IsScalar()) return fail(expected, notA("a name"));
   const std::string& v = node_.Scalar();
   if (std::find(choices.begin(), choices.end(), v) == choices.end())
-    return fail(expected + didYouMean(v, choices));
+    return fail(expected + didYouMean(v, choices), "unknown value");
   out = v;
   return Status::ok();
 }
@@ -242,14 +255,15 @@ Status Field::numbers(std::vector<double>& out, std::size_t min_size, std::size_
           : fmt::format("a list of {} to {} numbers", min_size, max_size);
   const std::string bounds = range.describe("");
   if (bounds != "") expected += "," + bounds;
-  if (!node_.IsSequence() || node_.size() < min_size || node_.size() > max_size)
-    return fail(expected);
+  if (!node_.IsSequence()) return fail(expected, notA("a list"));
+  if (node_.size() < min_size || node_.size() > max_size)
+    return fail(expected, fmt::format("has {} values", node_.size()));
   std::vector<double> values;
   for (const Field& element : elements()) {
     double v = 0;
-    if (!element.node_.IsScalar() || !YAML::convert<double>::decode(element.node_, v) ||
-        !std::isfinite(v))
-      return element.fail(range.describe("a finite number"));
+    if (!element.node_.IsScalar() || !YAML::convert<double>::decode(element.node_, v))
+      return element.fail(range.describe(), element.notA("a number"));
+    if (!std::isfinite(v)) return element.fail(range.describe(), "not a finite number");
     if (!range.contains(v)) return element.fail(range.describe(), "out of range");
     values.push_back(v);
   }
@@ -262,10 +276,10 @@ Status Field::words(std::vector<std::string>& out, std::string_view expected) co
     out = {node_.Scalar()};
     return Status::ok();
   }
-  if (!node_.IsSequence()) return fail(expected);
+  if (!node_.IsSequence()) return fail(expected, notA("a list"));
   std::vector<std::string> values;
   for (const Field& element : elements()) {
-    if (!element.isScalar()) return element.fail(expected);
+    if (!element.isScalar()) return element.fail(expected, element.notA("a name"));
     values.push_back(element.node_.Scalar());
   }
   out = std::move(values);

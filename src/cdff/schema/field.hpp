@@ -99,6 +99,9 @@ class Field {
 
   /// The one error format: "<path> = <value>: <problem>; expected <expected>" at location().
   /// An empty problem gives "<path> = <value>: expected <expected>".
+  /// "not a number" for a scalar, "a list, not a number" for a list or map: the problem part of
+  /// a type error.
+  std::string notA(std::string_view what) const;
   Status fail(std::string_view expected, std::string_view problem = {},
               StatusCode code = StatusCode::kInvalidParameter) const;
   /// "<path>: unknown key; expected one of {...} (did you mean 'x'?)", at the key.
