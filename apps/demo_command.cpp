@@ -336,7 +336,9 @@ int runDemo(const std::string& out_dir) {
 }  // namespace
 
 void addDemoCommand(CLI::App& root, int& exit_code) {
-  CLI::App* demo = root.add_subcommand("demo", "Run the foundation DFNs end to end on simulated data (make demo runs the tracking chains)");
+  CLI::App* demo = root.add_subcommand(
+      "demo",
+      "Run the foundation DFNs end to end on simulated data (make demo runs the tracking chains)");
   auto out_dir = std::make_shared<std::string>("out/demo");
   demo->add_option("--out", *out_dir, "Directory for the summary (JSON)");
   demo->callback([out_dir, &exit_code] { exit_code = runDemo(*out_dir); });

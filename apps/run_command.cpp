@@ -140,8 +140,8 @@ int runGraphs(const RunArguments& args) {
              s.products, s.passed_through, s.events, s.faults, s.recoveries, args.output);
   for (const dfpc::DfpcStatus& d : result->dfpcs) {
     fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d.name, toString(d.state),
-               d.track_state ? fmt::format(" (track {})", toString(*d.track_state)) : "", d.messages,
-               d.products, d.faults,
+               d.track_state ? fmt::format(" (track {})", toString(*d.track_state)) : "",
+               d.messages, d.products, d.faults,
                d.last_fault.empty() ? "" : fmt::format(", last fault: {}", d.last_fault));
   }
   for (const auto& [channel, why] : input.skippedChannels())

@@ -32,7 +32,8 @@ Status writeFile(const std::string& path, io::Compression compression, int part)
       CDFF_RETURN_IF_ERROR(rec.writeEvent(t, "info", "seed", "event"));
     } else if (part == 1) {
       CDFF_RETURN_IF_ERROR(rec.write("/chaser/thermal/image", s.image_float));
-      CDFF_RETURN_IF_ERROR(rec.writeCalibration("/chaser/camera/left/calibration", s.camera, t, "cam"));
+      CDFF_RETURN_IF_ERROR(
+          rec.writeCalibration("/chaser/camera/left/calibration", s.camera, t, "cam"));
       CDFF_RETURN_IF_ERROR(rec.write("/truth/target_state", s.state));
       CDFF_RETURN_IF_ERROR(rec.write("/cdff/reconstruction/mesh", s.mesh));
     } else {

@@ -4,9 +4,9 @@
 #include <map>
 #include <vector>
 
-#include "cdff/io/recorder.hpp"
 #include "cdff/io/inspect.hpp"
 #include "cdff/io/mcap.hpp"
+#include "cdff/io/recorder.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace cdff::io;

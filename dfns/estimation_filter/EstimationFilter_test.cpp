@@ -273,7 +273,9 @@ TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost)
       ekf->in.pose_measurement.set(elsewhere(1'050'000 + 100'000 * k));
       ASSERT_OK(ekf->process());
       EXPECT_FALSE(*ekf->out.measurement_accepted) << k;
-      EXPECT_EQ(*ekf->out.track_state, after > 0 && k == 3 ? TrackState::kLost : TrackState::kTracking) << k;
+      EXPECT_EQ(*ekf->out.track_state,
+                after > 0 && k == 3 ? TrackState::kLost : TrackState::kTracking)
+          << k;
     }
     if (after == 0) continue;
     // LOST: the next measurement re-acquires, and the count starts again.

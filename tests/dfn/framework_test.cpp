@@ -61,35 +61,47 @@ TEST(Parameters, WrongTypeNamesKeyValueAndExpectation) {
   auto probe = makeProbe();
   Status s = configureYaml(*probe, "iterations: 2.5");
   EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
-  EXPECT_NE(s.message().find("iterations = 2.5: not an integer; expected an integer in [1, 100]"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("iterations = 2.5: not an integer; expected an integer in [1, 100]"),
+            std::string::npos)
+      << s.message();
   s = configureYaml(*probe, "gain: fast");
   EXPECT_NE(s.message().find("gain = fast: not a number; expected a number in [0, 10]"),
             std::string::npos)
       << s.message();
   s = configureYaml(*probe, "enabled: maybe");
-  EXPECT_NE(s.message().find("enabled = maybe: not a bool; expected true or false"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("enabled = maybe: not a bool; expected true or false"),
+            std::string::npos)
+      << s.message();
   s = configureYaml(*probe, "offsets: 3");
-  EXPECT_NE(s.message().find("offsets = 3: not a list; expected a list of 3 numbers"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("offsets = 3: not a list; expected a list of 3 numbers"),
+            std::string::npos)
+      << s.message();
   s = configureYaml(*probe, "gain: [1, 2]");
-  EXPECT_NE(s.message().find("gain = [1, 2]: a list, not a number"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("gain = [1, 2]: a list, not a number"), std::string::npos)
+      << s.message();
   s = configureYaml(*probe, "- 1\n- 2");
-  EXPECT_NE(s.message().find("[1, 2]: parameters are a list; expected a map"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("[1, 2]: parameters are a list; expected a map"), std::string::npos)
+      << s.message();
 }
 
 TEST(Parameters, OutOfRangeValuesNameTheAcceptedRange) {
   auto probe = makeProbe();
   Status s = configureYaml(*probe, "\n\ngain: 11");
   EXPECT_NE(s.message().find("params.yaml:3:7"), std::string::npos) << s.message();
-  EXPECT_NE(s.message().find("gain = 11: out of range; expected a number in [0, 10]"), std::string::npos)
+  EXPECT_NE(s.message().find("gain = 11: out of range; expected a number in [0, 10]"),
+            std::string::npos)
       << s.message();
   s = configureYaml(*probe, "gain: .nan");
   EXPECT_NE(s.message().find("gain = .nan: not a finite number"), std::string::npos) << s.message();
   s = configureYaml(*probe, "mode: divide");
   EXPECT_NE(s.message().find("expected one of {multiply, add}"), std::string::npos) << s.message();
   s = configureYaml(*probe, "offsets: [0, 0]");
-  EXPECT_NE(s.message().find("offsets = [0, 0]: has 2 values; expected a list of 3 numbers"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("offsets = [0, 0]: has 2 values; expected a list of 3 numbers"),
+            std::string::npos)
+      << s.message();
   s = configureYaml(*probe, "offsets: [0, 2, 0]");
-  EXPECT_NE(s.message().find("offsets.1 = 2: out of range; expected a number in [-1, 1]"), std::string::npos)
+  EXPECT_NE(s.message().find("offsets.1 = 2: out of range; expected a number in [-1, 1]"),
+            std::string::npos)
       << s.message();
 }
 

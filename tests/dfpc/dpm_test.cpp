@@ -239,8 +239,7 @@ TEST(DataProducts, SaveReportsWhatItCannotWriteAndRestoreRejectsCorruptFiles) {
   const fs::path dir = freshDirectory("partial");
   const Status s = dpm.save(dir.string());
   EXPECT_EQ(s.code(), StatusCode::kIoError);
-  EXPECT_NE(s.message().find("product 'camera/image' sample 0"), std::string::npos)
-      << s.message();
+  EXPECT_NE(s.message().find("product 'camera/image' sample 0"), std::string::npos) << s.message();
   DataProductManager back;
   ASSERT_OK(back.restore(dir.string()));  // what could be saved is there
   EXPECT_EQ(back.names(), (std::vector<std::string>{"ok/value"}));

@@ -122,16 +122,18 @@ TEST(GraphYaml, DfpcPortsMustBeUsedAndOutputsFedOnce) {
   EXPECT_CONTAINS(
       graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x")),
       "graph.yaml:3:12: DFPC input 'x': unknown type 'Duoble'; expected one of {Image,");
-  EXPECT_EQ(graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x"))
-                .find("type mismatch"),
-            std::string::npos);
+  EXPECT_EQ(
+      graphErrors(replaced(kChain, "type: Double, channel: /in/x", "type: Duoble, channel: /in/x"))
+          .find("type mismatch"),
+      std::string::npos);
 }
 
 TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
-  EXPECT_CONTAINS(graphErrors(replaced(kChain, "    parameters:", "    paramters:")),
-                  "graph.yaml:11:5: nodes.second.paramters: unknown key; expected one of {dfn, dfi, "
-                  "parameters, trigger, active_when, diverged_when, budget_s, fallback, on_fault} "
-                  "(did you mean 'parameters'?)");
+  EXPECT_CONTAINS(
+      graphErrors(replaced(kChain, "    parameters:", "    paramters:")),
+      "graph.yaml:11:5: nodes.second.paramters: unknown key; expected one of {dfn, dfi, "
+      "parameters, trigger, active_when, diverged_when, budget_s, fallback, on_fault} "
+      "(did you mean 'parameters'?)");
   EXPECT_CONTAINS(
       graphErrors(replaced(kChain, "first.result -> second.a", "first.result => second.a")),
       "graph.yaml:14:5: connections.1 = first.result => second.a: expected 'from -> to'");
@@ -141,7 +143,8 @@ TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
   EXPECT_CONTAINS(graphErrors(replaced(kChain, "name: chain", "name: chain\nname: again")),
                   "graph.yaml:");
   EXPECT_CONTAINS(graphErrors("name: broken\nnodes: {a: [1, 2}\n"), "graph.yaml:2:");
-  EXPECT_CONTAINS(graphErrors("name: n\n"), "graph.yaml:1:1: nodes: missing; expected its DFN instances");
+  EXPECT_CONTAINS(graphErrors("name: n\n"),
+                  "graph.yaml:1:1: nodes: missing; expected its DFN instances");
 }
 
 TEST(GraphYaml, ParameterErrorsPointIntoTheGraphFile) {

@@ -63,7 +63,8 @@ void writeInput(const fs::path& path, double duration_s = 20.0, std::size_t chun
     truth.pose.rotation = trueRotation(t);
     ASSERT_OK(rec.write("/truth/target_pose", truth));
     CameraModel camera;
-    ASSERT_OK(rec.writeCalibration("/chaser/camera/left/camera_info", camera, fromSeconds(t), "camera"));
+    ASSERT_OK(
+        rec.writeCalibration("/chaser/camera/left/camera_info", camera, fromSeconds(t), "camera"));
   }
   ASSERT_OK(rec.close());
 }

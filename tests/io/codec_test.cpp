@@ -9,11 +9,11 @@
 #include <nlohmann/json.hpp>
 
 #include "cdff/dfn/port.hpp"
-#include "cdff/types/codec/codec.hpp"
 #include "cdff/io/inspect.hpp"
-#include "cdff/types/codec/protobuf.hpp"
 #include "cdff/io/recorder.hpp"
 #include "cdff/io/replay.hpp"
+#include "cdff/types/codec/codec.hpp"
+#include "cdff/types/codec/protobuf.hpp"
 #include "samples.hpp"
 
 namespace cdff::io {
@@ -436,9 +436,8 @@ TEST(Codec, MalformedMessagesAreRefusedWithTheFieldAndOffset) {
   EXPECT_NE(st.message().find("foxglove.RawImage"), std::string::npos) << st.message();
   EXPECT_NE(st.message().find("byte offset"), std::string::npos) << st.message();
   // Every truncation of every type fails cleanly or decodes; nothing crashes.
-  const std::vector<Value> values = {Value::of(s.image_mono), Value::of(s.cloud),
-                                     Value::of(s.mesh),       Value::of(s.features2d),
-                                     Value::of(s.imu),        Value::of(s.pose),
+  const std::vector<Value> values = {Value::of(s.image_mono), Value::of(s.cloud), Value::of(s.mesh),
+                                     Value::of(s.features2d), Value::of(s.imu),   Value::of(s.pose),
                                      Value::of(s.stereo)};
   for (const Value& v : values) {
     const TypeInfo& type = v.type().info();

@@ -224,8 +224,8 @@ Status writeIoSamples(io::Recorder& r, const IoSamples& s, Timestamp stamp) {
   CDFF_RETURN_IF_ERROR(r.write("/chaser/camera/left/image", s.image_mono));
   CDFF_RETURN_IF_ERROR(r.write("/chaser/camera/right/image", s.image_bgr));
   CDFF_RETURN_IF_ERROR(r.write("/chaser/thermal/image", s.image_float));
-  CDFF_RETURN_IF_ERROR(
-      r.writeCalibration("/chaser/camera/left/calibration", s.camera, stamp, "camera_left_optical"));
+  CDFF_RETURN_IF_ERROR(r.writeCalibration("/chaser/camera/left/calibration", s.camera, stamp,
+                                          "camera_left_optical"));
   CDFF_RETURN_IF_ERROR(r.write("/chaser/camera/left/compressed", s.compressed));
   CDFF_RETURN_IF_ERROR(r.write("/chaser/stereo/pair", s.stereo));
   CDFF_RETURN_IF_ERROR(r.write("/chaser/tof/depth", s.depth_m));

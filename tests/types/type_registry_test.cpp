@@ -29,8 +29,8 @@ namespace fs = std::filesystem;
 constexpr Timestamp kStamp = 1'250'000;
 
 fs::path tempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("cdff_type_registry_test_" + std::to_string(::getpid())) / name;
+  const fs::path dir =
+      fs::temp_directory_path() / ("cdff_type_registry_test_" + std::to_string(::getpid())) / name;
   fs::create_directories(dir);
   return dir;
 }
@@ -92,18 +92,36 @@ ContourSamples contourSamples() {
 /// One sample value of every registered type, keyed by the type's name.
 std::map<std::string, Value> samples() {
   const testing::IoSamples s = testing::makeIoSamples(3, kStamp);
-  std::vector<Value> values = {
-      Value::of(s.image_mono),    Value::of(s.depth_m),     Value::of(s.stereo),
-      Value::of(s.compressed),    Value::of(s.camera),      Value::of(s.cloud),
-      Value::of(s.transform),     Value::of(s.pose),        Value::of(s.state),
-      Value::of(s.trajectory),    Value::of(s.mesh),        Value::of(polygonModel()),
-      Value::of(modelContours()), Value::of(contourSamples()), Value::of(s.features2d),
-      Value::of(s.features3d),    Value::of(s.matches),     Value::of(s.corr2d),
-      Value::of(s.corr3d),        Value::of(s.corr2d3d),    Value::of(s.imu),
-      Value::of(s.wrench),        Value::of(s.joints),      Value::of(s.record),
-      Value::of(TrackState::kDegraded), Value::of(-2.5e-3), Value::of(true),
-      Value::of(-42),             Value::of(Timestamp{1'234'567'890'123}),
-      Value::of(std::string("a string, \"quoted\""))};
+  std::vector<Value> values = {Value::of(s.image_mono),
+                               Value::of(s.depth_m),
+                               Value::of(s.stereo),
+                               Value::of(s.compressed),
+                               Value::of(s.camera),
+                               Value::of(s.cloud),
+                               Value::of(s.transform),
+                               Value::of(s.pose),
+                               Value::of(s.state),
+                               Value::of(s.trajectory),
+                               Value::of(s.mesh),
+                               Value::of(polygonModel()),
+                               Value::of(modelContours()),
+                               Value::of(contourSamples()),
+                               Value::of(s.features2d),
+                               Value::of(s.features3d),
+                               Value::of(s.matches),
+                               Value::of(s.corr2d),
+                               Value::of(s.corr3d),
+                               Value::of(s.corr2d3d),
+                               Value::of(s.imu),
+                               Value::of(s.wrench),
+                               Value::of(s.joints),
+                               Value::of(s.record),
+                               Value::of(TrackState::kDegraded),
+                               Value::of(-2.5e-3),
+                               Value::of(true),
+                               Value::of(-42),
+                               Value::of(Timestamp{1'234'567'890'123}),
+                               Value::of(std::string("a string, \"quoted\""))};
   std::map<std::string, Value> out;
   for (Value& v : values) out.emplace(std::string(v.type().name()), std::move(v));
   return out;
@@ -167,8 +185,8 @@ TEST(TypeRegistry, EveryTypePassesThroughPortsWithoutACopy) {
     EXPECT_EQ(input.anyValue().raw(), value.raw());
     EXPECT_EQ(input.anyValue().type(), value.type());
     // A port of another type refuses it, naming both types.
-    const TypeId other = value.type() == TypeId::of<double>() ? TypeId::of<int>()
-                                                               : TypeId::of<double>();
+    const TypeId other =
+        value.type() == TypeId::of<double>() ? TypeId::of<int>() : TypeId::of<double>();
     dfn::InputPortBase wrong("wrong", other, false);
     const Status refused = wrong.setAny(value);
     EXPECT_EQ(refused.code(), StatusCode::kInvalidInput);

@@ -7,11 +7,16 @@ namespace cdff::dfn {
 
 const char* toString(ParameterType type) {
   switch (type) {
-    case ParameterType::kBool: return "bool";
-    case ParameterType::kInt: return "int";
-    case ParameterType::kDouble: return "double";
-    case ParameterType::kString: return "string";
-    case ParameterType::kDoubleList: return "double[]";
+    case ParameterType::kBool:
+      return "bool";
+    case ParameterType::kInt:
+      return "int";
+    case ParameterType::kDouble:
+      return "double";
+    case ParameterType::kString:
+      return "string";
+    case ParameterType::kDoubleList:
+      return "double[]";
   }
   return "unknown";
 }

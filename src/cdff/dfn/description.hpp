@@ -33,7 +33,7 @@ using ParameterValue = std::variant<bool, long long, double, std::string, std::v
 struct ParameterSpec {
   std::string name;
   ParameterType type = ParameterType::kDouble;
-  std::string default_text;   // the default as written in YAML
+  std::string default_text;  // the default as written in YAML
   ParameterValue default_value;
   std::string unit;           // SI unit, "" when dimensionless
   std::optional<double> min;  // inclusive bounds for numbers (and list elements)

@@ -19,8 +19,8 @@ using schema::Field;
 using schema::Table;
 
 const std::set<std::string> kCppKeywords = {
-    "in",    "out",    "default", "class", "new",  "delete", "template", "operator", "register",
-    "int",   "double", "bool",    "float", "char", "auto",   "const",    "static"};
+    "in",  "out",    "default", "class", "new",  "delete", "template", "operator", "register",
+    "int", "double", "bool",    "float", "char", "auto",   "const",    "static"};
 
 Status identifier(const Field& f, std::string& out, std::string_view what) {
   CDFF_RETURN_IF_ERROR(f.read(out));
@@ -56,12 +56,15 @@ Status dataType(const Field& f, std::string& out) {
 
 Table<PortSpec> portTable(bool input) {
   Table<PortSpec> t(input ? "an input port" : "an output port");
-  t.required("name", [](const Field& f, PortSpec& p) { return identifier(f, p.name, "port name"); },
-             "a snake_case port name")
-      .required("type", [](const Field& f, PortSpec& p) { return dataType(f, p.type); },
-                "a data type name")
-      .required("doc", [](const Field& f, PortSpec& p) { return doc(f, p.doc); },
-                "what the port carries");
+  t.required(
+       "name", [](const Field& f, PortSpec& p) { return identifier(f, p.name, "port name"); },
+       "a snake_case port name")
+      .required(
+          "type", [](const Field& f, PortSpec& p) { return dataType(f, p.type); },
+          "a data type name")
+      .required(
+          "doc", [](const Field& f, PortSpec& p) { return doc(f, p.doc); },
+          "what the port carries");
   if (input) t.optional("optional", schema::flag(&PortSpec::optional));
   return t;
 }
@@ -93,7 +96,8 @@ Status readDefault(RawParameter& raw) {
   ParameterSpec& p = raw.spec;
   const Field& f = raw.default_field;
   p.default_text = f.text();
-  const schema::Range range = schema::Range::closed(p.min ? *p.min : -HUGE_VAL, p.max ? *p.max : HUGE_VAL);
+  const schema::Range range =
+      schema::Range::closed(p.min ? *p.min : -HUGE_VAL, p.max ? *p.max : HUGE_VAL);
   switch (p.type) {
     case ParameterType::kBool: {
       bool v = false;
@@ -132,8 +136,7 @@ Status readDefault(RawParameter& raw) {
 }
 
 Status readRange(const Field& f, ParameterSpec& p) {
-  if (!f.isList() || f.size() != 2)
-    return f.fail("[min, max], with null for an open end");
+  if (!f.isList() || f.size() != 2) return f.fail("[min, max], with null for an open end");
   for (int k = 0; k < 2; ++k) {
     const Field end = f[static_cast<std::size_t>(k)];
     if (!end.defined()) continue;
@@ -147,28 +150,32 @@ Status readRange(const Field& f, ParameterSpec& p) {
 const Table<RawParameter>& parameterTable() {
   static const Table<RawParameter> table =
       Table<RawParameter>("a parameter")
-          .required("name",
-                    [](const Field& f, RawParameter& r) {
-                      return identifier(f, r.spec.name, "parameter name");
-                    },
-                    "a snake_case parameter name")
-          .required("type",
-                    [](const Field& f, RawParameter& r) -> Status {
-                      std::string name;
-                      CDFF_RETURN_IF_ERROR(
-                          f.choice(name, {"bool", "int", "double", "string", "double[]"}));
-                      r.spec.type = *parameterTypeNamed(name);
-                      return Status::ok();
-                    },
-                    "bool, int, double, string or double[]")
-          .required("default",
-                    [](const Field& f, RawParameter& r) {
-                      r.default_field = f;
-                      return Status::ok();
-                    },
-                    "the default value")
-          .required("doc", [](const Field& f, RawParameter& r) { return doc(f, r.spec.doc); },
-                    "what the parameter does")
+          .required(
+              "name",
+              [](const Field& f, RawParameter& r) {
+                return identifier(f, r.spec.name, "parameter name");
+              },
+              "a snake_case parameter name")
+          .required(
+              "type",
+              [](const Field& f, RawParameter& r) -> Status {
+                std::string name;
+                CDFF_RETURN_IF_ERROR(
+                    f.choice(name, {"bool", "int", "double", "string", "double[]"}));
+                r.spec.type = *parameterTypeNamed(name);
+                return Status::ok();
+              },
+              "bool, int, double, string or double[]")
+          .required(
+              "default",
+              [](const Field& f, RawParameter& r) {
+                r.default_field = f;
+                return Status::ok();
+              },
+              "the default value")
+          .required(
+              "doc", [](const Field& f, RawParameter& r) { return doc(f, r.spec.doc); },
+              "what the parameter does")
           .optional("unit", [](const Field& f, RawParameter& r) { return f.read(r.spec.unit); })
           .optional("range",
                     [](const Field& f, RawParameter& r) {
@@ -197,8 +204,8 @@ Status readParameters(const Field& f, std::vector<ParameterSpec>& out) {
     RawParameter raw;
     CDFF_RETURN_IF_ERROR(parameterTable().read(element, raw));
     const ParameterType t = raw.spec.type;
-    const bool numeric = t == ParameterType::kInt || t == ParameterType::kDouble ||
-                         t == ParameterType::kDoubleList;
+    const bool numeric =
+        t == ParameterType::kInt || t == ParameterType::kDouble || t == ParameterType::kDoubleList;
     if (raw.range_field.defined() && !numeric)
       return raw.range_field.fail("no range for a non-numeric parameter");
     if (raw.values_field.defined() && t != ParameterType::kString)
@@ -221,14 +228,16 @@ struct RawImplementation {
 const Table<RawImplementation>& implementationTable() {
   static const Table<RawImplementation> table =
       Table<RawImplementation>("an implementation")
-          .required("name",
-                    [](const Field& f, RawImplementation& r) {
-                      r.name_field = f;
-                      return typeName(f, r.spec.name, "DFI name");
-                    },
-                    "a CamelCase DFI name")
-          .required("doc", [](const Field& f, RawImplementation& r) { return doc(f, r.spec.doc); },
-                    "what the DFI does")
+          .required(
+              "name",
+              [](const Field& f, RawImplementation& r) {
+                r.name_field = f;
+                return typeName(f, r.spec.name, "DFI name");
+              },
+              "a CamelCase DFI name")
+          .required(
+              "doc", [](const Field& f, RawImplementation& r) { return doc(f, r.spec.doc); },
+              "what the DFI does")
           .optional("dependencies",
                     [](const Field& f, RawImplementation& r) {
                       return f.words(r.spec.dependencies, "a list of library names");
@@ -247,29 +256,27 @@ struct RawDescription {
 const Table<RawDescription>& descriptionTable() {
   static const Table<RawDescription> table =
       Table<RawDescription>("a DFN description")
-          .required("name",
-                    [](const Field& f, RawDescription& r) {
-                      return typeName(f, r.d.name, "DFN name");
-                    },
-                    "the DFN's CamelCase name")
-          .required("doc", [](const Field& f, RawDescription& r) { return doc(f, r.d.doc); },
-                    "what the DFN does")
-          .required("inputs",
-                    [](const Field& f, RawDescription& r) {
-                      return readPorts(f, r.d.inputs, true);
-                    },
-                    "a list of input ports")
-          .required("outputs",
-                    [](const Field& f, RawDescription& r) {
-                      return readPorts(f, r.d.outputs, false);
-                    },
-                    "a list of output ports")
-          .required("implementations",
-                    [](const Field&, RawDescription&) { return Status::ok(); },  // read below
-                    "a non-empty list of implementations")
-          .optional("parameters", [](const Field& f, RawDescription& r) {
-            return readParameters(f, r.common);
-          });
+          .required(
+              "name",
+              [](const Field& f, RawDescription& r) { return typeName(f, r.d.name, "DFN name"); },
+              "the DFN's CamelCase name")
+          .required(
+              "doc", [](const Field& f, RawDescription& r) { return doc(f, r.d.doc); },
+              "what the DFN does")
+          .required(
+              "inputs",
+              [](const Field& f, RawDescription& r) { return readPorts(f, r.d.inputs, true); },
+              "a list of input ports")
+          .required(
+              "outputs",
+              [](const Field& f, RawDescription& r) { return readPorts(f, r.d.outputs, false); },
+              "a list of output ports")
+          .required(
+              "implementations",
+              [](const Field&, RawDescription&) { return Status::ok(); },  // read below
+              "a non-empty list of implementations")
+          .optional("parameters",
+                    [](const Field& f, RawDescription& r) { return readParameters(f, r.common); });
   return table;
 }
 

@@ -23,8 +23,9 @@ schema::Range rangeOf(const ParameterSpec& spec) {
 ParameterReader::ParameterReader(const YAML::Node& node, std::string source, std::string owner)
     : root_(schema::Document::of(node, source).root()), owner_(std::move(owner)) {
   if (node && !node.IsNull() && !node.IsMap())
-    status_ = root_.fail("a map of parameter: value", fmt::format("parameters are {}", root_.kind()))
-                  .withContext(owner_);
+    status_ =
+        root_.fail("a map of parameter: value", fmt::format("parameters are {}", root_.kind()))
+            .withContext(owner_);
 }
 
 std::optional<schema::Field> ParameterReader::given(const ParameterSpec& spec) const {
@@ -69,7 +70,8 @@ void ParameterReader::read(const ParameterSpec& spec, std::vector<double>& value
   auto f = given(spec);
   if (!f) return;
   const std::size_t min = spec.list_size ? *spec.list_size : 0;
-  const std::size_t max = spec.list_size ? *spec.list_size : std::numeric_limits<std::size_t>::max();
+  const std::size_t max =
+      spec.list_size ? *spec.list_size : std::numeric_limits<std::size_t>::max();
   keep(f->numbers(value, min, max, rangeOf(spec)));
 }
 

@@ -74,7 +74,9 @@ class InputPort final : public InputPortBase {
   const T& operator*() const { return *get(); }
   const T* operator->() const { return get(); }
   const T* get() const { return static_cast<const T*>(value_.raw()); }
-  std::shared_ptr<const T> shared() const { return std::static_pointer_cast<const T>(value_.data()); }
+  std::shared_ptr<const T> shared() const {
+    return std::static_pointer_cast<const T>(value_.data());
+  }
 };
 
 template <RegisteredType T>
@@ -88,7 +90,9 @@ class OutputPort final : public OutputPortBase {
   const T& operator*() const { return *get(); }
   const T* operator->() const { return get(); }
   const T* get() const { return static_cast<const T*>(value_.raw()); }
-  std::shared_ptr<const T> shared() const { return std::static_pointer_cast<const T>(value_.data()); }
+  std::shared_ptr<const T> shared() const {
+    return std::static_pointer_cast<const T>(value_.data());
+  }
 };
 
 }  // namespace cdff::dfn

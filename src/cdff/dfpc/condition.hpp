@@ -63,7 +63,7 @@ class Condition {
     double number = 0;
     std::string text;
     TrackState state = TrackState::kUninitialised;  // a track state's, after bind()
-    int column = 0;  // 1-based, in the condition text
+    int column = 0;                                 // 1-based, in the condition text
   };
   struct Comparison {
     std::size_t ref = 0;

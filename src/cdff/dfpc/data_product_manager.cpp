@@ -33,8 +33,7 @@ std::shared_ptr<DataProductManager::Series> DataProductManager::findOrAdd(const 
   return slot;
 }
 
-Status DataProductManager::publish(const std::string& name, Timestamp stamp,
-                                   Value value) {
+Status DataProductManager::publish(const std::string& name, Timestamp stamp, Value value) {
   if (name.empty()) return invalidInput("a product needs a name");
   if (value.empty()) return invalidInput("product '{}' at t = {} us: no value", name, stamp);
   const TypeId type = value.type();
@@ -42,8 +41,8 @@ Status DataProductManager::publish(const std::string& name, Timestamp stamp,
   std::unique_lock lock(s->mutex);
   if (s->samples.empty() && !s->type) s->type = type;
   if (s->type != type)
-    return invalidInput("product '{}' holds {} values; got a {} at t = {} us", name,
-                        s->type.name(), type.name(), stamp);
+    return invalidInput("product '{}' holds {} values; got a {} at t = {} us", name, s->type.name(),
+                        type.name(), stamp);
   Product p{name, stamp, std::move(value)};
   if (s->samples.empty() || s->samples.back().stamp <= stamp) {
     s->samples.push_back(std::move(p));

@@ -142,11 +142,10 @@ Status Dfpc::deliver(std::size_t input, const Message& message) {
     return Status::ok();
   }
   if (message.type() != input_types_[input] || message.value.empty()) {
-    Status s = invalidInput("DFPC '{}' input '{}' (channel {}) takes {}; got {} at t = {} us",
-                            name(), spec_.inputs[input].name, message.channel,
-                            input_types_[input].name(),
-                            message.value.empty() ? "an empty message" : message.type().name(),
-                            message.stamp);
+    Status s = invalidInput(
+        "DFPC '{}' input '{}' (channel {}) takes {}; got {} at t = {} us", name(),
+        spec_.inputs[input].name, message.channel, input_types_[input].name(),
+        message.value.empty() ? "an empty message" : message.type().name(), message.stamp);
     emit(EventType::kInputRejected, "", s.message());
     return s;
   }

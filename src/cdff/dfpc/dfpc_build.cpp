@@ -175,7 +175,8 @@ std::vector<std::vector<bool>> Dfpc::connectPorts() {
         if (spec_.inputs[i].name == c.from.port) input_edges_[i].push_back(edge);
     } else {
       const std::size_t n = index_.at(c.from.instance);
-      instances_[n].outputs[outputPortIndex(*instances_[n].node, c.from.port)].edges.push_back(edge);
+      instances_[n].outputs[outputPortIndex(*instances_[n].node, c.from.port)].edges.push_back(
+          edge);
     }
   }
   if (spec_.track_state && !spec_.track_state->from.port.empty()) {

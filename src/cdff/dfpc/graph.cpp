@@ -190,8 +190,8 @@ GraphBuilder& GraphBuilder::outputWatchdog(const std::string& output, double tim
     return *this;
   }
   spec_.build_errors.push_back(Status(StatusCode::kInvalidParameter,
-                                     fmt::format("outputWatchdog: no DFPC output '{}'", output),
-                                     spec_.at));
+                                      fmt::format("outputWatchdog: no DFPC output '{}'", output),
+                                      spec_.at));
   return *this;
 }
 
@@ -232,10 +232,10 @@ GraphBuilder::Node& GraphBuilder::Node::parameters(const std::string& yaml) {
   try {
     spec().parameters = YAML::Load(yaml);
   } catch (const YAML::Exception& e) {
-    builder_.spec_.build_errors.push_back(Status(
-        StatusCode::kInvalidParameter,
-        fmt::format("instance '{}': parameters are not valid YAML: {}", spec().name, e.msg),
-        spec().at()));
+    builder_.spec_.build_errors.push_back(
+        Status(StatusCode::kInvalidParameter,
+               fmt::format("instance '{}': parameters are not valid YAML: {}", spec().name, e.msg),
+               spec().at()));
   }
   return *this;
 }
@@ -290,10 +290,11 @@ GraphBuilder::Node& GraphBuilder::Node::fallback(std::string dfi,
   try {
     if (!parameters_yaml.empty()) fb.parameters = YAML::Load(parameters_yaml);
   } catch (const YAML::Exception& e) {
-    builder_.spec_.build_errors.push_back(Status(
-        StatusCode::kInvalidParameter,
-        fmt::format("instance '{}': fallback parameters are not valid YAML: {}", spec().name, e.msg),
-        spec().at()));
+    builder_.spec_.build_errors.push_back(
+        Status(StatusCode::kInvalidParameter,
+               fmt::format("instance '{}': fallback parameters are not valid YAML: {}", spec().name,
+                           e.msg),
+               spec().at()));
   }
   spec().fallback = std::move(fb);
   return *this;

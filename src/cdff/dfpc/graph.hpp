@@ -213,8 +213,7 @@ class GraphBuilder {
             std::source_location where = std::source_location::current());
   GraphBuilder& connect(const std::string& from, const std::string& to, int delay = 0,
                         std::source_location where = std::source_location::current());
-  GraphBuilder& trackState(const std::string& from,
-                           TrackState initial = TrackState::kUninitialised,
+  GraphBuilder& trackState(const std::string& from, TrackState initial = TrackState::kUninitialised,
                            std::source_location where = std::source_location::current());
 
   const GraphSpec& spec() const { return spec_; }

@@ -80,8 +80,8 @@ class GraphChecker {
       if (!isIdentifier(out.name))
         error(out.at, "DFPC output name '{}' must be an identifier", out.name);
       if (!findType(out.type))
-        error(out.at, "DFPC output '{}': unknown type '{}'; expected one of {}", out.name,
-              out.type, typeNames());
+        error(out.at, "DFPC output '{}': unknown type '{}'; expected one of {}", out.name, out.type,
+              typeNames());
       static const std::map<std::string, std::set<std::string>> roles = {
           {"target_state", {"RigidBodyState"}},
           {"target_pose", {"PoseWithCovariance", "RigidBodyState"}},

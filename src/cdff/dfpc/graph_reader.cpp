@@ -45,8 +45,9 @@ Status kindOf(const Field& f, const std::string& word, RecoveryActionKind& out) 
       out = kind;
       return Status::ok();
     }
-  return f.fail("a recovery: one of {reinitialise, wake, switch_dfi, set_track_state}" +
-                schema::didYouMean(word, {"reinitialise", "wake", "switch_dfi", "set_track_state"}));
+  return f.fail(
+      "a recovery: one of {reinitialise, wake, switch_dfi, set_track_state}" +
+      schema::didYouMean(word, {"reinitialise", "wake", "switch_dfi", "set_track_state"}));
 }
 
 Status action(const Field& f, RecoveryAction& a) {
@@ -60,7 +61,7 @@ Status action(const Field& f, RecoveryAction& a) {
   const Field& argument = entries[0].value;
   if (!argument.isScalar() || argument.node().Scalar().empty())
     return argument.fail(a.kind == RecoveryActionKind::kSetTrackState ? "a track state"
-                                                                       : "an instance name");
+                                                                      : "an instance name");
   a.argument = argument.node().Scalar();
   return Status::ok();
 }
@@ -85,9 +86,9 @@ Status recovery(const Field& f, RecoverySpec& r) {
   static const Table<RecoverySpec> table =
       Table<RecoverySpec>("a recovery")
           .optional("after", schema::integer(&RecoverySpec::after, 1))
-          .required("do",
-                    [](const Field& g, RecoverySpec& s) { return actions(g, s.actions); },
-                    "the list of actions");
+          .required(
+              "do", [](const Field& g, RecoverySpec& s) { return actions(g, s.actions); },
+              "the list of actions");
   r.at = f.location();
   if (f.isMap() && (f.has("do") || f.has("after"))) return table.read(f, r);
   return actions(f, r.actions);
@@ -98,10 +99,13 @@ Status recovery(const Field& f, RecoverySpec& r) {
 const Table<DfpcInputSpec>& inputTable() {
   static const Table<DfpcInputSpec> table =
       Table<DfpcInputSpec>("a DFPC input")
-          .required("name", [](const Field& f, DfpcInputSpec& in) {
-            in.at = f.location();
-            return name(f, in.name, "a name");
-          }, "the input's name")
+          .required(
+              "name",
+              [](const Field& f, DfpcInputSpec& in) {
+                in.at = f.location();
+                return name(f, in.name, "a name");
+              },
+              "the input's name")
           .required("type", schema::text(&DfpcInputSpec::type), "a data type name")
           .required("channel", schema::text(&DfpcInputSpec::channel), "the channel that feeds it")
           .optional("optional", schema::flag(&DfpcInputSpec::optional));
@@ -111,10 +115,13 @@ const Table<DfpcInputSpec>& inputTable() {
 const Table<DfpcOutputSpec>& outputTable() {
   static const Table<DfpcOutputSpec> table =
       Table<DfpcOutputSpec>("a DFPC output")
-          .required("name", [](const Field& f, DfpcOutputSpec& out) {
-            out.at = f.location();
-            return name(f, out.name, "a name");
-          }, "the output's name")
+          .required(
+              "name",
+              [](const Field& f, DfpcOutputSpec& out) {
+                out.at = f.location();
+                return name(f, out.name, "a name");
+              },
+              "the output's name")
           .required("type", schema::text(&DfpcOutputSpec::type), "a data type name")
           .optional("channel", schema::text(&DfpcOutputSpec::channel))
           .optional("role", schema::text(&DfpcOutputSpec::role))
@@ -125,7 +132,8 @@ const Table<DfpcOutputSpec>& outputTable() {
                       out.history = static_cast<std::size_t>(history);
                       return Status::ok();
                     })
-          .optional("timeout_s", schema::number(&DfpcOutputSpec::timeout_s, schema::Range::atLeast(0, "s")))
+          .optional("timeout_s",
+                    schema::number(&DfpcOutputSpec::timeout_s, schema::Range::atLeast(0, "s")))
           .optional("on_timeout", [](const Field& f, DfpcOutputSpec& out) -> Status {
             CDFF_RETURN_IF_ERROR(recovery(f, out.on_timeout));
             if (out.timeout_s <= 0) return f.fail("a timeout_s > 0 with on_timeout", "no timeout");
@@ -218,9 +226,8 @@ Status trigger(const Field& f, InstanceSpec& s) {
                       i.where["tolerance_s"] = g.location();
                       return g.read(i.trigger.tolerance_s, schema::Range::atLeast(0, "s"));
                     })
-          .optional("queue", [](const Field& g, InstanceSpec& i) {
-            return g.read(i.trigger.queue, 1);
-          });
+          .optional("queue",
+                    [](const Field& g, InstanceSpec& i) { return g.read(i.trigger.queue, 1); });
   CDFF_RETURN_IF_ERROR(table.read(f, s));
   const TriggerSpec& t = s.trigger;
   if ((f.has("tolerance_s") || f.has("queue")) && t.sync == SyncPolicy::kNone)
@@ -249,12 +256,14 @@ Status fallback(const Field& f, InstanceSpec& s) {
 Status onFault(const Field& f, InstanceSpec& s) {
   static const Table<InstanceSpec> table =
       Table<InstanceSpec>("the recoveries per fault")
-          .optional("error", [](const Field& g, InstanceSpec& i) {
-            return recovery(g, i.on_fault[FaultKind::kError]);
-          })
-          .optional("over_budget", [](const Field& g, InstanceSpec& i) {
-            return recovery(g, i.on_fault[FaultKind::kOverBudget]);
-          })
+          .optional("error",
+                    [](const Field& g, InstanceSpec& i) {
+                      return recovery(g, i.on_fault[FaultKind::kError]);
+                    })
+          .optional("over_budget",
+                    [](const Field& g, InstanceSpec& i) {
+                      return recovery(g, i.on_fault[FaultKind::kOverBudget]);
+                    })
           .optional("divergence", [](const Field& g, InstanceSpec& i) {
             return recovery(g, i.on_fault[FaultKind::kDivergence]);
           });
@@ -295,16 +304,22 @@ Result<InstanceSpec> instance(const Field::Entry& entry) {
 Result<ConnectionSpec> connection(const Field& f) {
   static const Table<ConnectionSpec> table =
       Table<ConnectionSpec>("a connection {from, to, delay}")
-          .required("from", [](const Field& g, ConnectionSpec& c) -> Status {
-            std::string text;
-            CDFF_RETURN_IF_ERROR(g.read(text));
-            return portRef(g, text, c.from);
-          }, "instance.port or a DFPC input")
-          .required("to", [](const Field& g, ConnectionSpec& c) -> Status {
-            std::string text;
-            CDFF_RETURN_IF_ERROR(g.read(text));
-            return portRef(g, text, c.to);
-          }, "instance.port or a DFPC output")
+          .required(
+              "from",
+              [](const Field& g, ConnectionSpec& c) -> Status {
+                std::string text;
+                CDFF_RETURN_IF_ERROR(g.read(text));
+                return portRef(g, text, c.from);
+              },
+              "instance.port or a DFPC input")
+          .required(
+              "to",
+              [](const Field& g, ConnectionSpec& c) -> Status {
+                std::string text;
+                CDFF_RETURN_IF_ERROR(g.read(text));
+                return portRef(g, text, c.to);
+              },
+              "instance.port or a DFPC output")
           .optional("delay", schema::integer(&ConnectionSpec::delay, 0, 1));
   ConnectionSpec c;
   c.at = f.location();
@@ -316,8 +331,9 @@ Result<ConnectionSpec> connection(const Field& f) {
   const std::string text = f.node().Scalar();
   const std::size_t arrow = text.find("->");
   if (arrow == std::string::npos || text.find("->", arrow + 2) != std::string::npos)
-    return f.fail("'from -> to' (instance.port -> instance.port; a bare name is a DFPC input or "
-                  "output)");
+    return f.fail(
+        "'from -> to' (instance.port -> instance.port; a bare name is a DFPC input or "
+        "output)");
   auto trim = [](std::string s) {
     const auto b = s.find_first_not_of(" \t");
     const auto e = s.find_last_not_of(" \t");
@@ -344,24 +360,27 @@ Status listOf(const Field& f, std::vector<Item>& out, std::string_view what, Rea
 const Table<GraphSpec>& graphTable() {
   static const Table<GraphSpec> table =
       Table<GraphSpec>("a DFPC graph")
-          .required("name", [](const Field& f, GraphSpec& g) { return name(f, g.name, "a DFPC name"); },
-                    "the DFPC's name")
+          .required(
+              "name", [](const Field& f, GraphSpec& g) { return name(f, g.name, "a DFPC name"); },
+              "the DFPC's name")
           .optional("doc", schema::text(&GraphSpec::doc))
           .optional("inputs",
                     [](const Field& f, GraphSpec& g) {
-                      return listOf(f, g.inputs, "DFPC inputs", [](const Field& e) -> Result<DfpcInputSpec> {
-                        DfpcInputSpec in;
-                        CDFF_RETURN_IF_ERROR(inputTable().read(e, in));
-                        return in;
-                      });
+                      return listOf(f, g.inputs, "DFPC inputs",
+                                    [](const Field& e) -> Result<DfpcInputSpec> {
+                                      DfpcInputSpec in;
+                                      CDFF_RETURN_IF_ERROR(inputTable().read(e, in));
+                                      return in;
+                                    });
                     })
           .optional("outputs",
                     [](const Field& f, GraphSpec& g) {
-                      return listOf(f, g.outputs, "DFPC outputs", [](const Field& e) -> Result<DfpcOutputSpec> {
-                        DfpcOutputSpec out;
-                        CDFF_RETURN_IF_ERROR(outputTable().read(e, out));
-                        return out;
-                      });
+                      return listOf(f, g.outputs, "DFPC outputs",
+                                    [](const Field& e) -> Result<DfpcOutputSpec> {
+                                      DfpcOutputSpec out;
+                                      CDFF_RETURN_IF_ERROR(outputTable().read(e, out));
+                                      return out;
+                                    });
                     })
           .optional("track_state",
                     [](const Field& f, GraphSpec& g) -> Status {
@@ -371,17 +390,18 @@ const Table<GraphSpec>& graphTable() {
                       g.track_state = std::move(t);
                       return Status::ok();
                     })
-          .required("nodes",
-                    [](const Field& f, GraphSpec& g) -> Status {
-                      if (!f.isMap()) return f.fail("a map of instance name: instance");
-                      for (const Field::Entry& e : f.entries()) {
-                        Result<InstanceSpec> inst = instance(e);
-                        if (!inst) return inst.status();
-                        g.instances.push_back(std::move(inst).value());
-                      }
-                      return Status::ok();
-                    },
-                    "its DFN instances, a map of name: {dfn, dfi, ...}")
+          .required(
+              "nodes",
+              [](const Field& f, GraphSpec& g) -> Status {
+                if (!f.isMap()) return f.fail("a map of instance name: instance");
+                for (const Field::Entry& e : f.entries()) {
+                  Result<InstanceSpec> inst = instance(e);
+                  if (!inst) return inst.status();
+                  g.instances.push_back(std::move(inst).value());
+                }
+                return Status::ok();
+              },
+              "its DFN instances, a map of name: {dfn, dfi, ...}")
           .optional("connections", [](const Field& f, GraphSpec& g) {
             return listOf(f, g.connections, "connections", connection);
           });

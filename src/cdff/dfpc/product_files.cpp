@@ -74,7 +74,8 @@ Status DataProductManager::save(const std::string& directory) const {
       json sample = {{"stamp_us", p.stamp}};
       codec::ProductRecord record;
       if (Status saved = type.save_product(p.value.raw(), p.stamp, record); !saved) {
-        problems.push_back(saved.withContext(fmt::format("product '{}' sample {}", name, k)).message());
+        problems.push_back(
+            saved.withContext(fmt::format("product '{}' sample {}", name, k)).message());
         continue;
       }
       if (type.product == ProductForm::kInline) {
@@ -127,9 +128,9 @@ Status DataProductManager::restore(const std::string& directory) {
   };
   std::vector<Decoded> decoded;
   const auto corrupt = [&](const std::string& what) {
-    return Status(StatusCode::kCorruptData,
-                  fmt::format("{}: {}; expected the index that save() writes", index_path.string(),
-                              what));
+    return Status(
+        StatusCode::kCorruptData,
+        fmt::format("{}: {}; expected the index that save() writes", index_path.string(), what));
   };
   try {
     for (const json& entry : index.at("products")) {
@@ -138,9 +139,10 @@ Status DataProductManager::restore(const std::string& directory) {
       const std::string type_name = entry.at("type").get<std::string>();
       const TypeId type = findType(type_name);
       if (!type)
-        return corrupt(fmt::format("product '{}' has type '{}', which is not a data type of the "
-                                   "registry; expected one of {}",
-                                   d.name, type_name, typeNames()));
+        return corrupt(
+            fmt::format("product '{}' has type '{}', which is not a data type of the "
+                        "registry; expected one of {}",
+                        d.name, type_name, typeNames()));
       d.limit = entry.at("history").get<std::size_t>();
       for (const json& sample : entry.at("samples")) {
         const Timestamp stamp = sample.at("stamp_us").get<Timestamp>();
@@ -174,7 +176,8 @@ Status DataProductManager::restore(const std::string& directory) {
   }
   for (Decoded& d : decoded) {
     CDFF_RETURN_IF_ERROR(setHistoryLimit(d.name, std::max<std::size_t>(d.limit, 1)));
-    for (auto& [stamp, value] : d.samples) CDFF_RETURN_IF_ERROR(publish(d.name, stamp, std::move(value)));
+    for (auto& [stamp, value] : d.samples)
+      CDFF_RETURN_IF_ERROR(publish(d.name, stamp, std::move(value)));
   }
   return Status::ok();
 }

@@ -18,15 +18,16 @@
 #include <utility>
 #include <vector>
 
-#include "cdff/types/type_registry.hpp"
-#include "cdff/types/value.hpp"
 #include "cdff/types/status.hpp"
 #include "cdff/types/time.hpp"
+#include "cdff/types/type_registry.hpp"
+#include "cdff/types/value.hpp"
 
 namespace cdff::dfpc {
 
 struct Message {
-  std::string channel;  // e.g. /chaser/camera_left/image, /truth/target_pose, /cdff/<dfpc>/<product>
+  std::string
+      channel;  // e.g. /chaser/camera_left/image, /truth/target_pose, /cdff/<dfpc>/<product>
   Timestamp stamp = 0;  // stream time of the data
   Value value;
 

@@ -94,8 +94,9 @@ struct RecordingContents {
 };
 
 // A "track_state_changed" event ("BEFORE -> AFTER") of /cdff/events, into track_states.
-void addTrackStateChange(const nlohmann::json& j,
-                         std::map<std::string, std::vector<std::optional<TrackState>>>& track_states) {
+void addTrackStateChange(
+    const nlohmann::json& j,
+    std::map<std::string, std::vector<std::optional<TrackState>>>& track_states) {
   if (j.value("type", "") != "track_state_changed") return;
   const std::string text = j.value("message", "");
   const std::size_t arrow = text.find("-> ");

@@ -86,11 +86,16 @@ const std::string& Field::source() const {
 
 const char* Field::kind() const {
   switch (node_.Type()) {
-    case YAML::NodeType::Map: return "a map";
-    case YAML::NodeType::Sequence: return "a list";
-    case YAML::NodeType::Scalar: return "a scalar";
-    case YAML::NodeType::Null: return "empty";
-    default: return "absent";
+    case YAML::NodeType::Map:
+      return "a map";
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Scalar:
+      return "a scalar";
+    case YAML::NodeType::Null:
+      return "empty";
+    default:
+      return "absent";
   }
 }
 
@@ -100,8 +105,9 @@ Field Field::operator[](const std::string& key) const {
 }
 
 Field Field::operator[](std::size_t index) const {
-  YAML::Node child =
-      node_.IsSequence() && index < node_.size() ? node_[index] : YAML::Node(YAML::NodeType::Undefined);
+  YAML::Node child = node_.IsSequence() && index < node_.size()
+                         ? node_[index]
+                         : YAML::Node(YAML::NodeType::Undefined);
   return Field(child, join(path_, std::to_string(index)), origin_);
 }
 
@@ -158,9 +164,9 @@ std::string Field::notA(std::string_view what) const {
 
 Status Field::fail(std::string_view expected, std::string_view problem, StatusCode code) const {
   const std::string subject = path_.empty() ? text() : fmt::format("{} = {}", path_, text());
-  const std::string reason =
-      problem.empty() ? fmt::format("{}: expected {}", subject, expected)
-                      : fmt::format("{}: {}; expected {}", subject, problem, expected);
+  const std::string reason = problem.empty()
+                                 ? fmt::format("{}: expected {}", subject, expected)
+                                 : fmt::format("{}: {}; expected {}", subject, problem, expected);
   return Status(code, reason, location());
 }
 

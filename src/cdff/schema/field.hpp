@@ -27,7 +27,7 @@ namespace cdff::schema {
 /// Where a document's text came from, and the keys whose values were set from elsewhere (a
 /// scenario's `--set key=value`): their errors name the override instead of a line.
 struct Origin {
-  std::string source;                         // file path, or a name such as "<inline>"
+  std::string source;                            // file path, or a name such as "<inline>"
   std::map<std::string, std::string> overrides;  // key path -> where it was set ("--set a.b=1")
 };
 
@@ -39,7 +39,9 @@ struct Range {
   bool high_open = false;
   std::string unit;
 
-  static Range atLeast(double low, std::string unit = {}) { return {low, kInf, false, false, unit}; }
+  static Range atLeast(double low, std::string unit = {}) {
+    return {low, kInf, false, false, unit};
+  }
   static Range above(double low, std::string unit = {}) { return {low, kInf, true, false, unit}; }
   static Range closed(double low, double high, std::string unit = {}) {
     return {low, high, false, false, std::move(unit)};

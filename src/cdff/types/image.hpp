@@ -61,8 +61,8 @@ struct Image {
   int width = 0;
   int height = 0;
   PixelFormat format = PixelFormat::kGray8;
-  std::size_t stride_bytes = 0;     // bytes from one row to the next
-  Buffer<std::uint8_t> pixels;      // height * stride_bytes bytes
+  std::size_t stride_bytes = 0;       // bytes from one row to the next
+  Buffer<std::uint8_t> pixels;        // height * stride_bytes bytes
   std::optional<CameraModel> camera;  // intrinsics when the image comes from a calibrated camera
 
   /// Wraps `bytes` (moved, not copied) as a width x height image of `format`; stride defaults to
@@ -71,7 +71,9 @@ struct Image {
                                  PixelFormat format, std::size_t stride_bytes = 0);
 
   bool empty() const { return width <= 0 || height <= 0 || pixels.empty(); }
-  const std::uint8_t* row(int y) const { return pixels.data() + static_cast<std::size_t>(y) * stride_bytes; }
+  const std::uint8_t* row(int y) const {
+    return pixels.data() + static_cast<std::size_t>(y) * stride_bytes;
+  }
   template <typename T>
   const T& at(int x, int y) const {
     return reinterpret_cast<const T*>(row(y))[x];

@@ -4,16 +4,26 @@ namespace cdff {
 
 const char* toString(StatusCode code) {
   switch (code) {
-    case StatusCode::kOk: return "ok";
-    case StatusCode::kInvalidInput: return "invalid input";
-    case StatusCode::kInvalidParameter: return "invalid parameter";
-    case StatusCode::kNotConfigured: return "not configured";
-    case StatusCode::kNotFound: return "not found";
-    case StatusCode::kIoError: return "i/o error";
-    case StatusCode::kCorruptData: return "corrupt data";
-    case StatusCode::kNumericalFailure: return "numerical failure";
-    case StatusCode::kTimeout: return "timeout";
-    case StatusCode::kInternal: return "internal error";
+    case StatusCode::kOk:
+      return "ok";
+    case StatusCode::kInvalidInput:
+      return "invalid input";
+    case StatusCode::kInvalidParameter:
+      return "invalid parameter";
+    case StatusCode::kNotConfigured:
+      return "not configured";
+    case StatusCode::kNotFound:
+      return "not found";
+    case StatusCode::kIoError:
+      return "i/o error";
+    case StatusCode::kCorruptData:
+      return "corrupt data";
+    case StatusCode::kNumericalFailure:
+      return "numerical failure";
+    case StatusCode::kTimeout:
+      return "timeout";
+    case StatusCode::kInternal:
+      return "internal error";
   }
   return "unknown status";
 }

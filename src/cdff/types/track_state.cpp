@@ -4,11 +4,16 @@ namespace cdff {
 
 std::string_view toString(TrackState state) {
   switch (state) {
-    case TrackState::kUninitialised: return "UNINITIALISED";
-    case TrackState::kAcquiring: return "ACQUIRING";
-    case TrackState::kTracking: return "TRACKING";
-    case TrackState::kDegraded: return "DEGRADED";
-    case TrackState::kLost: return "LOST";
+    case TrackState::kUninitialised:
+      return "UNINITIALISED";
+    case TrackState::kAcquiring:
+      return "ACQUIRING";
+    case TrackState::kTracking:
+      return "TRACKING";
+    case TrackState::kDegraded:
+      return "DEGRADED";
+    case TrackState::kLost:
+      return "LOST";
   }
   return "UNINITIALISED";
 }

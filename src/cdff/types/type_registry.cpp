@@ -98,12 +98,12 @@ TypeInfo makeInfo(std::string_view name, std::string_view cpp_name, std::string_
 
 }  // namespace
 
-#define CDFF_DEFINE_TYPE_INFO(Type, Name, Schema, Encoding, Form)                            \
-  template <>                                                                                \
-  const TypeInfo& typeInfoOf<Type>() {                                                       \
-    static const TypeInfo info = makeInfo<Type, ProductForm::k##Form>(                       \
-        Name, #Type, Schema, MessageEncoding::k##Encoding);                                  \
-    return info;                                                                             \
+#define CDFF_DEFINE_TYPE_INFO(Type, Name, Schema, Encoding, Form)                                \
+  template <>                                                                                    \
+  const TypeInfo& typeInfoOf<Type>() {                                                           \
+    static const TypeInfo info =                                                                 \
+        makeInfo<Type, ProductForm::k##Form>(Name, #Type, Schema, MessageEncoding::k##Encoding); \
+    return info;                                                                                 \
   }
 CDFF_FOR_EACH_TYPE(CDFF_DEFINE_TYPE_INFO)
 #undef CDFF_DEFINE_TYPE_INFO

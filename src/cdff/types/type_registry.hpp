@@ -45,42 +45,42 @@ enum class ProductForm { kInline, kPly, kMessage };
 // The table. Columns: C++ type, name, MCAP schema, message encoding, product form. The order
 // matters only where two types share a schema: the first one is what a channel without CDFF
 // metadata decodes to (foxglove.RawImage -> Image, foxglove.PoseInFrame -> PoseWithCovariance).
-#define CDFF_FOR_EACH_TYPE(X)                                                                     \
-  X(::cdff::Image, "Image", "foxglove.RawImage", Protobuf, Message)                               \
-  X(::cdff::DepthMap, "DepthMap", "foxglove.RawImage", Protobuf, Message)                         \
-  X(::cdff::StereoImagePair, "StereoImagePair", "cdff.StereoImagePair", Protobuf, Message)        \
-  X(::cdff::CompressedImage, "CompressedImage", "foxglove.CompressedImage", Protobuf, Message)    \
-  X(::cdff::CameraModel, "CameraModel", "foxglove.CameraCalibration", Protobuf, Message)          \
-  X(::cdff::PointCloud, "PointCloud", "foxglove.PointCloud", Protobuf, Ply)                       \
-  X(::cdff::Transform, "Transform", "foxglove.FrameTransform", Protobuf, Inline)                  \
-  X(::cdff::PoseWithCovariance, "PoseWithCovariance", "foxglove.PoseInFrame", Protobuf, Inline)   \
-  X(::cdff::RigidBodyState, "RigidBodyState", "foxglove.PoseInFrame", Protobuf, Inline)           \
-  X(::cdff::PoseArray, "PoseArray", "foxglove.PosesInFrame", Protobuf, Message)                   \
-  X(::cdff::TriangleMesh, "TriangleMesh", "foxglove.SceneUpdate", Protobuf, Ply)                  \
-  X(::cdff::PolygonModel, "PolygonModel", "cdff.PolygonModel", Json, Message)                     \
-  X(::cdff::ModelContours, "ModelContours", "cdff.ModelContours", Json, Message)                  \
-  X(::cdff::ContourSamples, "ContourSamples", "cdff.ContourSamples", Json, Message)               \
-  X(::cdff::Features2D, "Features2D", "cdff.Features2D", Protobuf, Message)                       \
-  X(::cdff::Features3D, "Features3D", "cdff.Features3D", Protobuf, Message)                       \
-  X(::cdff::Matches, "Matches", "cdff.Matches", Protobuf, Message)                                \
-  X(::cdff::Correspondences2D, "Correspondences2D", "cdff.Correspondences2D", Protobuf, Message)  \
-  X(::cdff::Correspondences3D, "Correspondences3D", "cdff.Correspondences3D", Protobuf, Message)  \
-  X(::cdff::Correspondences2D3D, "Correspondences2D3D", "cdff.Correspondences2D3D", Protobuf,     \
-    Message)                                                                                      \
-  X(::cdff::ImuSample, "ImuSample", "cdff.ImuSample", Json, Inline)                               \
-  X(::cdff::Wrench, "Wrench", "cdff.Wrench", Json, Inline)                                        \
-  X(::cdff::JointState, "JointState", "cdff.JointState", Json, Inline)                            \
-  X(::nlohmann::json, "Json", "cdff.Record", Json, Inline)                                        \
-  X(::cdff::TrackState, "TrackState", "cdff.TrackState", Json, Inline)                            \
-  X(double, "Double", "cdff.Double", Json, Inline)                                                \
-  X(bool, "Bool", "cdff.Bool", Json, Inline)                                                      \
-  X(int, "Int", "cdff.Int", Json, Inline)                                                         \
-  X(::cdff::Timestamp, "Timestamp", "cdff.Timestamp", Json, Inline)                               \
+#define CDFF_FOR_EACH_TYPE(X)                                                                    \
+  X(::cdff::Image, "Image", "foxglove.RawImage", Protobuf, Message)                              \
+  X(::cdff::DepthMap, "DepthMap", "foxglove.RawImage", Protobuf, Message)                        \
+  X(::cdff::StereoImagePair, "StereoImagePair", "cdff.StereoImagePair", Protobuf, Message)       \
+  X(::cdff::CompressedImage, "CompressedImage", "foxglove.CompressedImage", Protobuf, Message)   \
+  X(::cdff::CameraModel, "CameraModel", "foxglove.CameraCalibration", Protobuf, Message)         \
+  X(::cdff::PointCloud, "PointCloud", "foxglove.PointCloud", Protobuf, Ply)                      \
+  X(::cdff::Transform, "Transform", "foxglove.FrameTransform", Protobuf, Inline)                 \
+  X(::cdff::PoseWithCovariance, "PoseWithCovariance", "foxglove.PoseInFrame", Protobuf, Inline)  \
+  X(::cdff::RigidBodyState, "RigidBodyState", "foxglove.PoseInFrame", Protobuf, Inline)          \
+  X(::cdff::PoseArray, "PoseArray", "foxglove.PosesInFrame", Protobuf, Message)                  \
+  X(::cdff::TriangleMesh, "TriangleMesh", "foxglove.SceneUpdate", Protobuf, Ply)                 \
+  X(::cdff::PolygonModel, "PolygonModel", "cdff.PolygonModel", Json, Message)                    \
+  X(::cdff::ModelContours, "ModelContours", "cdff.ModelContours", Json, Message)                 \
+  X(::cdff::ContourSamples, "ContourSamples", "cdff.ContourSamples", Json, Message)              \
+  X(::cdff::Features2D, "Features2D", "cdff.Features2D", Protobuf, Message)                      \
+  X(::cdff::Features3D, "Features3D", "cdff.Features3D", Protobuf, Message)                      \
+  X(::cdff::Matches, "Matches", "cdff.Matches", Protobuf, Message)                               \
+  X(::cdff::Correspondences2D, "Correspondences2D", "cdff.Correspondences2D", Protobuf, Message) \
+  X(::cdff::Correspondences3D, "Correspondences3D", "cdff.Correspondences3D", Protobuf, Message) \
+  X(::cdff::Correspondences2D3D, "Correspondences2D3D", "cdff.Correspondences2D3D", Protobuf,    \
+    Message)                                                                                     \
+  X(::cdff::ImuSample, "ImuSample", "cdff.ImuSample", Json, Inline)                              \
+  X(::cdff::Wrench, "Wrench", "cdff.Wrench", Json, Inline)                                       \
+  X(::cdff::JointState, "JointState", "cdff.JointState", Json, Inline)                           \
+  X(::nlohmann::json, "Json", "cdff.Record", Json, Inline)                                       \
+  X(::cdff::TrackState, "TrackState", "cdff.TrackState", Json, Inline)                           \
+  X(double, "Double", "cdff.Double", Json, Inline)                                               \
+  X(bool, "Bool", "cdff.Bool", Json, Inline)                                                     \
+  X(int, "Int", "cdff.Int", Json, Inline)                                                        \
+  X(::cdff::Timestamp, "Timestamp", "cdff.Timestamp", Json, Inline)                              \
   X(::std::string, "String", "cdff.String", Json, Inline)
 
-#define CDFF_DECLARE_TYPE_TRAITS(Type, Name, ...)   \
-  template <>                                       \
-  struct TypeTraits<Type> {                         \
+#define CDFF_DECLARE_TYPE_TRAITS(Type, Name, ...)  \
+  template <>                                      \
+  struct TypeTraits<Type> {                        \
     static constexpr std::string_view name = Name; \
   };
 CDFF_FOR_EACH_TYPE(CDFF_DECLARE_TYPE_TRAITS)

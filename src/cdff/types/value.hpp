@@ -21,7 +21,9 @@ template <typename T>
 struct TypeTraits;
 
 template <typename T>
-concept RegisteredType = requires { TypeTraits<T>::name; };
+concept RegisteredType = requires {
+  TypeTraits<T>::name;
+};
 
 /// The registry entry of T (defined with the table).
 template <typename T>

@@ -67,8 +67,8 @@ struct ProductRecord {
 // Decoders: `owner` keeps `data` alive: when given, large arrays (pixels) are shared with it
 // instead of copied. Errors say which field is malformed.
 
-#define CDFF_DECLARE_CODEC(Type, ...)                                  \
-  Status encode(const Type& v, Timestamp stamp, Encoded& out);         \
+#define CDFF_DECLARE_CODEC(Type, ...)                          \
+  Status encode(const Type& v, Timestamp stamp, Encoded& out); \
   Status decode(Bytes data, const std::shared_ptr<const void>& owner, Type& out);
 CDFF_FOR_EACH_TYPE(CDFF_DECLARE_CODEC)
 #undef CDFF_DECLARE_CODEC

@@ -130,7 +130,8 @@ Status decode(Bytes data, const std::shared_ptr<const void>&, JointState& out) {
   return decodeObject(data, "cdff.JointState", out);
 }
 
-// ---- free-form records ---------------------------------------------------------------------------
+// ---- free-form records
+// ---------------------------------------------------------------------------
 
 json toJson(const json& v) {
   return v;
@@ -161,7 +162,8 @@ Status decode(Bytes data, const std::shared_ptr<const void>&, json& out) {
   return parseJson(data, "JSON record", out);
 }
 
-// ---- track states and scalars ----------------------------------------------------------------------
+// ---- track states and scalars
+// ----------------------------------------------------------------------
 
 json toJson(TrackState v) {
   return std::string(toString(v));
@@ -170,7 +172,8 @@ json toJson(TrackState v) {
 Status fromJson(const json& j, TrackState& out) {
   const std::optional<TrackState> state =
       j.is_string() ? parseTrackState(j.get<std::string>()) : std::nullopt;
-  if (!state) return wrongJson("a track state (UNINITIALISED, ACQUIRING, TRACKING, DEGRADED, LOST)", j);
+  if (!state)
+    return wrongJson("a track state (UNINITIALISED, ACQUIRING, TRACKING, DEGRADED, LOST)", j);
   out = *state;
   return Status::ok();
 }

@@ -27,9 +27,12 @@ Vec readArray(const json& j) {
 }
 
 json cameraJson(const CameraModel& c) {
-  return {{"width", c.width},         {"height", c.height},
-          {"fx", c.fx},               {"fy", c.fy},
-          {"cx", c.cx},               {"cy", c.cy},
+  return {{"width", c.width},
+          {"height", c.height},
+          {"fx", c.fx},
+          {"fy", c.fy},
+          {"cx", c.cx},
+          {"cy", c.cy},
           {"distortion_model", static_cast<int>(c.distortion_model)},
           {"distortion", numbers(c.distortion)}};
 }
@@ -87,8 +90,10 @@ PolygonModel readModel(const json& j) {
 json contoursJson(const ModelContours& c) {
   json segments = json::array(), faces = json::array();
   for (const ContourSegment& s : c.segments)
-    segments.push_back(
-        {{"a", array(s.a)}, {"b", array(s.b)}, {"edge", s.edge}, {"kind", static_cast<int>(s.kind)}});
+    segments.push_back({{"a", array(s.a)},
+                        {"b", array(s.b)},
+                        {"edge", s.edge},
+                        {"kind", static_cast<int>(s.kind)}});
   for (const VisibleFace& f : c.faces) {
     json outline = json::array();
     for (const Eigen::Vector3d& p : f.outline) outline.push_back(array(p));
@@ -112,9 +117,9 @@ Status readContours(const json& j, ModelContours& c) {
     c.stamp = j.at("stamp_us").get<Timestamp>();
     c.camera = readCamera(j.at("camera"));
     for (const json& s : j.at("segments"))
-      c.segments.push_back({readArray<Eigen::Vector3d>(s.at("a")),
-                            readArray<Eigen::Vector3d>(s.at("b")), s.at("edge").get<std::uint32_t>(),
-                            static_cast<ContourKind>(s.at("kind").get<int>())});
+      c.segments.push_back(
+          {readArray<Eigen::Vector3d>(s.at("a")), readArray<Eigen::Vector3d>(s.at("b")),
+           s.at("edge").get<std::uint32_t>(), static_cast<ContourKind>(s.at("kind").get<int>())});
     for (const json& f : j.at("faces")) {
       VisibleFace face;
       face.face = f.at("face").get<std::uint32_t>();
@@ -151,15 +156,14 @@ Status readSamples(const json& j, ContourSamples& s) {
   }
   return readJsonValue("cdff.ContourSamples", [&] {
     for (const json& q : j.at("samples"))
-      s.samples.push_back({readArray<Eigen::Vector3d>(q.at("point")),
-                           readArray<Eigen::Vector2d>(q.at("pixel")),
-                           readArray<Eigen::Vector2d>(q.at("normal")),
-                           q.at("segment").get<std::uint32_t>(),
-                           q.at("first_candidate").get<std::uint32_t>(),
-                           q.at("candidate_count").get<std::uint32_t>()});
+      s.samples.push_back(
+          {readArray<Eigen::Vector3d>(q.at("point")), readArray<Eigen::Vector2d>(q.at("pixel")),
+           readArray<Eigen::Vector2d>(q.at("normal")), q.at("segment").get<std::uint32_t>(),
+           q.at("first_candidate").get<std::uint32_t>(),
+           q.at("candidate_count").get<std::uint32_t>()});
     for (const json& c : j.at("candidates"))
-      s.candidates.push_back({static_cast<float>(jsonNumber(c.at(0))),
-                              static_cast<float>(jsonNumber(c.at(1)))});
+      s.candidates.push_back(
+          {static_cast<float>(jsonNumber(c.at(0))), static_cast<float>(jsonNumber(c.at(1)))});
     s.matched = j.at("matched").get<bool>();
   });
 }

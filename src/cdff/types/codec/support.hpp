@@ -10,17 +10,17 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 
 #include "cdff/types/codec/codec.hpp"
 #include "cdff/types/codec/protobuf.hpp"
 
 namespace cdff::codec::detail {
 
-using pb::WireType;
 using nlohmann::json;
+using pb::WireType;
 
 Status negativeStamp(std::string_view what, Timestamp stamp);
 Status corruptMessage(std::string_view schema, const std::string& what);
@@ -29,8 +29,7 @@ Status corruptMessage(std::string_view schema, const std::string& what);
 void putTimestamp(pb::Writer& w, std::uint32_t f, Timestamp us);
 void putXyz(pb::Writer& w, std::uint32_t f, double x, double y, double z);
 void putQuaternion(pb::Writer& w, std::uint32_t f, const Eigen::Quaterniond& q);
-void putPose(pb::Writer& w, std::uint32_t f, const Eigen::Vector3d& t,
-             const Eigen::Quaterniond& q);
+void putPose(pb::Writer& w, std::uint32_t f, const Eigen::Vector3d& t, const Eigen::Quaterniond& q);
 
 // ---- protobuf reading
 /// Runs `on_field` on every field of `data`; fails with the reader's error.
