@@ -2,12 +2,14 @@
 // Scenarios: everything a simulation run needs, read from YAML (docs/simulator.md has the
 // schema). The trajectory library lives in data/scenarios/*.yaml; `cdff sim --list` lists it.
 //
-// Loading is strict: an unknown key, a value of the wrong type or out of range is an error that
-// names the file, line and column, the key's full path and the value, and says what was expected:
-//   mid_range_approach.yaml:31:22: sensors.camera_left.exposure_time = -0.002: expected a
-//   duration > 0 s
+// Loading is strict: an unknown key, a value of the wrong type or out of range is an error in the
+// one format of every YAML file the project reads (cdff/schema), naming the file, line and column
+// (Status::location()), the key's full path and the value, and saying what was expected:
+//   mid_range_approach.yaml:31:22: sensors.camera_left.exposure_time = -0.002: out of range;
+//   expected a number in (0, 10] s
 // `overrides` ("key=value" with dotted keys, list items by index: faults.0.start=5) are applied
-// before validation; errors in them name the override instead of a line.
+// before validation; errors in them name the override ("--set key=value") instead of a line.
+// The reader is in scenario_reader*.cpp, a declarative table per section.
 
 #include <cstdint>
 #include <filesystem>

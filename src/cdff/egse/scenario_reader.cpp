@@ -1,0 +1,203 @@
+// The scenario file as a whole (scenario.hpp: loadScenario, parseScenario): `--set` overrides,
+// the top-level keys, and what is derived once every section is read.
+#include <cstdlib>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "cdff/egse/scenario_reader.hpp"
+
+namespace cdff::egse::scenario_reader {
+
+Status readVec3(const Field& f, Eigen::Vector3d& out, double scale) {
+  std::vector<double> v;
+  CDFF_RETURN_IF_ERROR(f.numbers(v, 3, 3));
+  out = Eigen::Vector3d(v[0], v[1], v[2]) * scale;
+  return Status::ok();
+}
+
+Status readDirection(const Field& f, Eigen::Vector3d& out) {
+  Eigen::Vector3d v;
+  CDFF_RETURN_IF_ERROR(readVec3(f, v));
+  if (v.norm() < 1e-12) return f.fail("a non-zero direction vector", "zero length");
+  v.normalize();
+  out = v;
+  return Status::ok();
+}
+
+Status readRpy(const Field& f, Eigen::Quaterniond& out) {
+  Eigen::Vector3d rpy;
+  CDFF_RETURN_IF_ERROR(readVec3(f, rpy, kDeg));
+  out = fromRpy(rpy);
+  return Status::ok();
+}
+
+Status readDegrees(const Field& f, double& out, const Range& range) {
+  double v = 0;
+  CDFF_RETURN_IF_ERROR(f.read(v, range));
+  out = v * kDeg;
+  return Status::ok();
+}
+
+Eigen::Quaterniond fromRpy(const Eigen::Vector3d& rpy) {
+  // REP-103 fixed-axis roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll).
+  return Eigen::Quaterniond(Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                            Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                            Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
+}
+
+Eigen::Isometry3d mountAt(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = q.toRotationMatrix();
+  T.translation() = p;
+  return T;
+}
+
+namespace {
+
+// ------------------------------------------------------------------------------- overrides
+
+/// Where an override's errors point: the override itself, as the command line gave it.
+SourceLocation given(const std::string& text) {
+  return {"--set " + text, 0, 0};
+}
+
+Status overrideError(const std::string& text, std::string reason) {
+  return Status(StatusCode::kInvalidParameter, std::move(reason), given(text));
+}
+
+/// "a.b.c" -> {a, b, c}; no part may be empty.
+Result<std::vector<std::string>> keyParts(const std::string& text, const std::string& key) {
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string part; std::getline(ss, part, '.');) {
+    if (part.empty())
+      return overrideError(text, fmt::format("the key '{}' has an empty part", key));
+    parts.push_back(part);
+  }
+  return parts;
+}
+
+/// Sets `key=value` in `root`: maps are created on the way, list items are indexed by number.
+Status applyOverride(YAML::Node& root, const std::string& text, schema::Document& document) {
+  const std::size_t eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    return overrideError(
+        text, "expected KEY=VALUE with a dotted key, e.g. sensors.lidar.range_noise=0.05");
+  const std::string key = text.substr(0, eq), value_text = text.substr(eq + 1);
+  Result<std::vector<std::string>> parts = keyParts(text, key);
+  if (!parts) return parts.status();
+  YAML::Node value;
+  try {
+    value = YAML::Load(value_text);
+  } catch (const YAML::Exception& e) {
+    return overrideError(text,
+                         fmt::format("the value '{}' is not valid YAML: {}", value_text, e.msg));
+  }
+  YAML::Node current = root;
+  std::string walked;
+  for (std::size_t i = 0; i < parts->size(); ++i) {
+    const std::string& part = (*parts)[i];
+    const bool last = i + 1 == parts->size();
+    walked += (walked.empty() ? "" : ".") + part;
+    if (current.IsSequence()) {
+      char* end = nullptr;
+      const long index = std::strtol(part.c_str(), &end, 10);
+      if (*end != '\0' || index < 0 || static_cast<std::size_t>(index) >= current.size())
+        return overrideError(
+            text, fmt::format("'{}' indexes a list of {} items; expected 0 to {}", walked,
+                              current.size(), static_cast<long>(current.size()) - 1));
+      if (last) {
+        current[static_cast<std::size_t>(index)] = value;
+      } else {
+        YAML::Node next = current[static_cast<std::size_t>(index)];
+        current.reset(next);
+      }
+      continue;
+    }
+    if (!current.IsMap() && !current.IsNull() && current.IsDefined())
+      return overrideError(
+          text, fmt::format("'{}' is a value, not a mapping with keys",
+                            walked.substr(0, walked.size() - part.size() -
+                                                 (walked.size() > part.size() ? 1 : 0))));
+    if (last) {
+      current[part] = value;
+    } else {
+      if (!current[part].IsDefined() || current[part].IsNull())
+        current[part] = YAML::Node(YAML::NodeType::Map);
+      YAML::Node next = current[part];
+      current.reset(next);
+    }
+  }
+  document.setOverride(key, "--set " + text);
+  return Status::ok();
+}
+
+// ----------------------------------------------------------------------------- the file
+
+const Table<ScenarioDraft>& scenarioTable() {
+  // Rows are read in this order: the renderer before the sensors (cameras take its shadow map
+  // size), the sensors before the faults (which name them).
+  static const Table<ScenarioDraft> table =
+      Table<ScenarioDraft>("a scenario")
+          .optional("name", inScenario(schema::text(&Scenario::name)))
+          .optional("description", inScenario(schema::text(&Scenario::description)))
+          .optional("duration",
+                    inScenario(schema::number(&Scenario::duration, Range::leftOpen(0, 1e6, "s"))))
+          .optional("seed", inScenario([](const Field& f, Scenario& s) { return f.read(s.seed); }))
+          .optional("orbit", inScenario(schema::nested(&Scenario::orbit, orbitTable())))
+          .optional("renderer",
+                    [](const Field& f, ScenarioDraft& d) { return rendererTable().read(f, d); })
+          .optional("target",
+                    [](const Field& f, ScenarioDraft& d) { return targetTable().read(f, d); })
+          .optional("servicer", inScenario([](const Field& f, Scenario& s) {
+                      return servicerTable().read(f, s);
+                    }))
+          .optional("lighting",
+                    [](const Field& f, ScenarioDraft& d) { return lightingTable().read(f, d); })
+          .optional("background", inScenario([](const Field& f, Scenario& s) {
+                      return backgroundTable().read(f, s);
+                    }))
+          .optional("sensors", readSensors)
+          .optional("faults", readFaults)
+          .optional("truth", inScenario([](const Field& f, Scenario& s) {
+                      return truthTable().read(f, s);
+                    }));
+  return table;
+}
+
+/// What follows from the sections together.
+void finish(ScenarioDraft& draft) {
+  Scenario& sc = draft.scenario;
+  if (sc.translation == TranslationKind::kFlyAround)
+    sc.start =
+        sc.centre +
+        sc.radius *
+            (std::cos(sc.phase) *
+                 (sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized() +
+             std::sin(sc.phase) *
+                 sc.axis.cross((sc.reference - sc.reference.dot(sc.axis) * sc.axis).normalized()));
+  if (!draft.sun_direction_given) placeSun(draft);
+  if (sc.translation == TranslationKind::kLine && sc.end_time < 0) sc.end_time = sc.duration;
+}
+
+}  // namespace
+
+Result<Scenario> readScenario(schema::Document document, const std::vector<std::string>& overrides,
+                              const std::filesystem::path& base) {
+  YAML::Node& root = document.node();
+  if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
+  for (const std::string& o : overrides) CDFF_RETURN_IF_ERROR(applyOverride(root, o, document));
+  ScenarioDraft draft;
+  draft.base = base;
+  draft.scenario.name = std::filesystem::path(document.source()).stem().string();
+  draft.scenario.sensors = defaultSensors();
+  CDFF_RETURN_IF_ERROR(scenarioTable().read(document.root(), draft));
+  finish(draft);
+  YAML::Emitter out;
+  out << root;
+  draft.scenario.yaml = out.c_str();
+  return std::move(draft.scenario);
+}
+
+}  // namespace cdff::egse::scenario_reader
