@@ -77,11 +77,11 @@ TEST(ScenarioErrors, NameFileLineKeyAndValue) {
       "s.yaml:3:32: sensors.camera_left.exposure_time = -0.002: out of range; expected a number in "
       "(0, 10] s");
   expectError(parseScenario("duration: ten\n", "s.yaml"), {"s.yaml", 1, 11},
-              "s.yaml:1:11: duration = ten: expected a number in (0, 1000000] s");
-  expectError(parseScenario("servicer:\n  trajectory: {type: spiral}\n", "s.yaml"),
-              {"s.yaml", 2, 22},
-              "s.yaml:2:22: servicer.trajectory.type = spiral: expected one of {hold, line, "
-              "waypoints, fly_around, cw}");
+              "s.yaml:1:11: duration = ten: not a number; expected a number in (0, 1000000] s");
+  expectError(
+      parseScenario("servicer:\n  trajectory: {type: spiral}\n", "s.yaml"), {"s.yaml", 2, 22},
+      "s.yaml:2:22: servicer.trajectory.type = spiral: unknown value; expected one of {hold, line, "
+      "waypoints, fly_around, cw}");
   expectError(parseScenario("faults:\n  - {type: glare, sensor: lidar}\n", "s.yaml"),
               {"s.yaml", 2, 27},
               "s.yaml:2:27: faults.0.sensor = lidar: glare faults do not apply to lidar sensors; "
@@ -129,15 +129,14 @@ TEST(ScenarioErrors, HaveTheSharedFormat) {
               "value)");
   // A value of the wrong type, and an element of a list.
   expectError(parseScenario("sensors:\n  imu: {noise: maybe}\n", "s.yaml"), {"s.yaml", 2, 16},
-              "s.yaml:2:16: sensors.imu.noise = maybe: expected true or false");
+              "s.yaml:2:16: sensors.imu.noise = maybe: not a bool; expected true or false");
   expectError(
       parseScenario("servicer:\n  trajectory: {type: hold, position: [0, x, 0]}\n", "s.yaml"),
       {"s.yaml", 2, 42},
-      "s.yaml:2:42: servicer.trajectory.position.1 = x: expected a "
-      "finite number");
-  expectError(parseScenario("target:\n  attitude: {rpy_deg: [0, 0]}\n", "s.yaml"),
-              {"s.yaml", 2, 23},
-              "s.yaml:2:23: target.attitude.rpy_deg = [0, 0]: expected a list of 3 numbers");
+      "s.yaml:2:42: servicer.trajectory.position.1 = x: not a number; expected a number");
+  expectError(
+      parseScenario("target:\n  attitude: {rpy_deg: [0, 0]}\n", "s.yaml"), {"s.yaml", 2, 23},
+      "s.yaml:2:23: target.attitude.rpy_deg = [0, 0]: has 2 values; expected a list of 3 numbers");
   // Out of range, with the range and its unit.
   expectError(parseScenario("sensors:\n  lidar: {elevations_deg: [0, 95]}\n", "s.yaml"),
               {"s.yaml", 2, 31},
@@ -148,7 +147,8 @@ TEST(ScenarioErrors, HaveTheSharedFormat) {
               "[64, 8192]");
   // A choice, with the nearest one.
   expectError(parseScenario("lighting:\n  sun: {preset: sid_lit}\n", "s.yaml"), {"s.yaml", 2, 17},
-              "s.yaml:2:17: lighting.sun.preset = sid_lit: expected one of {front_lit, side_lit, "
+              "s.yaml:2:17: lighting.sun.preset = sid_lit: unknown value; expected one of "
+              "{front_lit, side_lit, "
               "back_lit, near_fov} (did you mean 'side_lit'?)");
   // A required key.
   expectError(parseScenario("faults:\n  - {sensor: lidar}\n", "s.yaml"), {"s.yaml", 2, 5},
