@@ -89,6 +89,19 @@ ContourSamples contourSamples() {
   return s;
 }
 
+LidarInfo lidarInfo() {
+  LidarInfo l;
+  l.stamp = kStamp;
+  l.frame_id = "lidar";
+  l.elevations = {-0.2617993877991494, 0.017453292519943295, -0.22689280275926285,
+                  0.2617993877991494};
+  l.rotation_rate = 10.0;
+  l.min_range = 0.5;
+  l.max_range = 100.0;
+  l.range_noise = 0.03;
+  return l;
+}
+
 /// One sample value of every registered type, keyed by the type's name.
 std::map<std::string, Value> samples() {
   const testing::IoSamples s = testing::makeIoSamples(3, kStamp);
@@ -115,6 +128,7 @@ std::map<std::string, Value> samples() {
                                Value::of(s.imu),
                                Value::of(s.wrench),
                                Value::of(s.joints),
+                               Value::of(lidarInfo()),
                                Value::of(s.record),
                                Value::of(TrackState::kDegraded),
                                Value::of(-2.5e-3),

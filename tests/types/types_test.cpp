@@ -216,6 +216,44 @@ TEST(Sensors, NonFiniteSamplesAreRejected) {
   EXPECT_FALSE(w.validate().isOk());
 }
 
+TEST(LidarInfo, ValidateNamesTheFieldAndTheValue) {
+  LidarInfo info;
+  info.frame_id = "lidar";
+  info.elevations = {0.1, -0.2, 0.1};
+  info.min_range = 0.5;
+  EXPECT_OK(info.validate());
+  // Sorted, lowest first, lasers within the tolerance one.
+  EXPECT_EQ(info.sortedElevations(), (std::vector<double>{-0.2, 0.1}));
+  LidarInfo close = info;
+  close.elevations = {0.3, 0.1, 0.105, -0.2};
+  EXPECT_EQ(close.sortedElevations(0.01), (std::vector<double>{-0.2, 0.1, 0.3}));
+  auto rejected = [](const LidarInfo& bad, const std::string& fragment) {
+    const Status s = bad.validate();
+    EXPECT_EQ(s.code(), StatusCode::kInvalidInput) << fragment;
+    EXPECT_NE(s.message().find(fragment), std::string::npos) << s.message();
+  };
+  LidarInfo bad = info;
+  bad.elevations.clear();
+  rejected(bad, "LIDAR info 'lidar' has no laser elevation");
+  bad = info;
+  bad.elevations[2] = 1.6;
+  rejected(bad, "laser 2 elevation is 1.6 rad; expected a finite angle within +-pi/2");
+  bad.elevations[2] = std::nan("");
+  rejected(bad, "laser 2 elevation is nan");
+  bad = info;
+  bad.rotation_rate = 0;
+  rejected(bad, "rotation_rate is 0 Hz; expected a finite rate > 0");
+  bad = info;
+  bad.max_range = 0.5;
+  rejected(bad, "range is [0.5, 0.5] m; expected finite bounds with 0 <= min_range < max_range");
+  bad = info;
+  bad.min_range = -1;
+  rejected(bad, "range is [-1, 100] m");
+  bad = info;
+  bad.range_noise = INFINITY;
+  rejected(bad, "range_noise is inf m");
+}
+
 TEST(Time, SecondsConversionRoundsToTheNearestMicrosecond) {
   EXPECT_EQ(fromSeconds(1.0000004), 1'000'000);
   EXPECT_EQ(fromSeconds(-0.0000006), -1);

@@ -5,6 +5,7 @@
 #include "cdff/types/features.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/lidar_info.hpp"
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/point_cloud.hpp"
 #include "cdff/types/polygon_model.hpp"

@@ -279,6 +279,20 @@ std::string jointSchema() {
                   kTimeSchema));
 }
 
+std::string lidarInfoSchema() {
+  return jsonSchema(
+      "cdff.LidarInfo",
+      "A spinning LIDAR's description: laser elevations (rad, any order) about the z axis of "
+      "frame_id, rotation rate (Hz), range limits and noise (m)",
+      fmt::format(R"("timestamp":{},"frame_id":{{"type":"string"}},)"
+                  R"("elevations":{{"type":"array","items":{{"type":["number","null"]}}}},)"
+                  R"("rotation_rate":{{"type":["number","null"]}},)"
+                  R"("min_range":{{"type":["number","null"]}},)"
+                  R"("max_range":{{"type":["number","null"]}},)"
+                  R"("range_noise":{{"type":["number","null"]}})",
+                  kTimeSchema));
+}
+
 std::string recordSchema() {
   return jsonSchema("cdff.Record",
                     "A free-form JSON record (events, DFN timings, reports); see "
@@ -304,6 +318,7 @@ const std::map<std::string, std::string, std::less<>>& jsonSchemas() {
       {"cdff.ImuSample", imuSchema()},
       {"cdff.Wrench", wrenchSchema()},
       {"cdff.JointState", jointSchema()},
+      {"cdff.LidarInfo", lidarInfoSchema()},
       {"cdff.Record", recordSchema()},
       {"cdff.PolygonModel",
        objectSchema("cdff.PolygonModel",
