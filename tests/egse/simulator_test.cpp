@@ -91,6 +91,24 @@ TEST(Simulator, ShortRunHasEveryStreamInLogTimeOrder) {
       << "a VLP-16's beams are 2 degrees apart: at 17 m a few dozen hit";
   EXPECT_EQ(clouds[0].frame_id, "lidar");
   ASSERT_OK(clouds[0].validate());
+  // Each scan comes just after the LIDAR's description, of the same stamp and frame: the
+  // scenario's lasers (the VLP-16's, in firing order), rate, range limits and noise.
+  ASSERT_EQ(sink.count("/chaser/lidar/info"), 11u);
+  for (std::size_t k = 1; k < sink.messages().size(); ++k) {
+    const SimMessage& m = sink.messages()[k];
+    if (m.channel != "/chaser/lidar/points") continue;
+    const SimMessage& before = sink.messages()[k - 1];
+    ASSERT_EQ(before.channel, "/chaser/lidar/info") << "at log time " << m.log_time;
+    EXPECT_EQ(std::get<LidarInfo>(before.payload).stamp, std::get<PointCloud>(m.payload).stamp);
+  }
+  const LidarInfo info = sink.on<LidarInfo>("/chaser/lidar/info")[0];
+  ASSERT_OK(info.validate());
+  EXPECT_EQ(info.frame_id, "lidar");
+  EXPECT_EQ(info.elevations, LidarSpec::vlp16().elevations);
+  EXPECT_EQ(info.rotation_rate, 10.0);
+  EXPECT_EQ(info.min_range, 0.5);
+  EXPECT_EQ(info.max_range, 100.0);
+  EXPECT_EQ(info.range_noise, 0.03);
   const auto ranges = sink.on<RangeMeasurement>("/chaser/radar/range");
   ASSERT_TRUE(ranges[0].valid);
   EXPECT_NEAR(ranges[0].range, 17.0 - 0.45 - 0.72, 1.0);

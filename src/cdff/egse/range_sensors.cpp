@@ -41,6 +41,18 @@ LidarSpec LidarSpec::vlp16() {
   return s;
 }
 
+LidarInfo LidarSpec::info(const std::string& frame_id, Timestamp stamp) const {
+  LidarInfo info;
+  info.stamp = stamp;
+  info.frame_id = frame_id;
+  info.elevations = elevations;
+  info.rotation_rate = rotation_rate;
+  info.min_range = min_range;
+  info.max_range = max_range;
+  info.range_noise = range_noise;
+  return info;
+}
+
 Status LidarSpec::validate(const std::string& name) const {
   if (elevations.empty() || elevations.size() > 256)
     return invalidParameter("{}: {} laser elevations; expected 1 to 256", name, elevations.size());

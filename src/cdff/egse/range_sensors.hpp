@@ -18,6 +18,7 @@
 #include "cdff/egse/raycaster.hpp"
 #include "cdff/egse/rng.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/lidar_info.hpp"
 #include "cdff/types/point_cloud.hpp"
 
 namespace cdff::egse {
@@ -40,6 +41,8 @@ struct LidarSpec {
 
   static LidarSpec vlp16();
   Status validate(const std::string& name) const;
+  /// The description a LIDAR publishes beside its scans (elevations in firing order).
+  LidarInfo info(const std::string& frame_id, Timestamp stamp) const;
 };
 
 /// Per-scan fault effects.

@@ -540,8 +540,11 @@ Status Simulator::processLidar(SensorState& sensor, double t, Timestamp availabl
   if (!cloud) return cloud.status().withContext(c.name);
   cloud->stamp = stamp;
   cloud->frame_id = c.frame();
-  // A scan is complete (and published) one revolution after it started.
-  queue(prefix + "/points", available + micros(sensor.lidar->period()), std::move(cloud).value());
+  // A scan is complete (and published) one revolution after it started, just after the LIDAR's
+  // description (as a camera's calibration comes with each image).
+  const Timestamp published = available + micros(sensor.lidar->period());
+  queue(prefix + "/info", published, sensor.lidar->spec().info(c.frame(), stamp));
+  queue(prefix + "/points", published, std::move(cloud).value());
   queue("/truth/" + c.name + "/target_pose", stamp,
         truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
   return Status::ok();

@@ -8,11 +8,11 @@
 //   CDFF_RETURN_IF_ERROR((*sim)->run(sink));
 //
 // Channels (docs/simulator.md): /chaser/camera/<side>/image and .../calibration,
-// /chaser/lidar/points, /chaser/tof/depth and .../calibration, /chaser/imu, /chaser/radar/range,
-// /chaser/tf/<sensor frame> (mountings), /truth/target_pose (servicer_T_target),
-// /truth/target_state (the same with the relative twist), /truth/<sensor>/target_pose
-// (<sensor frame>_T_target), /truth/tf/{servicer,target,lvlh}, /truth/target_mesh,
-// /truth/<camera>/depth (optional), /truth/faults.
+// /chaser/lidar/points and .../info, /chaser/tof/depth and .../calibration, /chaser/imu,
+// /chaser/radar/range, /chaser/tf/<sensor frame> (mountings), /truth/target_pose
+// (servicer_T_target), /truth/target_state (the same with the relative twist),
+// /truth/<sensor>/target_pose (<sensor frame>_T_target), /truth/tf/{servicer,target,lvlh},
+// /truth/target_mesh, /truth/<camera>/depth (optional), /truth/faults.
 //
 // Determinism: every random draw comes from a stream named after the run's seed, the sensor and
 // the measurement index; rendering and ray casting run on one thread. The same scenario, seed and

@@ -78,6 +78,12 @@ Status DigestSink::write(const SimMessage& message) {
           const double k[4] = {v.model.fx, v.model.fy, v.model.cx, v.model.cy};
           add(k, sizeof(k));
           add(v.model.distortion.data(), v.model.distortion.size() * sizeof(double));
+        } else if constexpr (std::is_same_v<T, LidarInfo>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.frame_id);
+          add(v.elevations.data(), v.elevations.size() * sizeof(double));
+          const double values[4] = {v.rotation_rate, v.min_range, v.max_range, v.range_noise};
+          add(values, sizeof(values));
         } else if constexpr (std::is_same_v<T, Transform>) {
           add_transform(v);
         } else if constexpr (std::is_same_v<T, PoseWithCovariance>) {

@@ -13,6 +13,7 @@
 #include "cdff/egse/range_sensors.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/lidar_info.hpp"
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/point_cloud.hpp"
 #include "cdff/types/sensors.hpp"
@@ -36,8 +37,8 @@ struct FaultEvent {
 };
 
 using SimPayload =
-    std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement, CameraInfo, Transform,
-                 PoseWithCovariance, RigidBodyState, TriangleMesh, FaultEvent>;
+    std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement, CameraInfo, LidarInfo,
+                 Transform, PoseWithCovariance, RigidBodyState, TriangleMesh, FaultEvent>;
 
 struct SimMessage {
   std::string channel;
