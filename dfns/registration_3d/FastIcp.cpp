@@ -3,6 +3,8 @@
 // library's options and the ports onto its calls, and turns what the library reports into
 // warnings.
 #include <limits>
+#include <memory>
+#include <span>
 #include <vector>
 
 #include "Registration3D.gen.hpp"
@@ -36,11 +38,11 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     if (!in.source.isFresh()) return Status::ok();
     const PointCloud& source = *in.source;
     Result<Eigen::Isometry3d> guess =
-        registration3d::checkInputs(source, model, in.initial_guess.get());
+        registration3d::checkInputs(source, model, in.sensor.get(), in.initial_guess.get());
     if (!guess) return guess.status();
     registration3d::selectSource(source, params_.max_source_points, points_);
     Result<registration::Registration> result =
-        registration_.registerScan(points_, *guess, source.stamp);
+        registration_.registerScan(points_, *guess, source.stamp, lasers());
     if (!result) return result.status();
     const registration::Registration& r = *result;
     if (r.run.starved)
@@ -89,7 +91,6 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     starts.iterations = params_.hypothesis_iterations;
     starts.min_visibility = params_.min_visibility;
     o.visibility_check = params_.visibility_check;
-    o.visibility = {params_.ring_spacing, params_.max_elevation};
     registration::ConfirmationOptions& confirmation = o.confirmation;
     confirmation.scans = params_.confirmation_scans;
     confirmation.kept = params_.kept_hypotheses;
@@ -100,8 +101,22 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return o;
   }
 
+  /// The sensor's distinct laser elevations, lowest first (none without `sensor`); sorted again
+  /// only when a new description arrives.
+  std::span<const double> lasers() {
+    const std::shared_ptr<const LidarInfo> sensor = in.sensor.shared();
+    if (!sensor) return {};
+    if (sensor != lasers_of_) {
+      lasers_ = sensor->sortedElevations(registration::RingVisibility::kSameRing);
+      lasers_of_ = sensor;
+    }
+    return lasers_;
+  }
+
   registration::FastIcp registration_;
-  std::vector<Eigen::Vector3f> points_;  // the scan points used; kept so as not to allocate
+  std::vector<Eigen::Vector3f> points_;         // the scan points used; kept so as not to allocate
+  std::shared_ptr<const LidarInfo> lasers_of_;  // the description lasers_ was sorted from
+  std::vector<double> lasers_;
 };
 
 CDFF_REGISTER_DFI(Registration3DFastIcp);

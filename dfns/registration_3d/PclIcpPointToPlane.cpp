@@ -48,7 +48,7 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
     if (!in.source.isFresh()) return Status::ok();
     const PointCloud& source = *in.source;
     Result<Eigen::Isometry3d> guess =
-        registration3d::checkInputs(source, model, in.initial_guess.get());
+        registration3d::checkInputs(source, model, in.sensor.get(), in.initial_guess.get());
     if (!guess) return guess.status();
     registration3d::selectSource(source, 0, points_);
     auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();

@@ -6,7 +6,9 @@
 // 10 deg); the reported covariance must describe the actual errors; bad inputs must be reported.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "Registration3D.gen.hpp"
 #include "cdff/dfn/registry.hpp"
@@ -217,9 +219,24 @@ TYPED_TEST(Registration3DTest, BadInputsAreReported) {
   icp->in.initial_guess.set(wrong);
   testing::expectRejected(*icp, "expected source_T_model = lidar_T_target");
 
+  // The description of another LIDAR than the one that took the scan, an invalid one.
+  icp->in.source.set(scan);
+  icp->in.initial_guess.set(guessOf(truth));
+  icp->in.sensor.set(testing::lidarInfo({}, "velodyne"));
+  testing::expectRejected(*icp,
+                          "input 'sensor' describes the LIDAR of frame 'velodyne' but input "
+                          "'source' is in frame 'lidar'; expected the description of the sensor "
+                          "that took the scan");
+  LidarInfo invalid = testing::lidarInfo({});
+  invalid.elevations[4] = 2.0;
+  icp->in.source.set(scan);
+  icp->in.sensor.set(invalid);
+  testing::expectRejected(*icp, "input 'sensor': LIDAR info 'lidar' laser 4 elevation is 2 rad");
+
   // Still works afterwards.
   icp->in.source.set(scan);
   icp->in.initial_guess.set(guessOf(truth));
+  icp->in.sensor.set(testing::lidarInfo({}));
   ASSERT_OK(icp->process());
   EXPECT_TRUE(*icp->out.converged);
 }
@@ -372,9 +389,9 @@ TEST(Registration3DFastIcp, VisibilityTellsASlidModelFromTheRightPose) {
   // visibility is that of the given pose.
   const char* yaml =
       "{max_correspondence_distance: 1.0e-6, min_correspondence_distance: 1.0e-6, "
-      "visibility_check: true, ring_spacing: 0.03490658503988659, "
-      "max_elevation: 0.2617993877991494}";
+      "visibility_check: true}";
   auto icp = makeFast(yaml);
+  icp->in.sensor.set(testing::lidarInfo({}));
   const Eigen::Isometry3d truth = lidarTTarget(12.0);
   const PointCloud scan = scanAt(truth, 3);
   auto visibilityAt = [&](const Eigen::Isometry3d& pose) {
@@ -411,6 +428,71 @@ TEST(Registration3DFastIcp, VisibilityTellsASlidModelFromTheRightPose) {
   EXPECT_TRUE(std::isnan(*plain->out.visibility));
 }
 
+TEST(Registration3DFastIcp, VisibilityCountsTheSensorsEmptyRingsWhateverTheirSpacing) {
+  // A LIDAR whose lasers are unevenly spaced (denser near the horizon) and listed in firing
+  // order, at 12 m: the target's returns lie on some of its lasers; the lasers just below and
+  // above those saw nothing of the target. A pose that moves model surface onto them is
+  // contradicted by them, which only the sensor's description tells: without it the visibility
+  // counts the rings with returns only. The right pose has a return nearly wherever it puts
+  // visible surface either way.
+  testing::ScanOptions options;
+  for (const double deg : {-15.0, 3.0, -7.0, 5.5, -3.0, 8.5, -1.0, 12.0, 1.0, 15.0})
+    options.elevations.push_back(deg * kDeg);
+  const LidarInfo sensor = testing::lidarInfo(options);
+  const Eigen::Isometry3d truth = lidarTTarget(12.0);
+  const PointCloud scan = testing::simulateScan(testing::satelliteMesh(), truth, options, 3);
+  std::set<std::uint16_t> seen(scan.ring.begin(), scan.ring.end());
+  // Lasers with returns, lowest first, and their neighbours without.
+  std::vector<double> observed;
+  for (const std::uint16_t ring : seen) observed.push_back(options.elevations[ring]);
+  std::sort(observed.begin(), observed.end());
+  std::printf("observed lasers: %zu, from %.1f to %.1f deg\n", observed.size(),
+              observed.front() / kDeg, observed.back() / kDeg);
+  ASSERT_GE(observed.size(), 2u);
+  ASSERT_GT(observed.front(), -15.0 * kDeg) << "a laser below the returns saw nothing";
+  ASSERT_LT(observed.back(), 15.0 * kDeg) << "a laser above the returns saw nothing";
+
+  auto icp = makeFast(
+      "{max_correspondence_distance: 1.0e-6, min_correspondence_distance: 1.0e-6, "
+      "visibility_check: true}");
+  auto visibility = [&](const Eigen::Isometry3d& pose, const LidarInfo* description) {
+    if (description != nullptr)
+      icp->in.sensor.set(*description);
+    else
+      icp->in.sensor.clear();
+    icp->in.source.set(scan);
+    icp->in.model.set(satelliteModel());
+    icp->in.initial_guess.set(guessOf(pose));
+    EXPECT_OK(icp->process());
+    return *icp->out.visibility;
+  };
+  Eigen::Isometry3d lifted = truth, lowered = truth;
+  lifted.translation().z() += 0.6;
+  lowered.translation().z() -= 0.6;
+  const double right = visibility(truth, &sensor), right_rings = visibility(truth, nullptr);
+  const double up = visibility(lifted, &sensor), up_rings = visibility(lifted, nullptr);
+  const double down = visibility(lowered, &sensor), down_rings = visibility(lowered, nullptr);
+  std::printf(
+      "visibility with the sensor (rings with returns only): right %.3f (%.3f), "
+      "lifted %.3f (%.3f), lowered %.3f (%.3f)\n",
+      right, right_rings, up, up_rings, down, down_rings);
+  EXPECT_GE(right, 0.9);
+  EXPECT_GE(right_rings, 0.9);
+  EXPECT_LE(up, up_rings - 0.1);
+  EXPECT_LE(down, down_rings - 0.1);
+  EXPECT_LE(up, right - 0.2);
+  EXPECT_LE(down, right - 0.2);
+  // The order the lasers are listed in does not matter.
+  LidarInfo sorted = sensor;
+  std::sort(sorted.elevations.begin(), sorted.elevations.end());
+  EXPECT_EQ(visibility(lifted, &sorted), up);
+  // A sensor without lasers beyond those with returns adds no ring.
+  LidarInfo bare = sensor;
+  bare.elevations = observed;
+  EXPECT_EQ(visibility(lifted, &bare), up_rings);
+  EXPECT_EQ(visibility(lowered, &bare), down_rings);
+}
+
 TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
   // Acquisition from 10 degrees off at 12 m with confirmation_scans 3: the pose is reported
   // ambiguous until three scans are scored, then, the scans being dense enough to single one
@@ -418,9 +500,10 @@ TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
   // later scan starts a new one (ambiguous again). Without confirmation it is never ambiguous.
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
-      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, "
+      "confirmation_scans: 3}";
   auto icp = makeFast(yaml);
+  icp->in.sensor.set(testing::lidarInfo({}));
   const Eigen::Isometry3d truth = lidarTTarget(12.0);
   const Transform guess = guessOf(testing::perturb(truth, 0.3, 10.0 * kDeg, 31));
   std::vector<bool> ambiguous;
@@ -459,9 +542,10 @@ TEST(Registration3DFastIcp, ConfirmationDecidesAtOnceWhenEveryStartEndsInOneMini
   // instead of coasting two more scans).
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
-      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, "
+      "confirmation_scans: 3}";
   auto icp = makeFast(yaml);
+  icp->in.sensor.set(testing::lidarInfo({}));
   const Eigen::Isometry3d truth = lidarTTarget(5.0);
   icp->in.source.set(scanAt(truth, 40));
   icp->in.model.set(satelliteModel());

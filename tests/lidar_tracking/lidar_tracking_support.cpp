@@ -44,6 +44,9 @@ Result<SimulatedRun> simulate(const std::string& name, double duration,
         cloud && m.channel == "/chaser/lidar/points") {
       run.scans.push_back(*cloud);
       run.messages.push_back(dfpc::Message::of(m.channel, cloud->stamp, *cloud));
+    } else if (const auto* info = std::get_if<LidarInfo>(&m.payload);
+               info && m.channel == "/chaser/lidar/info") {
+      run.messages.push_back(dfpc::Message::of(m.channel, info->stamp, *info));
     } else if (const auto* t = std::get_if<Transform>(&m.payload);
                t && m.channel.starts_with("/chaser/tf/")) {
       run.messages.push_back(dfpc::Message::of(m.channel, t->stamp, *t));
@@ -91,9 +94,11 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
                              const GraphEdit& edit) {
   Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file, edit);
   if (!graph) return graph.status();
-  // The initial state comes just before the scan it was made for.
+  // The initial state comes just before the scan it was made for (and the LIDAR description
+  // that comes with the scan).
   auto at = std::find_if(messages.begin(), messages.end(), [&](const dfpc::Message& m) {
-    return m.stamp >= initial.pose.stamp && m.channel == "/chaser/lidar/points";
+    return m.stamp >= initial.pose.stamp &&
+           (m.channel == "/chaser/lidar/points" || m.channel == "/chaser/lidar/info");
   });
   messages.insert(
       at, dfpc::Message::of("/cdff/lidar_tracking/initial_state", initial.pose.stamp, initial));

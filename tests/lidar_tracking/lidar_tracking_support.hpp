@@ -18,8 +18,8 @@
 namespace cdff::lidar_tracking {
 
 struct SimulatedRun {
-  std::vector<dfpc::Message> messages;  // in stamp order: /chaser/tf/*, scans, AHRS attitudes,
-                                        // /truth/target_pose
+  std::vector<dfpc::Message> messages;  // in stamp order: /chaser/tf/*, scans (each after its
+                                        // /chaser/lidar/info), AHRS attitudes, /truth/target_pose
   std::vector<Transform> truth;         // servicer_T_target, /truth/target_pose
   std::vector<PointCloud> scans;
   std::filesystem::path mesh_file;  // the target's mesh as the simulator used it (PLY)

@@ -481,5 +481,45 @@ TEST(LidarTracking, AMissingModelFileStopsTheGraphFromStartingAndSaysWhere) {
         << "'" << fragment << "' not in: " << r.status().message();
 }
 
+// The graph takes the LIDAR's geometry from its description (/chaser/lidar/info), not from
+// constants: a run without it is refused before anything runs, naming the input and the
+// channel; a description of another sensor frame than the scans' is an error of `acquire`
+// naming both frames, at every scan it would register.
+TEST(LidarTracking, TheLidarDescriptionIsRequiredAndMustBeTheScansSensor) {
+  Result<SimulatedRun> run = simulate("mid_range_approach", 2);
+  ASSERT_OK(run.status());
+  const RigidBodyState initial =
+      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, 11);
+  std::vector<dfpc::Message> without, other;
+  for (const dfpc::Message& m : run->messages) {
+    if (const LidarInfo* info = m.as<LidarInfo>()) {
+      LidarInfo moved = *info;
+      moved.frame_id = "velodyne";
+      other.push_back(dfpc::Message::of(m.channel, m.stamp, moved));
+      continue;
+    }
+    without.push_back(m);
+    other.push_back(m);
+  }
+  ASSERT_LT(without.size(), run->messages.size());
+  Result<TrackingResult> r = track(*run, without, initial, 0.0);
+  ASSERT_FALSE(r.isOk());
+  EXPECT_EQ(r.status().code(), StatusCode::kNotFound) << r.status().toString();
+  EXPECT_NE(r.status().message().find("input 'lidar_info' needs channel '/chaser/lidar/info' "
+                                      "(LidarInfo), which the input does not have"),
+            std::string::npos)
+      << r.status().message();
+
+  r = track(*run, other, initial, 0.0);
+  ASSERT_OK(r.status());
+  const std::size_t errors = countEvents(*r, dfpc::EventType::kDfnError, "acquire");
+  EXPECT_GE(errors, 10u) << "one per scan that reaches `acquire`";
+  EXPECT_EQ(countEvents(*r, dfpc::EventType::kDfnError, "acquire",
+                        "input 'sensor' describes the LIDAR of frame 'velodyne' but input "
+                        "'source' is in frame 'lidar'"),
+            errors);
+  EXPECT_EQ(r->accepted, 0u);
+}
+
 }  // namespace
 }  // namespace cdff::lidar_tracking

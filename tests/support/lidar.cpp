@@ -116,10 +116,9 @@ PointCloud simulateScan(const TriangleMesh& mesh, const Eigen::Isometry3d& senso
   std::vector<Point4f> points;
   std::vector<std::uint16_t> rings;
   const int steps = static_cast<int>(std::floor((o.max_azimuth - o.min_azimuth) / o.azimuth_step));
-  for (int ring = 0; ring < o.rings; ++ring) {
-    const double elevation =
-        o.rings == 1 ? o.min_elevation
-                     : o.min_elevation + (o.max_elevation - o.min_elevation) * ring / (o.rings - 1);
+  const std::vector<double> elevations = laserElevations(o);
+  for (std::size_t ring = 0; ring < elevations.size(); ++ring) {
+    const double elevation = elevations[ring];
     for (int k = 0; k < steps; ++k) {
       const double azimuth = o.min_azimuth + k * o.azimuth_step;
       const Eigen::Vector3d dir(std::cos(elevation) * std::cos(azimuth),
@@ -146,6 +145,27 @@ PointCloud simulateScan(const TriangleMesh& mesh, const Eigen::Isometry3d& senso
   cloud.points = Buffer<Point4f>::fromVector(std::move(points));
   cloud.ring = Buffer<std::uint16_t>::fromVector(std::move(rings));
   return cloud;
+}
+
+std::vector<double> laserElevations(const ScanOptions& o) {
+  if (!o.elevations.empty()) return o.elevations;
+  std::vector<double> elevations;
+  for (int ring = 0; ring < o.rings; ++ring)
+    elevations.push_back(o.rings == 1 ? o.min_elevation
+                                      : o.min_elevation + (o.max_elevation - o.min_elevation) *
+                                                              ring / (o.rings - 1));
+  return elevations;
+}
+
+LidarInfo lidarInfo(const ScanOptions& options, const std::string& frame_id) {
+  LidarInfo info;
+  info.frame_id = frame_id;
+  info.elevations = laserElevations(options);
+  info.rotation_rate = 10.0;
+  info.min_range = options.min_range;
+  info.max_range = options.max_range;
+  info.range_noise = options.range_noise;
+  return info;
 }
 
 PoseError poseError(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth) {

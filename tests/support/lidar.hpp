@@ -4,6 +4,8 @@
 // occlusion, so that only the faces turned towards the sensor are seen.
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -26,8 +28,11 @@ TriangleMesh mergeMeshes(const std::vector<TriangleMesh>& meshes);
 
 struct ScanOptions {
   int rings = 16;
-  double min_elevation = -15.0 * M_PI / 180.0;     // rad
-  double max_elevation = 15.0 * M_PI / 180.0;      // rad
+  double min_elevation = -15.0 * M_PI / 180.0;  // rad
+  double max_elevation = 15.0 * M_PI / 180.0;   // rad
+  /// The lasers' elevations (rad), any order; when set, instead of `rings` evenly spaced from
+  /// min_elevation to max_elevation. Rings are numbered in this order.
+  std::vector<double> elevations;
   double azimuth_step = 0.2 * M_PI / 180.0;        // rad (VLP-16 at 10 Hz)
   double min_azimuth = -M_PI, max_azimuth = M_PI;  // rad, about the sensor's z axis
   double range_noise = 0.03;                       // m, 1 sigma (VLP-16: +-3 cm)
@@ -42,6 +47,13 @@ struct ScanOptions {
 PointCloud simulateScan(const TriangleMesh& mesh, const Eigen::Isometry3d& sensor_T_mesh,
                         const ScanOptions& options, std::uint32_t seed,
                         const std::string& frame_id = "lidar");
+
+/// The lasers' elevations (rad) of a scan with `options`, ring by ring.
+std::vector<double> laserElevations(const ScanOptions& options);
+
+/// The description of the sensor that simulateScan(..., options, ..., frame_id) models: its
+/// lasers, one revolution per 0.1 s, its range limits and noise.
+LidarInfo lidarInfo(const ScanOptions& options, const std::string& frame_id = "lidar");
 
 /// Rotation error (rad) and translation error (m) of `estimate` against `truth`.
 struct PoseError {

@@ -94,10 +94,11 @@ Result<ConfirmationResult> FastIcp::acquire(std::span<const Eigen::Vector3f> poi
 }
 
 Result<Registration> FastIcp::registerScan(std::span<const Eigen::Vector3f> points,
-                                           const Eigen::Isometry3d& guess, Timestamp stamp) {
+                                           const Eigen::Isometry3d& guess, Timestamp stamp,
+                                           std::span<const double> lasers) {
   const bool visibility_check =
       options_.visibility_check &&
-      visibility_.setScan(points, options_.icp.association.viewpoint, options_.visibility);
+      visibility_.setScan(points, options_.icp.association.viewpoint, lasers);
   Registration r;
   IcpRun search = IcpRun::startingAt(guess, options_.icp.max_correspondence_distance);
   if (options_.multi_start.hypotheses > 1) {

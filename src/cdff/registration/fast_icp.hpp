@@ -40,8 +40,7 @@ struct FastIcpOptions {
   QualityOptions quality;
   NearestGridOptions grid;
   MultiStartOptions multi_start;
-  bool visibility_check = false;  // compute the visibility (RingVisibility)
-  RingVisibilityOptions visibility;
+  bool visibility_check = false;     // compute the visibility (RingVisibility)
   ConfirmationOptions confirmation;  // its registration fields are filled by configure()
 };
 
@@ -74,9 +73,11 @@ class FastIcp {
 
   /// Registers `points` (source frame, the scan's sensor at options.icp.association.viewpoint)
   /// against the prepared model from source_T_model `guess`; `stamp` orders the scans for the
-  /// confirmation.
+  /// confirmation. `lasers`: the sensor's distinct laser elevations (rad), lowest first, for the
+  /// visibility's empty rings (RingVisibility::setScan); empty: only the rings with returns.
   Result<Registration> registerScan(std::span<const Eigen::Vector3f> points,
-                                    const Eigen::Isometry3d& guess, Timestamp stamp);
+                                    const Eigen::Isometry3d& guess, Timestamp stamp,
+                                    std::span<const double> lasers = {});
 
  private:
   /// The acquisition's choice of a start (multi-start search, then confirmation or the best

@@ -9,12 +9,6 @@
 
 namespace cdff::registration {
 
-namespace {
-// Returns of one laser share its elevation to float precision (the range noise is along the
-// ray); lasers are a degree or more apart.
-constexpr float kSameRing = 0.25f * static_cast<float>(M_PI / 180.0);
-}  // namespace
-
 void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
                                 std::vector<float>& ranges) {
   struct Return {
@@ -50,9 +44,28 @@ void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
   }
 }
 
+void RingVisibility::addEmptyNeighbours(std::span<const double> lasers) {
+  if (lasers.empty()) return;
+  // Each observed ring is the sensor's laser nearest to its elevation. The neighbour's ring is
+  // the observed ring's elevation plus the sensor's step between the two lasers, so that an
+  // offset all lasers share (a calibration error of their elevations) carries over to it.
+  auto nearest = [&](float elevation) {
+    const auto it = std::lower_bound(lasers.begin(), lasers.end(), static_cast<double>(elevation));
+    auto k = static_cast<std::size_t>(it - lasers.begin());
+    if (k == lasers.size() || (k > 0 && elevation - lasers[k - 1] < lasers[k] - elevation)) --k;
+    return k;
+  };
+  const float lo = rings_.front().elevation, hi = rings_.back().elevation;
+  const std::size_t low = nearest(lo), high = nearest(hi);
+  if (low > 0)
+    rings_.insert(rings_.begin(),
+                  Ring{lo + static_cast<float>(lasers[low - 1] - lasers[low]), {}, {}, 0, 0});
+  if (high + 1 < lasers.size())
+    rings_.push_back(Ring{hi + static_cast<float>(lasers[high + 1] - lasers[high]), {}, {}, 0, 0});
+}
+
 bool RingVisibility::setScan(std::span<const Eigen::Vector3f> points,
-                             const Eigen::Vector3f& viewpoint,
-                             const RingVisibilityOptions& options) {
+                             const Eigen::Vector3f& viewpoint, std::span<const double> lasers) {
   rings_.clear();
   viewpoint_ = viewpoint;
   std::vector<float> ranges;
@@ -67,14 +80,7 @@ bool RingVisibility::setScan(std::span<const Eigen::Vector3f> points,
   if (gaps.empty()) return false;
   const float step = std::max(static_cast<float>(median(gaps)), 1e-4f);
   const float range = static_cast<float>(median(ranges));
-  if (options.ring_spacing > 0) {
-    // The sensor's rings just above and below the observed ones saw nothing of the target.
-    const float lo = rings_.front().elevation, hi = rings_.back().elevation;
-    const auto spacing = static_cast<float>(options.ring_spacing);
-    const auto limit = static_cast<float>(options.max_elevation) + kSameRing;
-    if (lo - spacing >= -limit) rings_.insert(rings_.begin(), Ring{lo - spacing, {}, {}, 0, 0});
-    if (hi + spacing <= limit) rings_.push_back(Ring{hi + spacing, {}, {}, 0, 0});
-  }
+  addEmptyNeighbours(lasers);
   offsets_.assign(1, 0);
   for (Ring& ring : rings_) {
     ring.bin = step;

@@ -5,8 +5,10 @@
 // pose, since every return still lies on some model surface; but such a pose puts model surface
 // where the lasers fired and saw nothing (or saw farther), which the right pose does not.
 // The lasers are cones about the source frame's z axis through the viewpoint (a VLP-16 in its
-// own frame); the rings are those the scan's returns lie on, plus, when ring_spacing > 0, the
-// rings next to them that the sensor has (within max_elevation) and that saw nothing.
+// own frame); the rings are those the scan's returns lie on, plus, when the sensor's laser
+// elevations are given (its LidarInfo), the sensor's lasers just below the lowest and just above
+// the highest of them, which saw nothing of the target. Without the elevations only the rings
+// with returns count.
 
 #include <cmath>
 #include <cstddef>
@@ -21,18 +23,18 @@
 
 namespace cdff::registration {
 
-/// The LIDAR's geometry, for the rings without returns.
-struct RingVisibilityOptions {
-  double ring_spacing = 0;            // rad, elevation step between lasers; 0: only observed rings
-  double max_elevation = M_PI / 2.0;  // rad, highest laser elevation (symmetric)
-};
-
 class RingVisibility {
  public:
+  /// Returns of one laser share its elevation to float precision (the range noise is along the
+  /// ray); lasers closer than this (rad) are one ring.
+  static constexpr float kSameRing = 0.25f * static_cast<float>(M_PI / 180.0);
+
   /// The rings and the returns along each, from the scan (sensor at `viewpoint`); false when it
-  /// has no ring with enough returns to measure the azimuth step.
+  /// has no ring with enough returns to measure the azimuth step. `lasers`: the sensor's
+  /// distinct laser elevations (rad), lowest first, for the empty rings next to the observed
+  /// ones; empty: only the observed rings.
   bool setScan(std::span<const Eigen::Vector3f> points, const Eigen::Vector3f& viewpoint,
-               const RingVisibilityOptions& options);
+               std::span<const double> lasers);
 
   bool empty() const { return rings_.empty(); }
 
@@ -54,6 +56,9 @@ class RingVisibility {
 
   /// The rings the returns lie on, lowest first; the ranges of all returns into `ranges`.
   void groupRings(std::span<const Eigen::Vector3f> points, std::vector<float>& ranges);
+  /// The rings of the lasers next to the lowest and the highest observed ring, where the sensor
+  /// has them (`lasers` sorted).
+  void addEmptyNeighbours(std::span<const double> lasers);
   /// A return of `ring` within `tolerance` of `azimuth` (either side of the +-pi seam), nearer
   /// than `max_range`.
   static bool seen(const Ring& ring, float azimuth, float tolerance, float max_range);
