@@ -102,20 +102,20 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   }
 
   /// The sensor's distinct laser elevations, lowest first (none without `sensor`); sorted again
-  /// only when a new description arrives.
+  /// only when the elevations change (a description comes with every scan).
   std::span<const double> lasers() {
-    const std::shared_ptr<const LidarInfo> sensor = in.sensor.shared();
+    const LidarInfo* sensor = in.sensor.get();
     if (!sensor) return {};
-    if (sensor != lasers_of_) {
+    if (sensor->elevations != lasers_of_) {
       lasers_ = sensor->sortedElevations(registration::RingVisibility::kSameRing);
-      lasers_of_ = sensor;
+      lasers_of_ = sensor->elevations;
     }
     return lasers_;
   }
 
   registration::FastIcp registration_;
-  std::vector<Eigen::Vector3f> points_;         // the scan points used; kept so as not to allocate
-  std::shared_ptr<const LidarInfo> lasers_of_;  // the description lasers_ was sorted from
+  std::vector<Eigen::Vector3f> points_;  // the scan points used; kept so as not to allocate
+  std::vector<double> lasers_of_;        // the elevations lasers_ was sorted from
   std::vector<double> lasers_;
 };
 
