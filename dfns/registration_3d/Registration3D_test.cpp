@@ -282,7 +282,7 @@ TEST(Registration3DFastIcp, TheCovarianceDescribesTheSpreadAndTheBiasIsSmall) {
   constexpr int kRuns = 40;
   auto icp = makeFast(
       "{max_correspondence_distance: 0.3, translation_epsilon: 1.0e-6, "
-      "rotation_epsilon: 1.0e-6, max_iterations: 100}");
+      "rotation_epsilon: 5.729577951308232e-5, max_iterations: 100}");
   const Eigen::Isometry3d truth = lidarTTarget(4.0);
   std::vector<Vector6d> errors;
   std::vector<Matrix6d> covariances;
@@ -372,8 +372,7 @@ TEST(Registration3DFastIcp, VisibilityTellsASlidModelFromTheRightPose) {
   // visibility is that of the given pose.
   const char* yaml =
       "{max_correspondence_distance: 1.0e-6, min_correspondence_distance: 1.0e-6, "
-      "visibility_check: true, ring_spacing: 0.03490658503988659, "
-      "max_elevation: 0.2617993877991494}";
+      "visibility_check: true, ring_spacing: 2, max_elevation: 15}";
   auto icp = makeFast(yaml);
   const Eigen::Isometry3d truth = lidarTTarget(12.0);
   const PointCloud scan = scanAt(truth, 3);
@@ -418,8 +417,8 @@ TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
   // later scan starts a new one (ambiguous again). Without confirmation it is never ambiguous.
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
-      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+      "10, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
+      "2, max_elevation: 15, confirmation_scans: 3}";
   auto icp = makeFast(yaml);
   const Eigen::Isometry3d truth = lidarTTarget(12.0);
   const Transform guess = guessOf(testing::perturb(truth, 0.3, 10.0 * kDeg, 31));
@@ -459,8 +458,8 @@ TEST(Registration3DFastIcp, ConfirmationDecidesAtOnceWhenEveryStartEndsInOneMini
   // instead of coasting two more scans).
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
-      "0.03490658503988659, max_elevation: 0.2617993877991494, confirmation_scans: 3}";
+      "10, hypothesis_iterations: 15, visibility_check: true, ring_spacing: "
+      "2, max_elevation: 15, confirmation_scans: 3}";
   auto icp = makeFast(yaml);
   const Eigen::Isometry3d truth = lidarTTarget(5.0);
   icp->in.source.set(scanAt(truth, 40));
