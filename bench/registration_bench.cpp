@@ -147,7 +147,7 @@ BENCHMARK_CAPTURE(BM_Normals, Pcl, "Pcl")->Unit(benchmark::kMicrosecond);
 std::string icpYaml(const char* dfi) {
   std::string yaml =
       "max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50, "
-      "translation_epsilon: 1.0e-4, rotation_epsilon: 1.0e-4";
+      "translation_epsilon: 1.0e-4, rotation_epsilon: 0.005729577951308232";
   if (std::string(dfi) == "FastIcp" && std::getenv("CDFF_FASTICP_PARAMS"))
     yaml += std::string(", ") + std::getenv("CDFF_FASTICP_PARAMS");
   return "{" + yaml + "}";

@@ -57,9 +57,9 @@ const Sequence& sequence() {
 constexpr double kDeg = 180.0 / M_PI;
 const char* kVispSettings =
     "{me_mask_size: 5, me_mask_number: 180, me_range: 8, me_threshold: 10000, me_mu1: 0.5, "
-    "me_mu2: 0.5, me_sample_step: 5, angle_appear: 1.4835298641951802, "
-    "angle_disappear: 1.5533430342749532, near_clipping: 0.01, far_clipping: 2, "
-    "fov_clipping: true, depth_dense_step: 4, depth_extrinsics: [-0.05, 0, 0, 0, 0, 0], mode: ";
+    "me_mu2: 0.5, me_sample_step: 5, angle_appear: 85, angle_disappear: 89, "
+    "near_clipping: 0.01, far_clipping: 2, fov_clipping: true, depth_dense_step: 4, "
+    "depth_extrinsics: [-0.05, 0, 0, 0, 0, 0], mode: ";
 
 void trackCastle(benchmark::State& state, const std::string& dfi, const std::string& yaml,
                  bool depth) {

@@ -8,7 +8,8 @@ checked by the project's schema reader, with each port's C++ type taken from the
 (src/cdff/types/type_registry.hpp). This script only emits: DIR/<Name>.gen.hpp and
 DIR/<Name>.gen.cpp hold the DFN base class with typed input and output ports, one parameter
 struct and one base class per implementation (DFI) with YAML parsing and range checks, and the
-DfnDescription that the registry, `cdff dfn info` and the tests read.
+DfnDescription that the registry, `cdff dfn info` and the tests read. A parameter in degrees in
+YAML (`unit: deg` or `deg/s`) has its C++ field and default in radians (si_factor).
 """
 
 import argparse
@@ -31,17 +32,37 @@ def cpp_string(text):
     return f'"{escaped}"'
 
 
+def converted(spec):
+    """Whether the YAML unit differs from the C++ field's (degrees in YAML, radians in C++)."""
+    return spec["si_factor"] != 1.0
+
+
 def cpp_literal(spec):
+    """The default in the C++ field's unit: value * si_factor, the product the reader takes."""
     value, kind = spec["default"], spec["type"]
     if kind == "bool":
         return "true" if value else "false"
     if kind == "int":
         return str(value)
     if kind == "double":
-        return repr(float(value))
+        return repr(float(value) * spec["si_factor"])
     if kind == "string":
         return f"std::string({cpp_string(value)})"
-    return "std::vector<double>{" + ", ".join(repr(float(v)) for v in value) + "}"
+    return ("std::vector<double>{"
+            + ", ".join(repr(float(v) * spec["si_factor"]) for v in value) + "}")
+
+
+def parameter_doc(p):
+    extra = []
+    if converted(p):
+        extra.append(f"unit: {p['si_unit']}; {p['unit']} in YAML")
+    elif p["unit"]:
+        extra.append(f"unit: {p['unit']}")
+    if p["min"] is not None or p["max"] is not None:
+        extra.append(f"range: [{p['min']}, {p['max']}]" + (f" {p['unit']}" if converted(p) else ""))
+    if p["values"]:
+        extra.append("values: {" + ", ".join(p["values"]) + "}")
+    return p["doc"] + (f" ({'; '.join(extra)})" if extra else "")
 
 
 def comment(text, indent):
@@ -95,15 +116,7 @@ def emit_header(d):
         full = f"{name}{impl['name']}"
         lines += [f"/// Parameters of {name}/{impl['name']}.", f"struct {full}Parameters {{"]
         for p in impl["parameters"]:
-            extra = []
-            if p["unit"]:
-                extra.append(f"unit: {p['unit']}")
-            if p["min"] is not None or p["max"] is not None:
-                extra.append(f"range: [{p['min']}, {p['max']}]")
-            if p["values"]:
-                extra.append("values: {" + ", ".join(p["values"]) + "}")
-            doc = p["doc"] + (f" ({'; '.join(extra)})" if extra else "")
-            lines.append(comment(doc, "  "))
+            lines.append(comment(parameter_doc(p), "  "))
             lines.append(f"  {PARAMETER_TYPES[p['type']][0]} {p['name']} = {cpp_literal(p)};")
         lines += [
             "};",
@@ -115,17 +128,22 @@ def emit_header(d):
             f"  static constexpr const char* kImplementation = \"{impl['name']}\";",
             "",
             "  const Parameters& parameters() const { return params_; }",
-            "  /// Sets parameters from C++, checked against the description as YAML ones are.",
+            "  /// Sets parameters from C++ (SI: angles in radians), checked against the description as",
+            "  /// YAML ones are.",
             "  Status configure(const Parameters& parameters) {",
-            "    return Node::configure(toYaml(parameters), \"<C++ parameters>\");",
+            "    return configureIn(toYaml(parameters, ParameterUnits::kSi), \"<C++ parameters>\",",
+            "                       ParameterUnits::kSi);",
             "  }",
             "  using Node::configure;",
             "  YAML::Node parametersAsYaml() const override { return toYaml(params_); }",
-            "  static YAML::Node toYaml(const Parameters& parameters);",
+            "  /// The parameters as a YAML map in `units` (kYaml: angles in degrees, as files write them).",
+            "  static YAML::Node toYaml(const Parameters& parameters,",
+            "                           ParameterUnits units = ParameterUnits::kYaml);",
             "",
             " protected:",
             f"  {full}Base() : {name}(kImplementation) {{}}",
-            "  Status applyParameters(const YAML::Node& node, const std::string& source) override;",
+            "  Status applyParameters(const YAML::Node& node, const std::string& source,",
+            "                         ParameterUnits units) override;",
             "",
             "  Parameters params_;",
             "};",
@@ -194,10 +212,11 @@ def emit_source(d):
     for impl in d["implementations"]:
         full = f"{name}{impl['name']}Base"
         lines += [
-            f"Status {full}::applyParameters(const YAML::Node& node, const std::string& source) {{",
+            f"Status {full}::applyParameters(const YAML::Node& node, const std::string& source,",
+            "                                ParameterUnits units) {",
             "  const auto& specs = implementation().parameters;",
             "  Parameters p;",
-            "  ParameterReader reader(node, source, name());",
+            "  ParameterReader reader(node, source, name(), units);",
         ]
         for i, p in enumerate(impl["parameters"]):
             lines.append(f"  reader.read(specs[{i}], p.{p['name']});")
@@ -207,11 +226,15 @@ def emit_source(d):
             "  return Status::ok();",
             "}",
             "",
-            f"YAML::Node {full}::toYaml(const Parameters& parameters) {{",
+            f"YAML::Node {full}::toYaml(const Parameters& parameters,",
+            "                           [[maybe_unused]] ParameterUnits units) {",
             "  YAML::Node node(YAML::NodeType::Map);",
         ]
         for p in impl["parameters"]:
-            lines.append(f"  node[\"{p['name']}\"] = parameters.{p['name']};")
+            value = f"parameters.{p['name']}"
+            if converted(p):
+                value = f"inUnits({value}, {cpp_string(p['unit'])}, units)"
+            lines.append(f"  node[\"{p['name']}\"] = {value};")
         lines += ["  return node;", "}", ""]
     lines += ["}  // namespace cdff::dfn", ""]
     return "\n".join(lines)

@@ -119,7 +119,7 @@ TEST(EdgeMatching, EdgesAcrossTheContourAreRefused) {
     s.normal = {std::cos(angle), std::sin(angle)};
     samples.samples.push_back(s);
   }
-  auto node = make("{angular_threshold: 0.5236}");
+  auto node = make("{angular_threshold: 30}");
   node->in.image.set(image);
   node->in.samples.set(samples);
   ASSERT_OK(node->process());

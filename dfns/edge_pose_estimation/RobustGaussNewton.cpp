@@ -67,9 +67,8 @@ class EdgePoseEstimationRobustGaussNewton final : public EdgePoseEstimationRobus
         reason = solution.status().message();
       } else if (solution->diverged) {
         reason = fmt::format(
-            "the estimate diverged from the prediction (more than {} m or {} "
-            "rad)",
-            options.divergence_translation, options.divergence_rotation);
+            "the estimate diverged from the prediction (more than {} m or {:.6g} deg)",
+            options.divergence_translation, options.divergence_rotation / kRadiansPerDegree);
       } else {
         status =
             tracking::assessTracking(*solution, inputs.size(), failed, params_.min_inlier_ratio,

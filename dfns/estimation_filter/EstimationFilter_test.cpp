@@ -397,7 +397,8 @@ TEST(EstimationFilterExtendedKalman, AhrsCorrectionsKeepTheFilterConsistentAndIm
 
   const std::string quiet =
       "{linear_acceleration_psd: 1.0e-12, angular_acceleration_psd: 1.0e-12, "
-      "target_angular_acceleration_psd: 1.0e-12, initial_chaser_angular_velocity_sigma: 0.1}";
+      "target_angular_acceleration_psd: 1.0e-12, initial_chaser_angular_velocity_sigma: "
+      "5.729577951308232}";
   double sum_nees = 0, sum_r2_ahrs = 0, sum_r2_plain = 0;
   long samples = 0;
   for (int run = 0; run < kRuns; ++run) {

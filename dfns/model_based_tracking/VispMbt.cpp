@@ -186,9 +186,9 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
     s.scanline_visibility = p.scanline_visibility;
     if (p.angle_appear > p.angle_disappear)
       return invalidParameter(
-          "angle_appear ({} rad) exceeds angle_disappear ({} rad); expected "
+          "angle_appear ({:.6g} deg) exceeds angle_disappear ({:.6g} deg); expected "
           "angle_appear <= angle_disappear",
-          p.angle_appear, p.angle_disappear);
+          p.angle_appear / kRadiansPerDegree, p.angle_disappear / kRadiansPerDegree);
     if (p.near_clipping >= p.far_clipping)
       return invalidParameter("near_clipping ({} m) is not below far_clipping ({} m)",
                               p.near_clipping, p.far_clipping);

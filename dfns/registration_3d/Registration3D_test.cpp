@@ -299,7 +299,7 @@ TEST(Registration3DFastIcp, TheCovarianceDescribesTheSpreadAndTheBiasIsSmall) {
   constexpr int kRuns = 40;
   auto icp = makeFast(
       "{max_correspondence_distance: 0.3, translation_epsilon: 1.0e-6, "
-      "rotation_epsilon: 1.0e-6, max_iterations: 100}");
+      "rotation_epsilon: 5.729577951308232e-5, max_iterations: 100}");
   const Eigen::Isometry3d truth = lidarTTarget(4.0);
   std::vector<Vector6d> errors;
   std::vector<Matrix6d> covariances;
@@ -500,7 +500,7 @@ TEST(Registration3DFastIcp, ConfirmationScoresTheHypothesesOverSeveralScans) {
   // later scan starts a new one (ambiguous again). Without confirmation it is never ambiguous.
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, "
+      "10, hypothesis_iterations: 15, visibility_check: true, "
       "confirmation_scans: 3}";
   auto icp = makeFast(yaml);
   icp->in.sensor.set(testing::lidarInfo({}));
@@ -542,7 +542,7 @@ TEST(Registration3DFastIcp, ConfirmationDecidesAtOnceWhenEveryStartEndsInOneMini
   // instead of coasting two more scans).
   const char* yaml =
       "{max_correspondence_distance: 3.0, hypotheses: 24, hypothesis_angle: "
-      "0.17453292519943295, hypothesis_iterations: 15, visibility_check: true, "
+      "10, hypothesis_iterations: 15, visibility_check: true, "
       "confirmation_scans: 3}";
   auto icp = makeFast(yaml);
   icp->in.sensor.set(testing::lidarInfo({}));

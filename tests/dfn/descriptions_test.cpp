@@ -77,8 +77,10 @@ TEST(Descriptions, InstancesHaveTheDescribedPortsAndParameters) {
       std::sort(keys.begin(), keys.end());
       std::sort(expected.begin(), expected.end());
       EXPECT_EQ(keys, expected);
-      // Feeding the current parameters back must be accepted unchanged.
+      // Feeding the current parameters back must be accepted and change nothing (angles go
+      // through degrees and back).
       EXPECT_OK(n.configure(params, "<round trip>"));
+      EXPECT_EQ(YAML::Dump(n.parametersAsYaml()), YAML::Dump(params));
     }
   }
 }

@@ -52,7 +52,8 @@ TEST(Parameters, UnknownKeyNamesFileLineKeyAndSuggestion) {
   EXPECT_NE(s.message().find("params.yaml:2:1"), std::string::npos) << s.message();
   EXPECT_NE(s.message().find("gian: unknown key; expected one of"), std::string::npos)
       << s.message();
-  EXPECT_NE(s.message().find("{gain, iterations, mode, enabled, offsets} (did you mean 'gain'?)"),
+  EXPECT_NE(s.message().find(
+                "{gain, iterations, mode, enabled, offsets, tilt, rates} (did you mean 'gain'?)"),
             std::string::npos)
       << s.message();
 }

@@ -21,6 +21,16 @@ const char* toString(ParameterType type) {
   return "unknown";
 }
 
+double siPerUnit(std::string_view unit) {
+  return unit == "deg" || unit == "deg/s" ? kRadiansPerDegree : 1.0;
+}
+
+std::string siUnit(std::string_view unit) {
+  if (unit == "deg") return "rad";
+  if (unit == "deg/s") return "rad/s";
+  return std::string(unit);
+}
+
 std::string ParameterSpec::acceptedText() const {
   if (!allowed.empty()) return fmt::format("{{{}}}", fmt::join(allowed, ", "));
   std::string text;

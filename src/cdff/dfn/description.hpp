@@ -5,8 +5,10 @@
 // checked result, with each port's C++ type from the type registry, to the code generator
 // (scripts/dfn_codegen.py), so the running code and its description cannot disagree.
 
+#include <numbers>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <variant>
 #include <vector>
 
@@ -27,16 +29,32 @@ const char* toString(ParameterType type);
 /// "bool", "int", "double", "string", "double[]" -> the type; none otherwise.
 std::optional<ParameterType> parameterTypeNamed(std::string_view name);
 
+/// Angles are written in degrees in YAML (a person reasons in degrees) and held in radians in
+/// C++ (SI, as every computation uses them): a parameter whose description says `unit: deg` or
+/// `unit: deg/s` has its default, range and YAML values in degrees, and its C++ field in rad or
+/// rad/s. Every other unit is the same in YAML and in C++.
+inline constexpr double kRadiansPerDegree = std::numbers::pi / 180.0;
+
+/// How many SI units (those of the C++ field) one unit of a description's `unit` is:
+/// kRadiansPerDegree for "deg" and "deg/s", 1 otherwise.
+double siPerUnit(std::string_view unit);
+/// The unit of the C++ field: "rad" for "deg", "rad/s" for "deg/s", `unit` otherwise.
+std::string siUnit(std::string_view unit);
+
+/// The units of the values of a parameter map: as written in YAML (degrees for `unit: deg`), or
+/// as the C++ parameter struct holds them (SI: radians), for a struct set from C++.
+enum class ParameterUnits { kYaml, kSi };
+
 /// A parameter's default value, typed as its ParameterType (kInt: long long).
 using ParameterValue = std::variant<bool, long long, double, std::string, std::vector<double>>;
 
 struct ParameterSpec {
   std::string name;
   ParameterType type = ParameterType::kDouble;
-  std::string default_text;  // the default as written in YAML
-  ParameterValue default_value;
-  std::string unit;           // SI unit, "" when dimensionless
-  std::optional<double> min;  // inclusive bounds for numbers (and list elements)
+  std::string default_text;      // the default as written in YAML
+  ParameterValue default_value;  // in `unit`, as written
+  std::string unit;              // the YAML unit ("deg" for angles), "" when dimensionless
+  std::optional<double> min;     // inclusive bounds for numbers (and list elements), in `unit`
   std::optional<double> max;
   std::vector<std::string> allowed;      // for strings: the accepted values (empty: any)
   std::optional<std::size_t> list_size;  // for lists: the required length (empty: any)
@@ -67,9 +85,10 @@ struct DfnDescription {
 
 /// Reads and checks a DFN description file: keys, names (CamelCase types, snake_case ports and
 /// parameters, not C++ keywords), port types (registered data types), parameter types, defaults
-/// within their ranges and choices, no name twice. `area` is the folder under dfns/,
-/// `source_file` the repository-relative path recorded in the description. Errors have the
-/// schema reader's format: file:line:column, key path, value, expected.
+/// within their ranges and choices, no name twice, angles in degrees (`deg`, `deg/s`; not `rad`,
+/// `rad/s`). `area` is the folder under dfns/, `source_file` the repository-relative path
+/// recorded in the description. Errors have the schema reader's format: file:line:column, key
+/// path, value, expected.
 Result<DfnDescription> loadDescription(const std::string& path, const std::string& area,
                                        const std::string& source_file);
 

@@ -88,8 +88,25 @@ Status readPorts(const Field& f, std::vector<PortSpec>& out, bool input) {
 
 struct RawParameter {
   ParameterSpec spec;
-  Field default_field, range_field, values_field, size_field;
+  Field default_field, range_field, values_field, size_field, unit_field;
 };
+
+/// Angles in YAML are degrees (description.hpp, kRadiansPerDegree): a unit in radians is refused,
+/// and degrees only hold on a number the reader can convert (double, double[]).
+Status checkUnit(const RawParameter& raw) {
+  const std::string& unit = raw.spec.unit;
+  if (unit == "rad" || unit == "rad/s")
+    return raw.unit_field.fail(
+        fmt::format("{} (angles in YAML are degrees; the C++ field holds {})",
+                    unit == "rad" ? "deg" : "deg/s", unit),
+        "a unit in radians");
+  const ParameterType t = raw.spec.type;
+  if (siPerUnit(unit) != 1.0 && t != ParameterType::kDouble && t != ParameterType::kDoubleList)
+    return raw.unit_field.fail(
+        "deg and deg/s on double and double[] parameters only (their C++ fields hold radians)",
+        fmt::format("degrees on the {} parameter '{}'", toString(t), raw.spec.name));
+  return Status::ok();
+}
 
 /// The default, typed and checked against the type, range, choices and size.
 Status readDefault(RawParameter& raw) {
@@ -176,7 +193,11 @@ const Table<RawParameter>& parameterTable() {
           .required(
               "doc", [](const Field& f, RawParameter& r) { return doc(f, r.spec.doc); },
               "what the parameter does")
-          .optional("unit", [](const Field& f, RawParameter& r) { return f.read(r.spec.unit); })
+          .optional("unit",
+                    [](const Field& f, RawParameter& r) {
+                      r.unit_field = f;
+                      return f.read(r.spec.unit);
+                    })
           .optional("range",
                     [](const Field& f, RawParameter& r) {
                       r.range_field = f;
@@ -212,6 +233,7 @@ Status readParameters(const Field& f, std::vector<ParameterSpec>& out) {
       return raw.values_field.fail("no 'values' but for a string parameter");
     if (raw.size_field.defined() && t != ParameterType::kDoubleList)
       return raw.size_field.fail("no 'size' but for a double[] parameter");
+    CDFF_RETURN_IF_ERROR(checkUnit(raw));
     CDFF_RETURN_IF_ERROR(readDefault(raw));
     out.push_back(std::move(raw.spec));
   }

@@ -31,10 +31,11 @@ Node::Node(const DfnDescription& description, const std::string& implementation)
       implementation_(findOrFirst(description, implementation)),
       name_(description.name + "/" + implementation) {}
 
-Status Node::configure(const YAML::Node& parameters, const std::string& source) {
+Status Node::configureIn(const YAML::Node& parameters, const std::string& source,
+                         ParameterUnits units) {
   Status status;
   try {
-    status = applyParameters(parameters, source);
+    status = applyParameters(parameters, source, units);
     if (status) status = onConfigure();
   } catch (const std::exception& e) {
     status = {StatusCode::kInternal, fmt::format("configure() threw: {}", e.what())};

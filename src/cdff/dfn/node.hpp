@@ -50,8 +50,11 @@ class Node {
   const std::string& name() const { return name_; }
   void setName(std::string name) { name_ = std::move(name); }
 
-  /// Sets parameters from a YAML map (null: all defaults). On error the previous parameters stay.
-  Status configure(const YAML::Node& parameters, const std::string& source = "<inline>");
+  /// Sets parameters from a YAML map (null: all defaults), angles in degrees as the description
+  /// says (`unit: deg`). On error the previous parameters stay.
+  Status configure(const YAML::Node& parameters, const std::string& source = "<inline>") {
+    return configureIn(parameters, source, ParameterUnits::kYaml);
+  }
   /// Loads a YAML file holding a map of parameters.
   Status configureFromFile(const std::string& path);
   /// Defaults for every parameter.
@@ -69,7 +72,8 @@ class Node {
   InputPortBase* findInput(std::string_view name) const;
   OutputPortBase* findOutput(std::string_view name) const;
 
-  /// The current parameters as YAML (for logs and `cdff dfn info`).
+  /// The current parameters as YAML, in its units (angles in degrees), for logs and
+  /// `cdff dfn info`; configure() accepts it back.
   virtual YAML::Node parametersAsYaml() const = 0;
 
  protected:
@@ -78,8 +82,11 @@ class Node {
   void registerInput(InputPortBase& port) { inputs_.push_back(&port); }
   void registerOutput(OutputPortBase& port) { outputs_.push_back(&port); }
 
-  /// Generated per DFI: parse `parameters` into the DFI's parameter struct (or fail).
-  virtual Status applyParameters(const YAML::Node& parameters, const std::string& source) = 0;
+  /// configure(), with the map's values in `units` (kSi: a C++ parameter struct, in radians).
+  Status configureIn(const YAML::Node& parameters, const std::string& source, ParameterUnits units);
+  /// Generated per DFI: parse `parameters`, in `units`, into the DFI's parameter struct (or fail).
+  virtual Status applyParameters(const YAML::Node& parameters, const std::string& source,
+                                 ParameterUnits units) = 0;
   /// DFI hook after parameters changed (build detectors, allocate buffers...).
   virtual Status onConfigure() { return Status::ok(); }
   /// The DFI's algorithm: read inputs, write outputs, return a status with a reason on failure.

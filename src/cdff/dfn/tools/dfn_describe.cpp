@@ -37,6 +37,8 @@ json parameterJson(const cdff::dfn::ParameterSpec& p) {
           {"default", value},
           {"default_text", p.default_text},
           {"unit", p.unit},
+          {"si_unit", cdff::dfn::siUnit(p.unit)},
+          {"si_factor", cdff::dfn::siPerUnit(p.unit)},
           {"doc", p.doc},
           {"min", p.min ? json(*p.min) : json(nullptr)},
           {"max", p.max ? json(*p.max) : json(nullptr)},
