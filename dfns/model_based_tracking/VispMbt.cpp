@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <optional>
 
+#include <Eigen/Eigenvalues>
+
 #include "ModelBasedTracking.gen.hpp"
 #include "tracking_common.hpp"
 #include "visp_mbt_bridge.hpp"
@@ -148,6 +150,15 @@ Matrix6d parentFrameCovariance(const std::array<double, 36>& visp,
   Matrix6d covariance = J * visp_cov * J.transpose();
   covariance = (0.5 * (covariance + covariance.transpose())).eval();
   if (!covariance.allFinite()) covariance.setZero();
+  // From features that leave a direction nearly unconstrained ViSP's matrix spans 12 orders of
+  // magnitude and more (variances of 1e17 m^2 beside 1e6): rounding makes it indefinite. Its
+  // eigenvalues are kept at least 1e-12 of the largest, so that it stays a covariance (a
+  // positive-definite one, which a filter can take) that says as little as ViSP's.
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(covariance);
+  const double largest = eigen.eigenvalues().maxCoeff();
+  if (largest > 0 && eigen.eigenvalues().minCoeff() < 1e-12 * largest)
+    covariance = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(1e-12 * largest).asDiagonal() *
+                 eigen.eigenvectors().transpose();
   return covariance;
 }
 
