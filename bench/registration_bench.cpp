@@ -1,11 +1,12 @@
 // LIDAR tracking DFNs on a full VLP-16-like scan (16 rings x 1800 azimuths, ~29 000 points,
 // 3 cm range noise) of the satellite-like test target inside a test-bench room, at close
 // (2.5 m) and mid (10 m) range: PointCloudFiltering (Fast, Pcl), NormalsEstimation (Pca, Pcl),
-// Registration3D (FastIcp, PclIcpPointToPlane) on the same scan / guess pairs, with the pose
-// errors each reaches as counters (t_err_mm, r_err_deg: means over the pairs), and the whole
+// Registration3D (FastIcp, PclIcpPointToPlane, each in several configurations) on the same scan /
+// guess pairs, with the pose errors each reaches and its iterations as counters, and the whole
 // per-scan chain of the LIDAR tracking DFPC (crop + voxel grid, ICP, EKF correction).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -142,24 +143,40 @@ void BM_Normals(benchmark::State& state, const char* dfi) {
 BENCHMARK_CAPTURE(BM_Normals, Pca, "Pca")->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Normals, Pcl, "Pcl")->Unit(benchmark::kMicrosecond);
 
-// Both ICPs with the same parameters, on the same filtered scan and the same guesses.
-// CDFF_FASTICP_PARAMS (e.g. "lookup_grid_cell: 0") adds FastIcp parameters, to compare variants.
-std::string icpYaml(const char* dfi) {
-  std::string yaml =
-      "max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50, "
-      "translation_epsilon: 1.0e-4, rotation_epsilon: 0.005729577951308232";
-  if (std::string(dfi) == "FastIcp" && std::getenv("CDFF_FASTICP_PARAMS"))
+// Both ICPs with the same shared parameters (correspondence gate 0.3 m, 50 iterations, the
+// same step epsilons), each in its variants on the same filtered scan and guesses:
+//   FastIcp     grid: its nearest-point lookup grid in the fine iterations (the DFI's default);
+//               grid_refined: then up to 3 exact iterations (as dfpcs/lidar_tracking.yaml);
+//               exact: KD-tree only; exact_eps: KD-tree only and the epsilons as its only
+//               stopping rule (PCL's), without convergence_sigma; plain: PCL's plain algorithm
+//               (KD-tree, fixed gate, no kernel, no rejection, the epsilons only).
+//   PclIcpPointToPlane  plain: fixed gate, no rejection; median: PCL's median-distance
+//               rejector at 3 robust standard deviations (its adaptive gate, FastIcp's
+//               shrinking rule); rejectors: that and back-face rejection (PCL's surface-normal
+//               rejector), PCL configured for the job as FastIcp is.
+// CDFF_FASTICP_PARAMS (e.g. "min_correspondence_distance: 0.05") adds FastIcp parameters.
+const char* kShared =
+    "max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50, "
+    "translation_epsilon: 1.0e-4, rotation_epsilon: 0.005729577951308232";
+
+std::string icpYaml(const std::string& dfi, const std::string& variant) {
+  std::string yaml = kShared;
+  if (!variant.empty()) yaml += ", " + variant;
+  if (dfi == "FastIcp" && std::getenv("CDFF_FASTICP_PARAMS"))
     yaml += std::string(", ") + std::getenv("CDFF_FASTICP_PARAMS");
   return "{" + yaml + "}";
 }
 
-// One warmed-up instance per DFI and scene, kept across Google Benchmark's repeated runs: the
-// model's search structures are built once, as in a DFPC (BM_FirstRegistration measures that).
-dfn::Registration3D* warmRegistration(const std::string& dfi, double range) {
-  static std::map<std::pair<std::string, double>, std::unique_ptr<dfn::Registration3D>> cache;
-  auto& icp = cache[{dfi, range}];
+// One warmed-up instance per DFI, variant and scene, kept across Google Benchmark's repeated
+// runs: the model's search structures are built once, as in a DFPC (BM_FirstRegistration
+// measures that).
+dfn::Registration3D* warmRegistration(const std::string& dfi, const std::string& variant,
+                                      double range) {
+  static std::map<std::string, std::unique_ptr<dfn::Registration3D>> cache;
+  auto& icp = cache[dfi + "|" + variant + "|" + std::to_string(range)];
   if (!icp) {
-    icp = bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi.c_str()));
+    icp =
+        bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi, variant));
     if (!icp) return nullptr;
     const Scene& s = scene(range);
     icp->in.model.set(model());
@@ -170,11 +187,14 @@ dfn::Registration3D* warmRegistration(const std::string& dfi, double range) {
   return icp.get();
 }
 
-void BM_Registration(benchmark::State& state, const char* dfi, double range) {
+// Counters: means over the calls of the pose error against the truth (t_err_mm, r_err_deg),
+// the largest (t_max_mm, r_max_deg), iterations per registration, the fraction converged and
+// the inlier RMS at the final pose (the shared quality measure of both DFIs).
+void BM_Registration(benchmark::State& state, const char* dfi, const char* variant, double range) {
   const Scene& s = scene(range);
-  dfn::Registration3D* icp = warmRegistration(dfi, range);
+  dfn::Registration3D* icp = warmRegistration(dfi, variant, range);
   if (!icp) return state.SkipWithError("configure or warm-up failed");
-  double sum_t = 0, sum_r = 0, sum_iterations = 0;
+  double sum_t = 0, sum_r = 0, max_t = 0, max_r = 0, sum_iterations = 0, sum_rms = 0;
   long calls = 0, converged = 0;
   for (auto _ : state) {
     icp->in.source.set(s.filtered);
@@ -184,7 +204,10 @@ void BM_Registration(benchmark::State& state, const char* dfi, double range) {
     const testing::PoseError e = testing::poseError(icp->out.transform->isometry(), s.truth);
     sum_t += e.translation;
     sum_r += e.rotation;
+    max_t = std::max(max_t, e.translation);
+    max_r = std::max(max_r, e.rotation);
     sum_iterations += *icp->out.iterations;
+    sum_rms += *icp->out.inlier_rms;
     converged += *icp->out.converged ? 1 : 0;
     ++calls;
     state.ResumeTiming();
@@ -192,15 +215,44 @@ void BM_Registration(benchmark::State& state, const char* dfi, double range) {
   state.counters["points"] = static_cast<double>(s.filtered.size());
   state.counters["t_err_mm"] = 1e3 * sum_t / calls;
   state.counters["r_err_deg"] = sum_r / calls / kDeg;
+  state.counters["t_max_mm"] = 1e3 * max_t;
+  state.counters["r_max_deg"] = max_r / kDeg;
   state.counters["iterations"] = sum_iterations / calls;
   state.counters["converged"] = static_cast<double>(converged) / calls;
+  state.counters["inlier_rms_mm"] = 1e3 * sum_rms / calls;
 }
-BENCHMARK_CAPTURE(BM_Registration, FastIcp_close, "FastIcp", 2.5)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_Registration, PclIcpPointToPlane_close, "PclIcpPointToPlane", 2.5)
-    ->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_Registration, FastIcp_mid, "FastIcp", 10.0)->Unit(benchmark::kMicrosecond);
-BENCHMARK_CAPTURE(BM_Registration, PclIcpPointToPlane_mid, "PclIcpPointToPlane", 10.0)
-    ->Unit(benchmark::kMicrosecond);
+
+const char* kGridRefined = "exact_refinement_iterations: 3";
+const char* kExact = "lookup_grid_cell: 0";
+const char* kExactEps = "lookup_grid_cell: 0, convergence_sigma: 0";
+const char* kPlain =
+    "lookup_grid_cell: 0, convergence_sigma: 0, robust_kernel: none, back_face_rejection: false, "
+    "min_correspondence_distance: 0.3";
+const char* kMedian = "median_rejection_factor: 4.45";
+const char* kRejectors = "median_rejection_factor: 4.45, back_face_rejection: true";
+
+#define CDFF_REGISTRATION_CASES(range_name, range)                                                 \
+  BENCHMARK_CAPTURE(BM_Registration, FastIcp_grid_##range_name, "FastIcp", "", range)              \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, FastIcp_grid_refined_##range_name, "FastIcp", kGridRefined,   \
+                    range)                                                                         \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, FastIcp_exact_##range_name, "FastIcp", kExact, range)         \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, FastIcp_exact_eps_##range_name, "FastIcp", kExactEps, range)  \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, FastIcp_plain_##range_name, "FastIcp", kPlain, range)         \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, Pcl_plain_##range_name, "PclIcpPointToPlane", "", range)      \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, Pcl_median_##range_name, "PclIcpPointToPlane", kMedian,       \
+                    range)                                                                         \
+      ->Unit(benchmark::kMicrosecond);                                                             \
+  BENCHMARK_CAPTURE(BM_Registration, Pcl_rejectors_##range_name, "PclIcpPointToPlane", kRejectors, \
+                    range)                                                                         \
+      ->Unit(benchmark::kMicrosecond)
+CDFF_REGISTRATION_CASES(close, 2.5);
+CDFF_REGISTRATION_CASES(mid, 10.0);
 
 // The DFPC's per-scan work: predict to the scan, crop around the prediction and thin, register
 // from the prediction, correct with the registered pose.
@@ -208,7 +260,7 @@ void BM_TrackingStep(benchmark::State& state, double range) {
   const Scene& s = scene(range);
   auto filter =
       bench::createConfigured<dfn::PointCloudFiltering>("PointCloudFiltering", "Fast", kFilterYaml);
-  dfn::Registration3D* icp = warmRegistration("FastIcp", range);
+  dfn::Registration3D* icp = warmRegistration("FastIcp", "", range);
   auto ekf = bench::createConfigured<dfn::EstimationFilter>("EstimationFilter", "ExtendedKalman");
   if (!filter || !icp || !ekf) return state.SkipWithError("configure failed");
   RigidBodyState initial;
@@ -256,7 +308,8 @@ BENCHMARK(BM_ModelBuild)->Unit(benchmark::kMillisecond);
 void BM_FirstRegistration(benchmark::State& state, const char* dfi) {
   const Scene& s = scene(2.5);
   for (auto _ : state) {
-    auto icp = bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi));
+    auto icp =
+        bench::createConfigured<dfn::Registration3D>("Registration3D", dfi, icpYaml(dfi, ""));
     icp->in.model.set(model());
     icp->in.source.set(s.filtered);
     icp->in.initial_guess.set(s.guesses[0]);

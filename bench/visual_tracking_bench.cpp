@@ -3,13 +3,15 @@
 // DFI) side by side in one run, each frame one benchmark iteration through the same DFN interface.
 // Each pass over the sequence starts from the true pose of frame 1 and predicts every frame with
 // the previous estimate, as ViSP's own regression test does; the counters give the worst errors
-// against the true poses (geodesic angle, and ViSP's theta-u metric) and the frames not tracked.
+// against the true poses (geodesic angle, and ViSP's theta-u metric), the frames not tracked and
+// the mean number of features (edge samples, depth points) per frame.
 // Then the atomic steps EdgeTracker is made of, each on one frame.
 //
 // CPU time is the whole process's (MeasureProcessCPUTime), so that threads a library starts are
 // counted; run with OMP_NUM_THREADS=1 for one-core figures (ViSP is built with OpenMP).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -82,8 +84,8 @@ void trackCastle(benchmark::State& state, const std::string& dfi, const std::str
     depths.push_back(std::make_shared<const cdff::DepthMap>(f.depth));
   }
   cdff::PoseWithCovariance predicted;
-  double max_t = 0, max_a = 0, max_tu = 0;
-  int not_tracking = 0;
+  double max_t = 0, max_a = 0, max_tu = 0, features = 0;
+  int not_tracking = 0, calls = 0;
   std::size_t k = 0;
   for (auto _ : state) {
     if (k == 0)
@@ -104,6 +106,8 @@ void trackCastle(benchmark::State& state, const std::string& dfi, const std::str
     max_a = std::max(max_a, e.angle);
     max_tu = std::max(max_tu, e.theta_u);
     not_tracking += *node->out.status != static_cast<int>(cdff::TrackingStatus::kTracking);
+    features += *node->out.feature_count;
+    ++calls;
     k = (k + 1) % seq.frames.size();
     state.ResumeTiming();
   }
@@ -111,6 +115,7 @@ void trackCastle(benchmark::State& state, const std::string& dfi, const std::str
   state.counters["max_deg"] = max_a * kDeg;
   state.counters["max_thetau_deg"] = max_tu * kDeg;
   state.counters["not_tracking"] = not_tracking;
+  state.counters["features"] = features / std::max(calls, 1);
 }
 
 void BM_Castle_EdgeTracker_edges(benchmark::State& state) {

@@ -3,7 +3,9 @@
 // close-range approach (2 m -> 0.5 m, one every 2 s) and of the mid-range approach (17 m -> 2 m,
 // one every 3 s) are rendered once, then tracked in a loop that starts from the true pose at
 // each pass. Each chain (CDFF's EdgeTracker, ViSP's vpMbGenericTracker) runs in the same program;
-// counters give the worst errors over the frames and the frames not tracking. Then the
+// counters give the worst errors over the frames and the frames not tracking. ViSP runs with its
+// moving-edge settings for 640x480 scaled to the 1624x1234 images (kVispScaled), its covariance
+// on (EdgeTracker computes one too) and off. Then the
 // acquisition frame alone: the first frame after an initial pose 5 % of the range and 5 degrees
 // off. CPU time of the whole process on one thread (OMP_NUM_THREADS=1 for ViSP).
 #include <benchmark/benchmark.h>
@@ -34,7 +36,14 @@ const visual_demo::SimulatedFrames& frames(const std::string& scenario) {
   return it->second ? *it->second : empty;
 }
 
-void trackApproach(benchmark::State& state, const std::string& scenario, const std::string& dfi) {
+// ViSP's moving-edge settings are given for 640x480 images (its Castle-simu configuration, the
+// DFI's defaults: 5 px masks, +-8 px search, 5 px sample step, likelihood threshold 10 000); the
+// DFI scales them to the 1624x1234 images by the width ratio 2.54 (13 px masks, +-20 px,
+// 12.7 px, threshold 67 600; see its pixel_settings_width).
+const std::string kVispScaled = "pixel_settings_width: 640";
+
+void trackApproach(benchmark::State& state, const std::string& scenario, const std::string& dfi,
+                   const std::string& dfi_parameters = "") {
   const visual_demo::SimulatedFrames& seq = frames(scenario);
   if (seq.images.empty()) {
     state.SkipWithError("the simulation failed");
@@ -42,6 +51,7 @@ void trackApproach(benchmark::State& state, const std::string& scenario, const s
   }
   visual_demo::ApproachOptions o;
   o.dfi = dfi;
+  o.dfi_parameters = dfi_parameters;
   Result<std::unique_ptr<dfpc::Dfpc>> graph = visual_demo::makeDfpc(o);
   if (!graph) {
     state.SkipWithError(graph.status().toString().c_str());
@@ -118,13 +128,19 @@ void BM_Dfpc_CloseRange_EdgeTracker(benchmark::State& s) {
   trackApproach(s, "close_range_approach", "EdgeTracker");
 }
 void BM_Dfpc_CloseRange_VispMbt(benchmark::State& s) {
-  trackApproach(s, "close_range_approach", "VispMbt");
+  trackApproach(s, "close_range_approach", "VispMbt", "{" + kVispScaled + ", covariance: on}");
+}
+void BM_Dfpc_CloseRange_VispMbt_no_covariance(benchmark::State& s) {
+  trackApproach(s, "close_range_approach", "VispMbt", "{" + kVispScaled + ", covariance: off}");
 }
 void BM_Dfpc_MidRange_EdgeTracker(benchmark::State& s) {
   trackApproach(s, "mid_range_approach", "EdgeTracker");
 }
 void BM_Dfpc_MidRange_VispMbt(benchmark::State& s) {
-  trackApproach(s, "mid_range_approach", "VispMbt");
+  trackApproach(s, "mid_range_approach", "VispMbt", "{" + kVispScaled + ", covariance: on}");
+}
+void BM_Dfpc_MidRange_VispMbt_no_covariance(benchmark::State& s) {
+  trackApproach(s, "mid_range_approach", "VispMbt", "{" + kVispScaled + ", covariance: off}");
 }
 BENCHMARK(BM_Dfpc_CloseRange_EdgeTracker)
     ->Iterations(60)
@@ -134,11 +150,19 @@ BENCHMARK(BM_Dfpc_CloseRange_VispMbt)
     ->Iterations(60)
     ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Dfpc_CloseRange_VispMbt_no_covariance)
+    ->Iterations(60)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Dfpc_MidRange_EdgeTracker)
     ->Iterations(60)
     ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Dfpc_MidRange_VispMbt)
+    ->Iterations(60)
+    ->MeasureProcessCPUTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Dfpc_MidRange_VispMbt_no_covariance)
     ->Iterations(60)
     ->MeasureProcessCPUTime()
     ->Unit(benchmark::kMillisecond);

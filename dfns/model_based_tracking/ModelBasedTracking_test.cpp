@@ -102,6 +102,28 @@ TEST(ModelBasedTracking, VispMbtFollowsTheSameSequence) {
   trackMono("VispMbt", "{me_range: 12}", 0.003, 0.5 * M_PI / 180);
 }
 
+TEST(ModelBasedTracking, VispMbtScalesItsMovingEdgeSettingsToTheImageWidth) {
+  // The settings declared for images half as wide: ViSP gets them doubled (10 px sample step,
+  // +-24 px search, 11 px masks) and still follows the sequence (0.64 deg at worst, coarser than
+  // with its 640 px settings), from about half as many moving edges. Declared for the images'
+  // own width, or 0, they are used as given.
+  trackMono("VispMbt", "{me_range: 12, pixel_settings_width: 320}", 0.003, 1.0 * M_PI / 180);
+  const Sequence seq;
+  const auto features = [&](const std::string& yaml) {
+    auto node = make("VispMbt", yaml);
+    node->in.model.set(seq.model);
+    node->in.image.set(seq.image(seq.truth(0), 0));
+    node->in.predicted_pose.set(prediction(seq.truth(0)));
+    EXPECT_OK(node->process());
+    return *node->out.feature_count;
+  };
+  const int given = features("{pixel_settings_width: 0}");
+  EXPECT_EQ(features("{pixel_settings_width: 640}"), given);
+  const int scaled = features("{pixel_settings_width: 320}");
+  EXPECT_GT(given, 40);
+  EXPECT_NEAR(static_cast<double>(scaled) / given, 0.5, 0.15) << scaled << " of " << given;
+}
+
 TEST(ModelBasedTracking, EdgeTrackerStereoCarriesOnWhenACameraFails) {
   const Sequence seq;
   auto node = make("EdgeTracker");

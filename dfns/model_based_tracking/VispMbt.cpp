@@ -1,8 +1,11 @@
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <optional>
+
+#include <Eigen/Eigenvalues>
 
 #include "ModelBasedTracking.gen.hpp"
 #include "tracking_common.hpp"
@@ -147,7 +150,30 @@ Matrix6d parentFrameCovariance(const std::array<double, 36>& visp,
   Matrix6d covariance = J * visp_cov * J.transpose();
   covariance = (0.5 * (covariance + covariance.transpose())).eval();
   if (!covariance.allFinite()) covariance.setZero();
+  // From features that leave a direction nearly unconstrained ViSP's matrix spans 12 orders of
+  // magnitude and more (variances of 1e17 m^2 beside 1e6): rounding makes it indefinite. Its
+  // eigenvalues are kept at least 1e-12 of the largest, so that it stays a covariance (a
+  // positive-definite one, which a filter can take) that says as little as ViSP's.
+  Eigen::SelfAdjointEigenSolver<Matrix6d> eigen(covariance);
+  const double largest = eigen.eigenvalues().maxCoeff();
+  if (largest > 0 && eigen.eigenvalues().minCoeff() < 1e-12 * largest)
+    covariance = eigen.eigenvectors() * eigen.eigenvalues().cwiseMax(1e-12 * largest).asDiagonal() *
+                 eigen.eigenvectors().transpose();
   return covariance;
+}
+
+// The moving-edge settings, given for images `reference_width` wide, for images `width` wide:
+// lengths in pixels times the width ratio, the mask to the nearest odd size (at least 3), and
+// ViSP 3.5's likelihood threshold, a sum over the mask's pixels, times the mask's area ratio.
+visp_bridge::Settings scaledToWidth(visp_bridge::Settings s, int reference_width, int width) {
+  if (reference_width <= 0 || width == reference_width) return s;
+  const double k = static_cast<double>(width) / reference_width;
+  const int mask = std::max(3, 2 * static_cast<int>(std::lround((s.me_mask_size * k - 1) / 2)) + 1);
+  s.me_threshold *= static_cast<double>(mask * mask) / (s.me_mask_size * s.me_mask_size);
+  s.me_mask_size = mask;
+  s.me_range = std::max(1, static_cast<int>(std::lround(s.me_range * k)));
+  s.me_sample_step *= k;
+  return s;
 }
 
 }  // namespace
@@ -290,8 +316,10 @@ class ModelBasedTrackingVispMbt final : public ModelBasedTrackingVispMbtBase {
       } else {
         path = models_.file();
       }
+      const visp_bridge::Settings settings = scaledToWidth(settings_, params_.pixel_settings_width,
+                                                           key.cameras.front().intrinsics.width);
       const std::string error =
-          tracker_.configure(settings_, key.cameras, wants_depth_ ? &depth_camera : nullptr, path);
+          tracker_.configure(settings, key.cameras, wants_depth_ ? &depth_camera : nullptr, path);
       removeTemporaryModel();  // ViSP has read it
       if (!error.empty())
         return Status(StatusCode::kInvalidInput, fmt::format("model '{}': {}", path, error));

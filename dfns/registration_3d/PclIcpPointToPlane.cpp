@@ -4,6 +4,8 @@
 #include <limits>
 
 #include <pcl/console/print.h>
+#include <pcl/registration/correspondence_rejection_median_distance.h>
+#include <pcl/registration/correspondence_rejection_surface_normal.h>
 #include <pcl/registration/icp.h>
 #include <pcl/search/kdtree.h>
 
@@ -29,6 +31,24 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
     // PCL compares the squared translation and the cosine of the rotation angle of each step.
     icp_.setTransformationEpsilon(params_.translation_epsilon * params_.translation_epsilon);
     icp_.setTransformationRotationEpsilon(std::cos(params_.rotation_epsilon));
+    // Fewer pairs (after the rejectors) end the iterations, as the DFN documents, before a
+    // least-squares step on a handful of pairs turns the pose into NaN.
+    icp_.setMinCorrespondences(params_.min_correspondences);
+    // PCL's rejectors, applied in this order to each iteration's correspondences.
+    icp_.clearCorrespondenceRejectors();
+    if (params_.back_face_rejection) {
+      // The scan's "normals" are the directions towards the sensor (set per call): a pair is
+      // kept when the model normal has a positive cosine with it, i.e. faces the sensor.
+      auto facing = std::make_shared<pcl::registration::CorrespondenceRejectorSurfaceNormal>();
+      facing->setThreshold(0.0);
+      icp_.addCorrespondenceRejector(facing);
+    }
+    if (params_.median_rejection_factor > 0) {
+      // PCL's pair distances are squared distances, and so is the median it compares them to.
+      auto median = std::make_shared<pcl::registration::CorrespondenceRejectorMedianDistance>();
+      median->setMedianFactor(params_.median_rejection_factor * params_.median_rejection_factor);
+      icp_.addCorrespondenceRejector(median);
+    }
     return Status::ok();
   }
 
@@ -51,16 +71,7 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
         registration3d::checkInputs(source, model, in.sensor.get(), in.initial_guess.get());
     if (!guess) return guess.status();
     registration3d::selectSource(source, 0, points_);
-    auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
-    scan->resize(points_.size());
-    for (std::size_t i = 0; i < points_.size(); ++i) {
-      pcl::PointNormal& p = (*scan)[i];
-      p.x = points_[i].x();
-      p.y = points_[i].y();
-      p.z = points_[i].z();
-      p.normal_x = p.normal_y = p.normal_z = 0.0f;  // unused by the point-to-plane error
-    }
-    icp_.setInputSource(scan);
+    icp_.setInputSource(scanCloud());
     // PCL estimates model_T_source (it moves the source onto the target).
     const Eigen::Matrix4f model_T_source = guess->inverse().matrix().cast<float>();
     icp_.align(aligned_, model_T_source);
@@ -72,10 +83,11 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
     Eigen::Isometry3d pose = *guess;
     const Eigen::Matrix4d result = icp_.getFinalTransformation().cast<double>();
     if (state == Criteria::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES || !result.allFinite()) {
-      warn(
-          fmt::format("PCL ICP found too few correspondences within {:.3g} m among {} source "
-                      "points: no overlap with the model",
-                      params_.max_correspondence_distance, points_.size()));
+      warn(fmt::format(
+          "PCL ICP kept fewer than min_correspondences = {} correspondences within {:.3g} m "
+          "among {} source points{}: no overlap with the model",
+          params_.min_correspondences, params_.max_correspondence_distance, points_.size(),
+          rejecting() ? " after its rejectors" : ""));
     } else {
       Eigen::Isometry3d m_T_s = Eigen::Isometry3d::Identity();
       // Re-orthonormalise: PCL composes single-precision steps.
@@ -101,10 +113,34 @@ class Registration3DPclIcpPointToPlane final : public Registration3DPclIcpPointT
   }
 
  private:
-  // nr_iterations_ is protected in PCL; this subclass exposes it.
+  bool rejecting() const {
+    return params_.back_face_rejection || params_.median_rejection_factor > 0;
+  }
+
+  // The scan as PCL's source cloud. The point-to-plane error uses the model's normals only; the
+  // scan's carry the direction towards the sensor for back_face_rejection (zero without it).
+  pcl::PointCloud<pcl::PointNormal>::Ptr scanCloud() const {
+    auto scan = std::make_shared<pcl::PointCloud<pcl::PointNormal>>();
+    scan->resize(points_.size());
+    const Eigen::Vector3f eye(static_cast<float>(params_.viewpoint[0]),
+                              static_cast<float>(params_.viewpoint[1]),
+                              static_cast<float>(params_.viewpoint[2]));
+    for (std::size_t i = 0; i < points_.size(); ++i) {
+      pcl::PointNormal& p = (*scan)[i];
+      p.getVector3fMap() = points_[i];
+      p.getNormalVector3fMap() = params_.back_face_rejection
+                                     ? Eigen::Vector3f((eye - points_[i]).normalized())
+                                     : Eigen::Vector3f::Zero();
+    }
+    return scan;
+  }
+
+  // nr_iterations_ and min_number_correspondences_ are protected in PCL; this subclass exposes
+  // them.
   struct Icp : pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal, float> {
     using pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal,
                                                 float>::nr_iterations_;
+    void setMinCorrespondences(int n) { min_number_correspondences_ = static_cast<unsigned>(n); }
   };
 
   Icp icp_;

@@ -251,6 +251,55 @@ TYPED_TEST(Registration3DTest, BadParametersAreRejected) {
   EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
 }
 
+std::unique_ptr<Registration3D> makePcl(const std::string& yaml) {
+  return testing::makeDfn<Registration3D>("Registration3D", "PclIcpPointToPlane", yaml);
+}
+
+TEST(Registration3DPclIcpPointToPlane, WithItsRejectorsRecoversThePoseFromATrackingSizedGuess) {
+  // PCL's ICP as configured for scan-to-model tracking (the benchmark's peer): back faces and
+  // pairs beyond three robust standard deviations of the pair distances rejected. The same
+  // scans, guesses and accuracy targets as RecoversThePoseFromATrackingSizedGuessError.
+  for (const Case& c : {Case{2.0, 0.01, 0.5 * kDeg}, Case{8.0, 0.005 * 8.0, 1.0 * kDeg}}) {
+    auto icp = makePcl(
+        "{max_correspondence_distance: 0.3, inlier_distance: 0.1, max_iterations: 50, "
+        "back_face_rejection: true, median_rejection_factor: 4.45}");
+    for (std::uint32_t seed = 1; seed <= 3; ++seed) {
+      const Eigen::Isometry3d truth = lidarTTarget(c.range);
+      icp->in.source.set(scanAt(truth, seed));
+      icp->in.model.set(satelliteModel());
+      icp->in.initial_guess.set(guessOf(testing::perturb(truth, 0.05, 2.0 * kDeg, seed)));
+      ASSERT_OK(icp->process());
+      const testing::PoseError e = testing::poseError(icp->out.transform->isometry(), truth);
+      EXPECT_LT(e.translation, c.max_position) << "range " << c.range << " seed " << seed;
+      EXPECT_LT(e.rotation, c.max_angle) << "range " << c.range << " seed " << seed;
+      EXPECT_TRUE(*icp->out.converged) << "range " << c.range << " seed " << seed;
+      EXPECT_GT(*icp->out.fitness, 0.95);
+    }
+  }
+}
+
+TEST(Registration3DPclIcpPointToPlane, TheRejectorsActOnTheCorrespondences) {
+  // A median factor of 1e-6 keeps no pair: PCL finds too few correspondences, the call reports
+  // it and keeps the guess. Back-face rejection alone, from the sensor's viewpoint, converges.
+  const Eigen::Isometry3d truth = lidarTTarget(4.0);
+  const Transform guess = guessOf(testing::perturb(truth, 0.05, 2.0 * kDeg, 5));
+  const auto run = [&](const std::string& rejectors) {
+    auto icp = makePcl("{max_correspondence_distance: 0.3, max_iterations: 50, " + rejectors + "}");
+    icp->in.source.set(scanAt(truth, 5));
+    icp->in.model.set(satelliteModel());
+    icp->in.initial_guess.set(guess);
+    EXPECT_OK(icp->process());
+    return icp;
+  };
+  auto none = run("median_rejection_factor: 1.0e-6");
+  EXPECT_FALSE(*none->out.converged);
+  EXPECT_EQ(none->out.transform->translation, guess.translation);
+  ASSERT_FALSE(none->diagnostics().warnings.empty());
+  auto right = run("back_face_rejection: true");
+  EXPECT_TRUE(*right->out.converged);
+  EXPECT_LT(testing::poseError(right->out.transform->isometry(), truth).translation, 0.02);
+}
+
 std::unique_ptr<Registration3D> makeFast(const std::string& yaml = "{}") {
   return testing::makeDfn<Registration3D>("Registration3D", "FastIcp", yaml);
 }

@@ -273,11 +273,15 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
   const auto poses = products.messages("/cdff/visual_tracking/pose");
   const auto statuses = products.messages("/cdff/visual_tracking/status");
   r.frames = statuses.size();
-  if (r.frames == 0 || poses.size() != r.frames + 1)
+  if (r.frames == 0 || poses.size() != r.frames + 1) {
+    std::string errors;  // why a frame has no filtered pose: a DFN call failed
+    for (const dfpc::Event& e : products.events(dfpc::EventType::kDfnError))
+      errors += fmt::format("; {:.1f} s {}: {}", toSeconds(e.stamp), e.instance, e.message);
     return Status(StatusCode::kInternal,
                   fmt::format("the DFPC published {} poses for {} frames; expected one per frame "
-                              "and the initial state",
-                              poses.size(), r.frames));
+                              "and the initial state{}",
+                              poses.size(), r.frames, errors));
+  }
   Result<eval::PoseEvaluation> filtered = evaluate(poses, 1, feeder.truth);
   if (!filtered) return filtered.status();
   r.filtered = std::move(filtered).value();
