@@ -1,8 +1,9 @@
 // cdff initial-state SIM.mcap -o INIT.mcap: the test bench's stand-in for a detection. Reads the
 // ground truth of a simulated recording and writes one initial state for a tracking DFPC: the
-// truth at the first scan (or any channel's first message), perturbed by a fraction of the range
-// and an angle (eval::perturbedInitialState). `cdff run GRAPH -i SIM.mcap -i INIT.mcap` then
-// starts the tracker from it.
+// truth at the first scan (or any channel's first message) with an error drawn from a Gaussian
+// whose RMS is a fraction of the range and an angle, and that Gaussian's covariance
+// (eval::perturbedInitialState). `cdff run GRAPH -i SIM.mcap -i INIT.mcap` then starts the
+// tracker from it.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -12,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "cdff/eval/initial_state.hpp"
+#include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/io/recorder.hpp"
 #include "cdff/io/replay.hpp"
 #include "commands.hpp"
@@ -30,6 +32,7 @@ struct InitialStateOptions {
   double linear_velocity_sigma = eval::InitialStatePerturbation{}.linear_velocity_sigma;
   double angular_velocity_sigma_deg =
       eval::InitialStatePerturbation{}.angular_velocity_sigma * 180.0 / M_PI;
+  std::string distribution = "gaussian";
   std::uint64_t seed = 1;
 };
 
@@ -64,6 +67,8 @@ Status writeInitialState(const InitialStateOptions& o) {
   perturbation.position_fraction = o.position_fraction;
   perturbation.angle_rad = o.angle_deg * M_PI / 180.0;
   perturbation.seed = o.seed;
+  perturbation.distribution = o.distribution == "fixed" ? eval::InitialErrorDistribution::kFixedSize
+                                                        : eval::InitialErrorDistribution::kGaussian;
   perturbation.linear_velocity_sigma = o.linear_velocity_sigma;
   perturbation.angular_velocity_sigma = o.angular_velocity_sigma_deg * M_PI / 180.0;
   Result<RigidBodyState> state = eval::perturbedInitialState(truth, *at, perturbation);
@@ -72,11 +77,15 @@ Status writeInitialState(const InitialStateOptions& o) {
   CDFF_RETURN_IF_ERROR(recorder.open(o.output));
   CDFF_RETURN_IF_ERROR(recorder.write(o.channel, *state));
   CDFF_RETURN_IF_ERROR(recorder.close());
+  const std::optional<Transform> truth_at = eval::truthAt(truth, *at, {});
+  const double moved = truth_at ? (state->pose.translation - truth_at->translation).norm() : 0;
+  const double turned =
+      truth_at ? logSO3(state->pose.rotation * truth_at->rotation.conjugate()).norm() : 0;
   std::cout << fmt::format(
-      "{}: initial state {}_T_{} at t = {:.3f} s on {} (truth moved by {:.3f} m and turned by "
-      "{:.1f} deg)\n",
+      "{}: initial state {}_T_{} at t = {:.3f} s on {} ({} error of RMS {:.1f} % of the range "
+      "and {:.1f} deg; this draw: {:.3f} m and {:.2f} deg)\n",
       o.output, state->pose.parent_frame, state->pose.child_frame, toSeconds(*at), o.channel,
-      o.position_fraction * (state->pose.translation.norm()), o.angle_deg);
+      o.distribution, 100 * o.position_fraction, o.angle_deg, moved, turned * 180 / M_PI);
   return Status::ok();
 }
 
@@ -95,9 +104,9 @@ void addInitialStateCommand(CLI::App& root, int& exit_code) {
   cmd->add_option("--at", options->at_channel, "The state is at this channel's first message");
   cmd->add_option("--channel", options->channel, "Channel of the initial state");
   cmd->add_option("--position-fraction", options->position_fraction,
-                  "Position error as a fraction of the range")
+                  "RMS of the position error as a fraction of the range")
       ->check(CLI::Range(0.0, 10.0));
-  cmd->add_option("--angle-deg", options->angle_deg, "Attitude error (degrees)")
+  cmd->add_option("--angle-deg", options->angle_deg, "RMS of the attitude error (degrees)")
       ->check(CLI::Range(0.0, 180.0));
   cmd->add_option("--velocity-sigma", options->linear_velocity_sigma,
                   "Standard deviation of the (zero) linear velocity in the covariance (m/s)")
@@ -105,7 +114,12 @@ void addInitialStateCommand(CLI::App& root, int& exit_code) {
   cmd->add_option("--angular-velocity-sigma-deg", options->angular_velocity_sigma_deg,
                   "Standard deviation of the (zero) angular velocity in the covariance (deg/s)")
       ->check(CLI::Range(0.0, 1000.0));
-  cmd->add_option("--seed", options->seed, "Seed of the error's directions");
+  cmd->add_option("--distribution", options->distribution,
+                  "gaussian: drawn from the Gaussian the covariance states (tails included); "
+                  "fixed: exactly the stated sizes in random directions")
+      ->check(CLI::IsMember({"gaussian", "fixed"}))
+      ->capture_default_str();
+  cmd->add_option("--seed", options->seed, "Seed of the error's draw");
   cmd->callback([options, &exit_code] {
     const Status s = writeInitialState(*options);
     if (!s) {

@@ -1,4 +1,4 @@
-// cdff run GRAPH.yaml... -i IN.mcap [-i MORE.mcap] -o OUT.mcap
+// cdff run GRAPH.yaml... -i IN.mcap [-i MORE.mcap] -o OUT.mcap [--set NODE.PARAM=VALUE ...]
 //
 // Replays recordings through one or several DFPCs and records the ground truth of the inputs,
 // every product, every event and one timing record per DFN call into OUT.
@@ -25,6 +25,7 @@ struct RunArguments {
   bool realtime = false;
   double speed = 1.0;
   std::vector<std::string> maps;
+  std::vector<std::string> settings;
   std::vector<std::string> passthrough = {"/truth/"};
   bool no_timing = false;
   std::string compression = "lz4";
@@ -49,11 +50,18 @@ int runGraphs(const RunArguments& args) {
   options.realtime = args.realtime;
   options.speed = args.speed;
   options.passthrough_prefixes = args.passthrough;
+  options.parameter_settings = args.settings;
   options.record_timing = !args.no_timing;
   options.cancel = &interrupted;
   if (args.speed <= 0 || !std::isfinite(args.speed)) {
     fmt::print(stderr, "error: --speed {}: expected a positive number\n", args.speed);
     return 2;
+  }
+  for (const std::string& text : args.settings) {
+    if (Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text); !s) {
+      fmt::print(stderr, "error: {}\n", s.status().message());
+      return 2;
+    }
   }
   for (const std::string& text : args.maps) {
     Result<dfpc::ChannelRemap> remap = dfpc::parseRemap(text);
@@ -164,6 +172,9 @@ void addRunCommand(CLI::App& root, int& exit_code) {
       ->capture_default_str();
   run->add_option("--map", args->maps,
                   "Feed a DFPC input from another channel: DFPC.INPUT=/channel (repeatable)");
+  run->add_option("--set", args->settings,
+                  "Set an instance's parameter without editing the graph: "
+                  "[DFPC/]NODE.PARAM=VALUE, the value YAML (repeatable)");
   run->add_option("--passthrough", args->passthrough,
                   "Copy input channels with this prefix to the output (repeatable)")
       ->capture_default_str();

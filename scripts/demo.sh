@@ -25,18 +25,19 @@ echo "== 1. simulate the mid-range approach (17 m -> 2 m, VLP-16 LIDAR with grou
 "$cdff" sim mid_range_approach -o "$out/sim.mcap" -q \
   --set sensors.camera_left.enabled=false --set sensors.camera_right.enabled=false \
   --set sensors.tof.enabled=false
-echo "== 2. initial state: the truth perturbed by 10 % of the range and 10 degrees"
+echo "== 2. initial state: the truth with a Gaussian error of RMS 10 % of the range and 10 degrees"
 "$cdff" initial-state "$out/sim.mcap" -o "$out/initial_state.mcap" \
   --position-fraction 0.10 --angle-deg 10 --seed 7
 echo "== 3. LIDAR tracking (dfpcs/lidar_tracking.yaml)"
 "$cdff" run dfpcs/lidar_tracking.yaml -i "$out/sim.mcap" -i "$out/initial_state.mcap" \
   -o "$out/out.mcap"
-echo "== 4. evaluation against the ground truth"
-"$cdff" eval "$out/out.mcap" --json "$out/report.json" --html "$out/report.html"
+echo "== 4. evaluation against the ground truth (exit status 1 if a requirement fails)"
+"$cdff" eval --check "$out/out.mcap" --json "$out/report.json" --html "$out/report.html"
 echo "report: $out/report.html"
 echo "== 5. visual tracking (dfpcs/visual_tracking.yaml) on the simulated close-range approach"
 # The left camera only (1624x1234), at 2 Hz to keep the demo short; the DFPC starts from the
-# truth off by 5 % of the range and 5 degrees (a still target: small twist sigmas) and its pose
+# truth with a Gaussian error of RMS 5 % of the range and 5 degrees (a still target: small twist
+# sigmas) and its pose
 # product, the target in the servicer frame, is evaluated against /truth/target_pose. The graph's
 # model file is relative to the repository root, where `make demo` runs.
 "$cdff" sim close_range_approach -o "$out/vt_sim.mcap" -q --set sensors.camera_left.rate=2 \
@@ -48,7 +49,7 @@ echo "== 5. visual tracking (dfpcs/visual_tracking.yaml) on the simulated close-
   --velocity-sigma 0.05 --angular-velocity-sigma-deg 5 --seed 3
 "$cdff" run dfpcs/visual_tracking.yaml -i "$out/vt_sim.mcap" -i "$out/vt_initial_pose.mcap" \
   -o "$out/vt_out.mcap"
-"$cdff" eval "$out/vt_out.mcap" --product /cdff/visual_tracking/pose \
+"$cdff" eval --check "$out/vt_out.mcap" --product /cdff/visual_tracking/pose \
   --json "$out/vt_report.json" --html "$out/vt_report.html"
 echo "reports: $out/report.html (LIDAR), $out/vt_report.html (visual)"
 # Ours and ViSP's tracker side by side on the same approach (ViSP takes seconds per frame):

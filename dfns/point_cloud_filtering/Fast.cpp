@@ -17,12 +17,14 @@ class PointCloudFilteringFast final : public PointCloudFilteringFastBase {
     const PointCloud& cloud = *in.cloud;
     Result<Eigen::Isometry3f> box_T_cloud = filtering::checkInputs(cloud, in.box_pose.get());
     if (!box_T_cloud) return box_T_cloud.status();
+    if (params_.crop_box)
+      CDFF_RETURN_IF_ERROR(box_.update(params_, in.box_extent.shared(), in.box_uncertainty.get()));
 
     // Finite points inside the box.
     keep_.clear();
     keep_.reserve(cloud.size());
-    const Eigen::Vector3f lo(params_.crop_min[0], params_.crop_min[1], params_.crop_min[2]);
-    const Eigen::Vector3f hi(params_.crop_max[0], params_.crop_max[1], params_.crop_max[2]);
+    const Eigen::Vector3f& lo = box_.min();
+    const Eigen::Vector3f& hi = box_.max();
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       const Point4f& p = cloud.points[i];
       if (!filtering::isFinite(p)) continue;
@@ -127,6 +129,7 @@ class PointCloudFilteringFast final : public PointCloudFilteringFastBase {
   }
 
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  filtering::CropBox box_;
   // Scratch kept between calls.
   std::vector<std::uint32_t> keep_;
   std::vector<std::uint64_t> keys_;

@@ -20,6 +20,8 @@ class PointCloudFilteringPcl final : public PointCloudFilteringPclBase {
     const PointCloud& cloud = *in.cloud;
     Result<Eigen::Isometry3f> box_T_cloud = filtering::checkInputs(cloud, in.box_pose.get());
     if (!box_T_cloud) return box_T_cloud.status();
+    if (params_.crop_box)
+      CDFF_RETURN_IF_ERROR(box_.update(params_, in.box_extent.shared(), in.box_uncertainty.get()));
     const pcl::PointCloud<pcl::PointXYZ>::Ptr pcl_cloud = toPcl(cloud);
     auto finite = std::make_shared<pcl::Indices>();
     finite->reserve(cloud.size());
@@ -31,10 +33,8 @@ class PointCloudFilteringPcl final : public PointCloudFilteringPclBase {
       pcl::CropBox<pcl::PointXYZ> crop;
       crop.setInputCloud(pcl_cloud);
       crop.setIndices(finite);
-      crop.setMin(
-          Eigen::Vector4f(params_.crop_min[0], params_.crop_min[1], params_.crop_min[2], 1));
-      crop.setMax(
-          Eigen::Vector4f(params_.crop_max[0], params_.crop_max[1], params_.crop_max[2], 1));
+      crop.setMin(Eigen::Vector4f(box_.min().x(), box_.min().y(), box_.min().z(), 1));
+      crop.setMax(Eigen::Vector4f(box_.max().x(), box_.max().y(), box_.max().z(), 1));
       crop.setTransform(Eigen::Affine3f(box_T_cloud->matrix()));  // applied to the points
       crop.filter(kept);
     }
@@ -63,6 +63,8 @@ class PointCloudFilteringPcl final : public PointCloudFilteringPclBase {
   }
 
  private:
+  filtering::CropBox box_;
+
   static std::vector<std::uint32_t> toKeep(const pcl::Indices& indices) {
     return {indices.begin(), indices.end()};
   }

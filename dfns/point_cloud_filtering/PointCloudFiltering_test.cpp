@@ -92,6 +92,57 @@ TYPED_TEST(PointCloudFilteringTest, TheCropBoxKeepsExactlyThePointsInsideTheMove
   EXPECT_DOUBLE_EQ(*filter->out.kept_fraction, static_cast<double>(expected) / cloud.size());
 }
 
+// The box from a model's extent, grown by the margin and by 3 sigma of the box pose's position
+// and attitude (times the box's radius): the same graph crops any target, as tightly as the
+// prediction allows.
+TYPED_TEST(PointCloudFilteringTest, TheBoxFromAModelsExtentGrowsWithThePredictionsUncertainty) {
+  auto filter = this->make("{crop_box: true, crop_margin: 0.1, crop_sigmas: 3}");
+  std::vector<Point4f> model_points;  // a 0.6 x 1.0 x 0.4 m box's corners, off-centre
+  for (float x : {-0.2f, 0.4f})
+    for (float y : {-0.5f, 0.5f})
+      for (float z : {0.0f, 0.4f}) model_points.emplace_back(x, y, z);
+  PointCloud model;
+  model.frame_id = "target";
+  model.points = Buffer<Point4f>::fromVector(std::move(model_points));
+  const PointCloud cloud = randomCloud(20'000, 2.0f, 7);
+  const auto count = [&](const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    std::size_t n = 0;
+    for (const Point4f& p : cloud.points) {
+      const Eigen::Vector3d q = p.vec().cast<double>();
+      n += (q.array() >= lo.array()).all() && (q.array() <= hi.array()).all();
+    }
+    return n;
+  };
+  filter->in.cloud.set(cloud);
+  filter->in.box_pose.set(Transform::identity("lidar", "target"));
+  filter->in.box_extent.set(model);
+  ASSERT_OK(filter->process());
+  const Eigen::Vector3d lo(-0.2, -0.5, 0.0), hi(0.4, 0.5, 0.4);
+  EXPECT_EQ(filter->out.filtered->size(), count(lo.array() - 0.1, hi.array() + 0.1));
+  // Position sigma 0.1 m (largest axis), attitude sigma 0.02 rad: the box radius is
+  // |(0.4, 0.5, 0.4)| = 0.755 m, so the margin is 0.1 + 3 (0.1 + 0.02 x 0.755) = 0.445 m.
+  RigidBodyState predicted;
+  predicted.covariance.setZero();
+  predicted.covariance.diagonal().head<6>() << 0.05 * 0.05, 0.1 * 0.1, 0.01 * 0.01, 1e-6,
+      0.02 * 0.02, 1e-6;
+  filter->in.box_uncertainty.set(predicted);
+  ASSERT_OK(filter->process());
+  const double margin = 0.1 + 3 * (0.1 + 0.02 * Eigen::Vector3d(0.4, 0.5, 0.4).norm());
+  const std::size_t expected = count(lo.array() - margin, hi.array() + margin);
+  EXPECT_GT(expected, count(lo.array() - 0.1, hi.array() + 0.1) + 100);
+  EXPECT_NEAR(static_cast<double>(filter->out.filtered->size()), static_cast<double>(expected),
+              2.0);  // points within float rounding of a face
+  // A non-finite covariance or an extent without a finite point is rejected.
+  predicted.covariance(0, 0) = std::nan("");
+  filter->in.box_uncertainty.set(predicted);
+  testing::expectRejected(*filter, "input 'box_uncertainty' has a non-finite pose covariance");
+  filter->in.box_uncertainty.set(RigidBodyState{});
+  PointCloud empty_model;
+  empty_model.points = Buffer<Point4f>::fromVector({Point4f(std::nanf(""), 0.0f, 0.0f)});
+  filter->in.box_extent.set(empty_model);
+  testing::expectRejected(*filter, "input 'box_extent' has no finite point");
+}
+
 TYPED_TEST(PointCloudFilteringTest, EveryVoxelBecomesTheCentroidOfItsPoints) {
   constexpr double kVoxel = 0.25;
   auto filter = this->make(fmt::format("{{voxel_size: {}}}", kVoxel));

@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include <fmt/format.h>
+
 #include "cdff/types/statistics.hpp"
 #include "test_helpers.hpp"
 
@@ -160,6 +162,69 @@ TEST(PoseFilteringDfpc, AJumpInTheMeasurementsIsADivergenceAndTheFilterRestarts)
   EXPECT_LT(after.position_rmse, 0.5 * std::sqrt(3.0) * scenario.sigma_p);
   EXPECT_EQ(sink.events(EventType::kNoProduct).size(), 0u);
   EXPECT_EQ(sink.events(EventType::kDfnError).size(), 0u);
+}
+
+// The EKF with a chi-square gate (6 dof, 0.999): a measurement gated out is a divergence fault.
+// The prediction ticks between the measurements are clean calls, so three rejections in a row
+// of the measurements are never three consecutive faults of the instance; counted within a
+// window of stream time they are, and the recovery re-initialises the filter, which restarts
+// from the next (jumped) measurement.
+std::string gatedGraph(const std::string& recovery) {
+  return fmt::format(R"(name: pose_filtering
+inputs: [{{name: pose, type: PoseWithCovariance, channel: /chaser/target_pose_measurement}}]
+outputs: [{{name: state, type: RigidBodyState}}]
+nodes:
+  ekf:
+    dfn: EstimationFilter
+    dfi: ExtendedKalman
+    parameters: {{angular_acceleration_psd: 1.0e-5, innovation_gate: 22.46}}
+    trigger: {{on: [pose_measurement], period_s: 0.05, time_input: time, tick_when: ekf.state != unset}}
+    diverged_when: ekf.measurement_accepted == false and ekf.innovation_nis > 22.46
+    on_fault: {{divergence: {}}}
+connections: [pose -> ekf.pose_measurement, ekf.state -> state]
+)",
+                     recovery);
+}
+
+std::vector<Event> runGated(const std::string& recovery, const Scenario& scenario) {
+  MemoryStream input = measurements(scenario, 20.0, 12);
+  MemorySink sink;
+  auto o = testing::runningOrchestrator(gatedGraph(recovery), sink);
+  EXPECT_TRUE(o);
+  if (!o) return {};
+  EXPECT_OK(o->run(input).status());
+  std::vector<Event> out;
+  for (const Event& e : sink.events())
+    if (e.type == EventType::kDivergence || e.type == EventType::kReinitialise) out.push_back(e);
+  return out;
+}
+
+TEST(PoseFilteringDfpc, RejectionsCountedWithinAWindowFireTheDivergenceRecovery) {
+  // A 0.5 m jump at 15 s: 10 sigma of the measurement noise, NIS about 100, gated out (but far
+  // below the 1000 of the graph's outright divergence).
+  Scenario scenario;
+  scenario.jump_at = 15.0;
+  scenario.jump = Eigen::Vector3d(0, 0.5, 0);
+  const std::vector<Event> windowed =
+      runGated("{after: 3, within_s: 0.5, do: [reinitialise]}", scenario);
+  std::vector<std::pair<EventType, Timestamp>> got;
+  for (const Event& e : windowed) got.emplace_back(e.type, e.stamp);
+  EXPECT_EQ(got, (std::vector<std::pair<EventType, Timestamp>>{
+                     {EventType::kDivergence, fromSeconds(15.0)},
+                     {EventType::kDivergence, fromSeconds(15.1)},
+                     {EventType::kDivergence, fromSeconds(15.2)},
+                     {EventType::kReinitialise, fromSeconds(15.2)}}));
+  // Counted as consecutive faults, the ticks in between end every run of faults: the filter
+  // does not recover: it rejects the measurements after the jump until its coasted prediction
+  // has grown wide enough to take them, seconds later.
+  const std::vector<Event> consecutive = runGated("{after: 3, do: [reinitialise]}", scenario);
+  std::size_t divergences = 0, reinitialisations = 0;
+  for (const Event& e : consecutive) {
+    divergences += e.type == EventType::kDivergence;
+    reinitialisations += e.type == EventType::kReinitialise;
+  }
+  EXPECT_EQ(reinitialisations, 0u);
+  EXPECT_GE(divergences, 10u);
 }
 
 TEST(PoseFilteringDfpc, NoMeasurementsIsANoProductFault) {

@@ -242,6 +242,26 @@ TEST(RunCommand, RealTimeAtHighSpeedAndAWindow) {
   EXPECT_EQ(o.counts.count("/cdff/pose_filtering/timing"), 0u);
 }
 
+// `--set` changes an instance's parameter for one run: a process noise 10^4 times the graph's
+// makes the filter follow the measurements' noise.
+TEST(RunCommand, SetChangesAParameterWithoutEditingTheGraph) {
+  const fs::path in = scratch("cmd_set_in.mcap"), plain = scratch("cmd_set_plain.mcap"),
+                 set = scratch("cmd_set_set.mcap");
+  writeInput(in, 10.0);
+  CommandResult r =
+      runCdff(fmt::format("run {} -i {} -o {} -q", kGraph, in.string(), plain.string()));
+  ASSERT_EQ(r.status, 0) << r.output;
+  r =
+      runCdff(fmt::format("run {} -i {} -o {} -q --set ekf.linear_acceleration_psd=1.0 "
+                          "--set pose_filtering/ekf.angular_acceleration_psd=0.1",
+                          kGraph, in.string(), set.string()));
+  ASSERT_EQ(r.status, 0) << r.output;
+  const Output a = readOutput(plain), b = readOutput(set);
+  EXPECT_EQ(a.counts.at("/cdff/pose_filtering/state"), b.counts.at("/cdff/pose_filtering/state"));
+  EXPECT_GT(b.position_rmse, 1.5 * a.position_rmse);
+  EXPECT_GT(b.angle_rmse, 1.5 * a.angle_rmse);
+}
+
 TEST(RunCommand, BadInputGetsAClearErrorAndANonZeroStatus) {
   const fs::path in = scratch("cmd_bad_in.mcap"), out = scratch("cmd_bad_out.mcap");
   writeInput(in, 1.0);
@@ -264,6 +284,19 @@ TEST(RunCommand, BadInputGetsAClearErrorAndANonZeroStatus) {
       {fmt::format("run {} -i {} -o /nonexistent/dir/out.mcap", kGraph, in.string()),
        "/nonexistent/dir/out.mcap", 1},
       {fmt::format("run {} -i {}", kGraph, in.string()), "--output", 2},
+      {fmt::format("run {} -i {} -o {} --set ekf", kGraph, in.string(), out.string()),
+       "--set ekf: expected [DFPC/]NODE.PARAMETER=VALUE", 2},
+      {fmt::format("run {} -i {} -o {} --set ekff.position_sigma=1", kGraph, in.string(),
+                   out.string()),
+       "--set ekff.position_sigma=1: no DFPC graph has a node 'ekff'; expected one of {ekf} "
+       "(did you mean 'ekf'?)",
+       1},
+      {fmt::format("run {} -i {} -o {} --set lidar/ekf.position_sigma=1", kGraph, in.string(),
+                   out.string()),
+       "no DFPC 'lidar' is run; expected one of {pose_filtering}", 1},
+      {fmt::format("run {} -i {} -o {} --set ekf.position_sigma=-1", kGraph, in.string(),
+                   out.string()),
+       "position_sigma = -1: out of range", 1},
   };
   for (const Case& c : cases) {
     const CommandResult r = runCdff(c.arguments);

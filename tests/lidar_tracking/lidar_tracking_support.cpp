@@ -1,6 +1,7 @@
 #include "lidar_tracking_support.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -76,6 +77,34 @@ RigidBodyState perturbedInitialState(const std::vector<Transform>& truth, Timest
   perturbation.seed = seed;
   Result<RigidBodyState> state = eval::perturbedInitialState(truth, stamp, perturbation);
   return state ? std::move(state).value() : RigidBodyState{};
+}
+
+const eval::DrawSets& drawSets() {
+  static const eval::DrawSets sets = [] {
+    Result<eval::DrawSets> s =
+        eval::loadDrawSets(std::string(CDFF_SOURCE_DIR) + "/data/evaluation/draws.yaml");
+    if (!s) std::fprintf(stderr, "%s\n", s.status().message().c_str());
+    return s ? std::move(s).value() : eval::DrawSets{};
+  }();
+  return sets;
+}
+
+Result<DrawnRun> simulateDraw(const eval::Draw& draw, const std::string& scenario, double duration,
+                              double position_fraction, double angle_rad,
+                              const std::string& extra_yaml,
+                              const std::vector<std::string>& overrides) {
+  Result<SimulatedRun> run =
+      simulate(scenario, duration, extra_yaml, draw.simulator_seed, overrides);
+  if (!run) return run.status();
+  if (run->scans.empty()) return invalidInput("draw {}: the simulation has no scan", draw.number);
+  eval::InitialStatePerturbation perturbation;
+  perturbation.position_fraction = position_fraction;
+  perturbation.angle_rad = angle_rad;
+  perturbation.seed = draw.initial_error_seed;
+  Result<RigidBodyState> initial =
+      eval::perturbedInitialState(run->truth, run->scans.front().stamp, perturbation);
+  if (!initial) return initial.status();
+  return DrawnRun{draw, std::move(run).value(), std::move(initial).value()};
 }
 
 Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,

@@ -11,6 +11,7 @@
 #include "cdff/dfpc/dfpc.hpp"
 #include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/stream.hpp"
+#include "cdff/eval/draws.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/point_cloud.hpp"
@@ -32,13 +33,29 @@ Result<SimulatedRun> simulate(const std::string& scenario, double duration,
                               const std::string& extra_yaml = "", std::uint64_t seed = 1,
                               const std::vector<std::string>& overrides = {});
 
-/// The initial state the tests give the DFPC: the truth at `stamp` with its position moved by
-/// `position_fraction` of the range in a random direction and its attitude turned by
-/// `angle_rad` about a random axis, with a covariance that covers that error
+/// An initial state for the DFPC: the truth at `stamp` with a Gaussian error of RMS
+/// `position_fraction` of the range and `angle_rad`, and that Gaussian's covariance
 /// (eval::perturbedInitialState; an empty state when there is no truth at `stamp`).
 RigidBodyState perturbedInitialState(const std::vector<Transform>& truth, Timestamp stamp,
                                      double position_fraction, double angle_rad,
                                      std::uint64_t seed);
+
+/// The draw sets of data/evaluation/draws.yaml (an empty set when the file does not load: the
+/// loader's error is printed).
+const eval::DrawSets& drawSets();
+
+/// One draw of a scenario: simulated with the draw's seed, and the initial state at the first
+/// scan with a Gaussian error of RMS `position_fraction` of the range and `angle_rad`, drawn
+/// from the draw's own stream (eval::perturbedInitialState).
+struct DrawnRun {
+  eval::Draw draw;
+  SimulatedRun run;
+  RigidBodyState initial;
+};
+Result<DrawnRun> simulateDraw(const eval::Draw& draw, const std::string& scenario, double duration,
+                              double position_fraction, double angle_rad,
+                              const std::string& extra_yaml = "",
+                              const std::vector<std::string>& overrides = {});
 
 /// A change to the graph's specification before it is created (e.g. a parameter of an instance).
 using GraphEdit = std::function<void(dfpc::GraphSpec&)>;

@@ -96,11 +96,22 @@ void expectHonestCovariance(const TrackingResult& r) {
 // error in over a few scans); the targets apply to tracking.
 constexpr double kSettle = 1.0;
 
+// 20 % of the LIDAR's scans not published (the tumbling scenarios).
+const std::string kDroppedScans =
+    "faults:\n  - {type: dropped_frames, sensor: lidar, start: 0, end: 1000, probability: 0.2}";
+
+// The first CI draw of the evaluation set (data/evaluation/draws.yaml): its own simulator seed
+// and initial error. All evaluation draws run in bench/lidar_tracking_accuracy_bench.cpp.
+eval::Draw firstCiDraw() {
+  const std::vector<eval::Draw> draws = drawSets().ciDraws();
+  return draws.empty() ? eval::Draw{} : draws.front();
+}
+
 TEST(LidarTracking, MidRangeApproach) {
-  Result<SimulatedRun> run = simulate("mid_range_approach", 0);
-  ASSERT_OK(run.status());
-  const RigidBodyState initial =
-      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, 7);
+  Result<DrawnRun> d = simulateDraw(firstCiDraw(), "mid_range_approach", 0, 0.10, 10.0 * kDeg);
+  ASSERT_OK(d.status());
+  const SimulatedRun* run = &d->run;
+  const RigidBodyState& initial = d->initial;
   Result<TrackingResult> r = track(*run, run->messages, initial, kSettle);
   ASSERT_OK(r.status());
   record("mid_range", *r);
@@ -114,10 +125,10 @@ TEST(LidarTracking, MidRangeApproach) {
 }
 
 TEST(LidarTracking, CloseRangeApproach) {
-  Result<SimulatedRun> run = simulate("close_range_approach", 0);
-  ASSERT_OK(run.status());
-  const RigidBodyState initial =
-      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, 8);
+  Result<DrawnRun> d = simulateDraw(firstCiDraw(), "close_range_approach", 0, 0.10, 10.0 * kDeg);
+  ASSERT_OK(d.status());
+  const SimulatedRun* run = &d->run;
+  const RigidBodyState& initial = d->initial;
   Result<TrackingResult> r = track(*run, run->messages, initial, kSettle);
   ASSERT_OK(r.status());
   record("close_range", *r);
@@ -129,15 +140,14 @@ TEST(LidarTracking, CloseRangeApproach) {
 
 TEST(LidarTracking, TumblingTargetWithDroppedScans) {
   // 5 deg/s tumbling (|[2, -3, 3.5]| deg/s) and 20 % of the scans not published.
-  Result<SimulatedRun> run = simulate(
-      "tumbling_target", 0,
-      "faults:\n  - {type: dropped_frames, sensor: lidar, start: 0, end: 1000, probability: 0.2}");
-  ASSERT_OK(run.status());
   // Acquisition from the 10 % of the range and 10 degrees at 15 m, where the scan has
   // about 40 points on the target after the voxel grid (a single ICP run from the initial state
   // falls into a wrong local minimum there; the DFPC's multi-start acquisition does not).
-  const RigidBodyState initial =
-      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, 9);
+  Result<DrawnRun> d =
+      simulateDraw(firstCiDraw(), "tumbling_target", 0, 0.10, 10.0 * kDeg, kDroppedScans);
+  ASSERT_OK(d.status());
+  const SimulatedRun* run = &d->run;
+  const RigidBodyState& initial = d->initial;
   Result<TrackingResult> r = track(*run, run->messages, initial, kSettle);
   ASSERT_OK(r.status());
   record("tumbling_dropped", *r);
@@ -170,71 +180,76 @@ std::vector<std::pair<Transform, std::string>> posesWithTrackState(const Trackin
   return out;
 }
 
-// Acquisition on the tumbling target from several draws of the 10 % / 10 degree initial
-// error (the draw changes the error's direction and axis). 30 s of the scenario (15 -> 11.7 m,
-// the sparse end), 20 % of the scans dropped.
+// Acquisition on the tumbling target, one evaluation draw each (its own simulator seed: scan
+// noise, dropped scans; its own Gaussian initial error of RMS 10 % of the range and 10 degrees).
+// 30 s of the scenario (15 -> 11.7 m, the sparse end), 20 % of the scans dropped.
 struct DrawRun {
   TrackingResult result;
-  std::size_t wrong_tracking = 0;  // pose products more than 10 degrees off reported TRACKING
+  std::size_t wrong_tracking = 0;  // pose products reported TRACKING that are a wrong lock
   double worst_tracking_deg = 0;
+  double worst_tracking_pct = 0;
 };
 
-void runDraw(std::uint64_t draw, DrawRun& out, const GraphEdit& edit = {}) {
+// A pose reported TRACKING is a wrong lock when it is more than 10 degrees or 5 % of the range
+// off: far outside the tracking goals, the mark of a registration caught in another minimum.
+constexpr double kWrongLockDeg = 10.0;
+constexpr double kWrongLockPct = 5.0;
+
+void runDraw(std::uint64_t number, DrawRun& out, const GraphEdit& edit = {}) {
   double duration = 30;
   if (const char* d = std::getenv("CDFF_TUMBLING_DURATION")) duration = std::atof(d);
-  Result<SimulatedRun> run = simulate(
-      "tumbling_target", duration,
-      "faults:\n  - {type: dropped_frames, sensor: lidar, start: 0, end: 1000, probability: 0.2}");
-  ASSERT_OK(run.status());
-  const RigidBodyState initial =
-      perturbedInitialState(run->truth, run->scans.front().stamp, 0.10, 10.0 * kDeg, draw);
-  Result<TrackingResult> r = track(*run, run->messages, initial, kSettle, edit);
+  Result<DrawnRun> d = simulateDraw(eval::drawOf(number), "tumbling_target", duration, 0.10,
+                                    10.0 * kDeg, kDroppedScans);
+  ASSERT_OK(d.status());
+  const SimulatedRun& run = d->run;
+  const RigidBodyState& initial = d->initial;
+  Result<TrackingResult> r = track(run, run.messages, initial, kSettle, edit);
   ASSERT_OK(r.status());
-  record(fmt::format("tumbling_draw_{}{}", draw, edit ? "_edited" : ""), *r);
+  record(fmt::format("tumbling_draw_{}{}", number, edit ? "_edited" : ""), *r);
   // Every pose product reported TRACKING, from the initial state on, against the truth.
   const std::vector<std::pair<Transform, std::string>> reported = posesWithTrackState(*r);
   std::vector<eval::EstimateSample> tracking;
   for (const auto& [pose, state] : reported)
     if (state == "TRACKING") tracking.push_back({pose, true, {}});
   ASSERT_GT(tracking.size(), 100u);
-  Result<eval::PoseEvaluation> whole = eval::evaluatePoses(tracking, run->truth);
+  Result<eval::PoseEvaluation> whole = eval::evaluatePoses(tracking, run.truth);
   ASSERT_OK(whole.status());
   for (const eval::MatchedError& e : whole->errors) {
+    const double pct = 100.0 * e.position_error_m / e.range_m;
     out.worst_tracking_deg = std::max(out.worst_tracking_deg, e.angle_error_deg);
-    if (e.angle_error_deg > 10.0) ++out.wrong_tracking;
+    out.worst_tracking_pct = std::max(out.worst_tracking_pct, pct);
+    if (e.angle_error_deg > kWrongLockDeg || pct > kWrongLockPct) ++out.wrong_tracking;
     if (std::getenv("CDFF_TEST_VERBOSE") && toSeconds(e.stamp - initial.pose.stamp) < 5.0)
       std::cout << "  " << toSeconds(e.stamp - initial.pose.stamp) << " s TRACKING "
                 << e.position_error_m << " m " << e.angle_error_deg << " deg\n";
   }
-  if (std::getenv("CDFF_TEST_VERBOSE"))
-    for (const dfpc::Message& m : r->products)
-      if (m.channel == "/cdff/lidar_tracking/acquisition_visibility" ||
-          m.channel == "/cdff/lidar_tracking/acquisition_fitness")
-        std::cout << "  " << toSeconds(m.stamp - initial.pose.stamp) << " s " << m.channel << " "
-                  << *m.as<double>() << "\n";
-  std::cout << "draw " << draw << ": worst angle reported TRACKING " << out.worst_tracking_deg
-            << " deg\n";
+  std::cout << "draw " << number << ": worst reported TRACKING " << out.worst_tracking_deg
+            << " deg, " << out.worst_tracking_pct << " % of range\n";
   out.result = std::move(r).value();
 }
 
-// Every draw tracked within twice the mid-range targets, and no pose more than 10 degrees off
-// ever reported TRACKING: the acquisition's multi-scan confirmation (`acquire`'s
-// confirmation_scans) keeps a wrong lock ACQUIRING until one hypothesis explains the scans
-// clearly best.
+// The CI draws of the evaluation set: no wrong lock ever reported TRACKING (the acquisition's
+// multi-scan confirmation keeps an ambiguous lock ACQUIRING), and each draw within the bounds
+// below.
 class TumblingAcquisitionAccuracy : public ::testing::TestWithParam<std::uint64_t> {};
 
-TEST_P(TumblingAcquisitionAccuracy, EveryDrawIsTrackedWithinTwiceTheMidRangeTargets) {
+TEST_P(TumblingAcquisitionAccuracy, EachDrawIsTrackedWithoutAWrongLock) {
   DrawRun d;
   ASSERT_NO_FATAL_FAILURE(runDraw(GetParam(), d));
-  EXPECT_EQ(d.wrong_tracking, 0u) << "poses more than 10 deg off reported TRACKING";
+  EXPECT_EQ(d.wrong_tracking, 0u) << "wrong locks reported TRACKING";
   EXPECT_LE(d.result.evaluation.position_error_pct_range.p95, 2 * 0.5);
   EXPECT_LE(d.result.evaluation.angle_error_deg.p95, 2 * 1.0);
   EXPECT_GE(d.result.tracked_fraction, 0.99);
 }
 
-// Fourteen draws of the 10 % / 10 degree initial error, 21 to 34 (about 2.5 s each).
-INSTANTIATE_TEST_SUITE_P(Draws, TumblingAcquisitionAccuracy,
-                         ::testing::Range<std::uint64_t>(21, 35));
+std::vector<std::uint64_t> ciDrawNumbers() {
+  std::vector<std::uint64_t> out;
+  for (const eval::Draw& d : drawSets().ciDraws()) out.push_back(d.number);
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(EvaluationDraws, TumblingAcquisitionAccuracy,
+                         ::testing::ValuesIn(ciDrawNumbers()));
 
 TEST(LidarTracking, ALostTargetIsReportedAndReacquired) {
   // 10-13 s: scans with no point on the target (it is out of view). The track goes LOST after

@@ -56,6 +56,7 @@ void Dfpc::clearRuntime() {
     inst.woken = false;
     inst.active = true;
     inst.consecutive = {};
+    for (auto& r : inst.recent) r.clear();
     inst.warnings_seen = 0;
     inst.faults = inst.skipped = inst.sync_dropped = 0;
   }
@@ -468,9 +469,17 @@ void Dfpc::fault(std::optional<std::size_t> n, FaultKind kind, const std::string
   if (!recovery) return;
   if (n) {
     Instance& inst = instances_[*n];
-    int& consecutive = inst.consecutive[faultIndex(kind)];
-    if (++consecutive < recovery->after) return;
-    consecutive = 0;
+    if (recovery->within_s > 0) {
+      std::deque<Timestamp>& recent = inst.recent[faultIndex(kind)];
+      recent.push_back(step_stamp_);
+      while (recent.front() < step_stamp_ - fromSeconds(recovery->within_s)) recent.pop_front();
+      if (static_cast<int>(recent.size()) < recovery->after) return;
+      recent.clear();
+    } else {
+      int& consecutive = inst.consecutive[faultIndex(kind)];
+      if (++consecutive < recovery->after) return;
+      consecutive = 0;
+    }
   }
   recover(*recovery, n);
 }
@@ -540,6 +549,7 @@ bool Dfpc::recreate(std::size_t n, bool fallback, std::string& why) {
   inst.dfi = dfi;
   inst.on_fallback = fallback;
   inst.consecutive = {};
+  for (auto& r : inst.recent) r.clear();
   inst.warnings_seen = 0;
   for (auto& q : inst.queues) q.clear();
   inst.sync_loaded = false;

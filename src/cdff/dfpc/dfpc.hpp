@@ -163,6 +163,7 @@ class Dfpc {
     bool pending = false;
     Timestamp pending_stamp = 0;
     std::array<int, 4> consecutive{};  // consecutive faults per FaultKind
+    std::array<std::deque<Timestamp>, 4> recent;  // per FaultKind, for a recovery's within_s
     std::uint64_t warnings_seen = 0;
     std::uint64_t faults = 0, skipped = 0, sync_dropped = 0;
   };

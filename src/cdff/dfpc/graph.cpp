@@ -301,9 +301,10 @@ GraphBuilder::Node& GraphBuilder::Node::fallback(std::string dfi,
 }
 
 GraphBuilder::Node& GraphBuilder::Node::onFault(FaultKind kind, std::vector<RecoveryAction> actions,
-                                                int after) {
+                                                int after, double within_s) {
   RecoverySpec r;
   r.after = after;
+  r.within_s = within_s;
   r.at = spec().at();
   r.actions = std::move(actions);
   for (auto& a : r.actions)

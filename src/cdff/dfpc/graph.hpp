@@ -16,6 +16,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "cdff/schema/override.hpp"
 #include "cdff/types/status.hpp"
 #include "cdff/types/track_state.hpp"
 
@@ -69,7 +70,12 @@ struct RecoveryAction {
 };
 
 struct RecoverySpec {
-  int after = 1;  // act on the after-th consecutive fault of this kind
+  /// Act on the after-th fault of this kind: the after-th in a row (a clean call of the
+  /// instance resets the count) or, with `within_s`, the after-th within that much stream time
+  /// (clean calls do not reset it: an instance whose clean calls come between its faults, such
+  /// as a filter's prediction ticks between rejected measurements, can still recover).
+  int after = 1;
+  double within_s = 0;  // 0: consecutive faults
   std::vector<RecoveryAction> actions;
   SourceLocation at;
 };
@@ -157,6 +163,24 @@ struct GraphSpec {
 Result<GraphSpec> loadGraphFile(const std::string& path);
 Result<GraphSpec> parseGraph(const std::string& yaml_text, const std::string& source_name);
 
+/// A parameter of an instance set from the command line (`cdff run --set`), so that a graph is
+/// adapted without copying it: "[DFPC/]NODE.PARAM=VALUE", the value YAML (a nested parameter's
+/// key dotted: NODE.PARAM.SUB=VALUE). Without DFPC/ it applies to the one graph with that node.
+struct ParameterSetting {
+  std::string text;  // as given
+  std::string dfpc;  // "" : the graph that has the node
+  std::string node;
+  schema::Override parameter;  // the key below the instance's parameters
+};
+Result<ParameterSetting> parseParameterSetting(const std::string& text);
+
+/// loadGraphFile with the settings that address this graph (its name, or any graph with the
+/// node when unqualified) applied to its instances' parameters; `applied[i]` is set for each
+/// setting applied. An error in a set value names the setting.
+Result<GraphSpec> loadGraphFile(const std::string& path,
+                                const std::vector<ParameterSetting>& settings,
+                                std::vector<bool>& applied);
+
 /// Every problem of a graph, each message starting with its location: unknown DFN or DFI, unknown
 /// port, type mismatch, unconnected required input or output, a cycle without a delay, malformed
 /// or ill-typed conditions, recoveries naming unknown instances, a switch_dfi without fallback...
@@ -189,7 +213,8 @@ class GraphBuilder {
     Node& divergedWhen(std::string condition);
     Node& budget(double seconds);
     Node& fallback(std::string dfi, const std::string& parameters_yaml = "");
-    Node& onFault(FaultKind kind, std::vector<RecoveryAction> actions, int after = 1);
+    Node& onFault(FaultKind kind, std::vector<RecoveryAction> actions, int after = 1,
+                  double within_s = 0);
 
    private:
     friend class GraphBuilder;

@@ -86,11 +86,13 @@ Status recovery(const Field& f, RecoverySpec& r) {
   static const Table<RecoverySpec> table =
       Table<RecoverySpec>("a recovery")
           .optional("after", schema::integer(&RecoverySpec::after, 1))
+          .optional("within_s",
+                    schema::number(&RecoverySpec::within_s, schema::Range::above(0, "s")))
           .required(
               "do", [](const Field& g, RecoverySpec& s) { return actions(g, s.actions); },
               "the list of actions");
   r.at = f.location();
-  if (f.isMap() && (f.has("do") || f.has("after"))) return table.read(f, r);
+  if (f.isMap() && (f.has("do") || f.has("after") || f.has("within_s"))) return table.read(f, r);
   return actions(f, r.actions);
 }
 
@@ -428,6 +430,52 @@ Result<GraphSpec> parseGraph(const std::string& yaml_text, const std::string& so
 Result<GraphSpec> loadGraphFile(const std::string& path) {
   Result<schema::Document> document = schema::Document::loadFile(path, "DFPC graph file");
   if (!document) return document.status();
+  return read(*document);
+}
+
+Result<ParameterSetting> parseParameterSetting(const std::string& text) {
+  constexpr std::string_view kExample =
+      "icp.max_iterations=30, or lidar_tracking/icp.max_iterations=30";
+  ParameterSetting s;
+  s.text = text;
+  std::string body = text;
+  const std::size_t slash = text.find('/'), eq = text.find('=');
+  if (slash != std::string::npos && slash < eq) {
+    s.dfpc = text.substr(0, slash);
+    body = text.substr(slash + 1);
+  }
+  Result<schema::Override> o = schema::parseOverride(body, kExample);
+  if (!o || o->key.size() < 2 ||
+      (slash != std::string::npos && slash < eq && !isIdentifier(s.dfpc)) ||
+      !isIdentifier(o->key[0]))
+    return Status(StatusCode::kInvalidParameter,
+                  fmt::format("expected [DFPC/]NODE.PARAMETER=VALUE, e.g. {}", kExample),
+                  {"--set " + text, 0, 0});
+  s.node = o->key[0];
+  s.parameter = std::move(o).value();
+  s.parameter.key.erase(s.parameter.key.begin());
+  s.parameter.text = text;
+  return s;
+}
+
+Result<GraphSpec> loadGraphFile(const std::string& path,
+                                const std::vector<ParameterSetting>& settings,
+                                std::vector<bool>& applied) {
+  Result<schema::Document> document = schema::Document::loadFile(path, "DFPC graph file");
+  if (!document) return document.status();
+  applied.resize(settings.size(), false);
+  const YAML::Node root = document->node();
+  const std::string graph_name =
+      root.IsMap() && root["name"].IsScalar() ? root["name"].Scalar() : std::string();
+  const YAML::Node nodes = root.IsMap() ? root["nodes"] : YAML::Node();
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    const ParameterSetting& s = settings[i];
+    if (!s.dfpc.empty() && s.dfpc != graph_name) continue;
+    if (!nodes.IsMap() || !nodes[s.node].IsDefined()) continue;
+    CDFF_RETURN_IF_ERROR(
+        schema::applyOverride(*document, s.parameter, {"nodes", s.node, "parameters"}));
+    applied[i] = true;
+  }
   return read(*document);
 }
 

@@ -1,5 +1,6 @@
 #include "cdff/dfpc/replay.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -40,16 +41,60 @@ Status applyRemaps(std::vector<GraphSpec>& graphs, const std::vector<ChannelRema
   return Status::ok();
 }
 
+/// Each `--set` addresses exactly one graph's instance.
+Status checkSettingsApplied(const std::vector<ParameterSetting>& settings,
+                            const std::vector<std::vector<std::string>>& applied_to,
+                            const std::vector<GraphSpec>& graphs) {
+  for (std::size_t i = 0; i < settings.size(); ++i) {
+    const ParameterSetting& s = settings[i];
+    const SourceLocation where{"--set " + s.text, 0, 0};
+    if (applied_to[i].size() > 1)
+      return Status(StatusCode::kInvalidParameter,
+                    fmt::format("the DFPCs {{{}}} all have a node '{}'; expected DFPC/{}",
+                                fmt::join(applied_to[i], ", "), s.node, s.text),
+                    where);
+    if (!applied_to[i].empty()) continue;
+    std::vector<std::string> nodes, names;
+    for (const GraphSpec& g : graphs) {
+      names.push_back(g.name);
+      if (s.dfpc.empty() || s.dfpc == g.name)
+        for (const InstanceSpec& inst : g.instances) nodes.push_back(inst.name);
+    }
+    const std::string in = s.dfpc.empty() ? "no DFPC graph" : fmt::format("DFPC '{}'", s.dfpc);
+    if (!s.dfpc.empty() && std::find(names.begin(), names.end(), s.dfpc) == names.end())
+      return Status(StatusCode::kNotFound,
+                    fmt::format("no DFPC '{}' is run; expected one of {{{}}}{}", s.dfpc,
+                                fmt::join(names, ", "), schema::didYouMean(s.dfpc, names)),
+                    where);
+    return Status(StatusCode::kNotFound,
+                  fmt::format("{} has a node '{}'; expected one of {{{}}}{}", in, s.node,
+                              fmt::join(nodes, ", "), schema::didYouMean(s.node, nodes)),
+                  where);
+  }
+  return Status::ok();
+}
+
 }  // namespace
 
 Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options) {
   if (options.graph_files.empty()) return invalidParameter("no DFPC graph to run");
+  std::vector<ParameterSetting> settings;
+  for (const std::string& text : options.parameter_settings) {
+    Result<ParameterSetting> s = parseParameterSetting(text);
+    if (!s) return s.status();
+    settings.push_back(std::move(s).value());
+  }
   std::vector<GraphSpec> graphs;
+  std::vector<std::vector<std::string>> applied_to(settings.size());
   for (const std::string& path : options.graph_files) {
-    Result<GraphSpec> spec = loadGraphFile(path);
+    std::vector<bool> applied;
+    Result<GraphSpec> spec = loadGraphFile(path, settings, applied);
     if (!spec) return spec.status();
+    for (std::size_t i = 0; i < settings.size(); ++i)
+      if (applied[i]) applied_to[i].push_back(spec->name);
     graphs.push_back(std::move(spec).value());
   }
+  CDFF_RETURN_IF_ERROR(checkSettingsApplied(settings, applied_to, graphs));
   CDFF_RETURN_IF_ERROR(applyRemaps(graphs, options.remaps));
   OrchestratorOptions o;
   o.sink = &sink;

@@ -35,6 +35,9 @@ Result<ChannelRemap> parseRemap(const std::string& text);
 struct ReplayOptions {
   std::vector<std::string> graph_files;  // one DFPC per file; all run together
   std::vector<ChannelRemap> remaps;
+  /// Instance parameters set without editing the graphs: "[DFPC/]NODE.PARAM=VALUE"
+  /// (ParameterSetting); each must address exactly one graph's instance.
+  std::vector<std::string> parameter_settings;
   bool realtime = false;   // pace on the clock instead of as fast as possible
   double speed = 1.0;      // with realtime: stream seconds per clock second
   Clock* clock = nullptr;  // the pacing clock (steady when null)

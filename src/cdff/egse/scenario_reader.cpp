@@ -1,11 +1,10 @@
 // The scenario file as a whole (scenario.hpp: loadScenario, parseScenario): `--set` overrides,
 // the top-level keys, and what is derived once every section is read.
-#include <cstdlib>
-#include <sstream>
 
 #include <fmt/format.h>
 
 #include "cdff/egse/scenario_reader.hpp"
+#include "cdff/schema/override.hpp"
 
 namespace cdff::egse::scenario_reader {
 
@@ -54,84 +53,6 @@ Eigen::Isometry3d mountAt(const Eigen::Vector3d& p, const Eigen::Quaterniond& q)
 }
 
 namespace {
-
-// ------------------------------------------------------------------------------- overrides
-
-/// Where an override's errors point: the override itself, as the command line gave it.
-SourceLocation given(const std::string& text) {
-  return {"--set " + text, 0, 0};
-}
-
-Status overrideError(const std::string& text, std::string reason) {
-  return Status(StatusCode::kInvalidParameter, std::move(reason), given(text));
-}
-
-/// "a.b.c" -> {a, b, c}; no part may be empty.
-Result<std::vector<std::string>> keyParts(const std::string& text, const std::string& key) {
-  std::vector<std::string> parts;
-  std::stringstream ss(key);
-  for (std::string part; std::getline(ss, part, '.');) {
-    if (part.empty())
-      return overrideError(text, fmt::format("the key '{}' has an empty part", key));
-    parts.push_back(part);
-  }
-  return parts;
-}
-
-/// Sets `key=value` in `root`: maps are created on the way, list items are indexed by number.
-Status applyOverride(YAML::Node& root, const std::string& text, schema::Document& document) {
-  const std::size_t eq = text.find('=');
-  if (eq == std::string::npos || eq == 0)
-    return overrideError(
-        text, "expected KEY=VALUE with a dotted key, e.g. sensors.lidar.range_noise=0.05");
-  const std::string key = text.substr(0, eq), value_text = text.substr(eq + 1);
-  Result<std::vector<std::string>> parts = keyParts(text, key);
-  if (!parts) return parts.status();
-  YAML::Node value;
-  try {
-    value = YAML::Load(value_text);
-  } catch (const YAML::Exception& e) {
-    return overrideError(text,
-                         fmt::format("the value '{}' is not valid YAML: {}", value_text, e.msg));
-  }
-  YAML::Node current = root;
-  std::string walked;
-  for (std::size_t i = 0; i < parts->size(); ++i) {
-    const std::string& part = (*parts)[i];
-    const bool last = i + 1 == parts->size();
-    walked += (walked.empty() ? "" : ".") + part;
-    if (current.IsSequence()) {
-      char* end = nullptr;
-      const long index = std::strtol(part.c_str(), &end, 10);
-      if (*end != '\0' || index < 0 || static_cast<std::size_t>(index) >= current.size())
-        return overrideError(
-            text, fmt::format("'{}' indexes a list of {} items; expected 0 to {}", walked,
-                              current.size(), static_cast<long>(current.size()) - 1));
-      if (last) {
-        current[static_cast<std::size_t>(index)] = value;
-      } else {
-        YAML::Node next = current[static_cast<std::size_t>(index)];
-        current.reset(next);
-      }
-      continue;
-    }
-    if (!current.IsMap() && !current.IsNull() && current.IsDefined())
-      return overrideError(
-          text, fmt::format("'{}' is a value, not a mapping with keys",
-                            walked.substr(0, walked.size() - part.size() -
-                                                 (walked.size() > part.size() ? 1 : 0))));
-    if (last) {
-      current[part] = value;
-    } else {
-      if (!current[part].IsDefined() || current[part].IsNull())
-        current[part] = YAML::Node(YAML::NodeType::Map);
-      YAML::Node next = current[part];
-      current.reset(next);
-    }
-  }
-  document.setOverride(key, "--set " + text);
-  return Status::ok();
-}
 
 // ----------------------------------------------------------------------------- the file
 
@@ -185,9 +106,14 @@ void finish(ScenarioDraft& draft) {
 
 Result<Scenario> readScenario(schema::Document document, const std::vector<std::string>& overrides,
                               const std::filesystem::path& base) {
+  for (const std::string& text : overrides) {
+    Result<schema::Override> o =
+        schema::parseOverride(text, "sensors.lidar.range_noise=0.05");
+    if (!o) return o.status();
+    CDFF_RETURN_IF_ERROR(schema::applyOverride(document, *o));
+  }
   YAML::Node& root = document.node();
-  if (root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
-  for (const std::string& o : overrides) CDFF_RETURN_IF_ERROR(applyOverride(root, o, document));
+  if (!root.IsDefined() || root.IsNull()) root = YAML::Node(YAML::NodeType::Map);
   ScenarioDraft draft;
   draft.base = base;
   draft.scenario.name = std::filesystem::path(document.source()).stem().string();

@@ -1,7 +1,13 @@
 #pragma once
-// Initial states for trackers from the ground truth, perturbed as an upstream detection would be
-// wrong: the test bench's stand-in for the detection DFPC when a tracking DFPC is tested alone
-// (the LIDAR tracking issue: 10 % of the range and 10 degrees).
+// Initial states for trackers from the ground truth, wrong as an upstream detection would be:
+// the test bench's stand-in for the detection DFPC when a tracking DFPC is tested alone.
+//
+// The error's size is stated as the RMS of the position error's length (a fraction of the range)
+// and of the attitude error's angle. By default the error is drawn from the zero-mean Gaussian
+// with that RMS (each axis with sigma = size / sqrt(3)), tails included, and the state's
+// covariance is that Gaussian's: the tracker is told the distribution the error came from, not
+// the error. `kFixedSize` moves the truth by exactly the stated sizes in random directions (a
+// controlled test of a basin's edge); its covariance is the same.
 #include <cstdint>
 #include <vector>
 
@@ -10,17 +16,20 @@
 
 namespace cdff::eval {
 
+enum class InitialErrorDistribution { kGaussian, kFixedSize };
+
 struct InitialStatePerturbation {
-  double position_fraction = 0.10;         // of the range, in a random direction
-  double angle_rad = 0.17453292519943295;  // about a random axis (10 degrees)
-  double linear_velocity_sigma = 0.3;      // m/s, the covariance's (the twist itself is zero)
-  double angular_velocity_sigma = 0.1;     // rad/s
+  double position_fraction = 0.10;         // RMS of |position error| / range
+  double angle_rad = 0.17453292519943295;  // RMS of the attitude error's angle (10 degrees)
+  double linear_velocity_sigma = 0.3;      // m/s per axis, the covariance's (the twist is zero)
+  double angular_velocity_sigma = 0.1;     // rad/s per axis
+  InitialErrorDistribution distribution = InitialErrorDistribution::kGaussian;
   std::uint64_t seed = 1;
 };
 
-/// The truth interpolated at `stamp` (sorted `truth`, parent_T_child), moved and turned by
-/// exactly the perturbation's sizes, with zero twist and a diagonal covariance whose sigmas
-/// are those sizes (at least 5 cm and 0.02 rad). Fails when no truth brackets `stamp`.
+/// The truth interpolated at `stamp` (sorted `truth`, parent_T_child) with the drawn error, zero
+/// twist and the block-diagonal covariance described above. Fails when no truth brackets
+/// `stamp`, or when a size is negative or not finite.
 Result<RigidBodyState> perturbedInitialState(const std::vector<Transform>& truth, Timestamp stamp,
                                              const InitialStatePerturbation& perturbation = {});
 
