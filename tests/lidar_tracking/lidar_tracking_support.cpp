@@ -168,4 +168,19 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
   return result;
 }
 
+std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r) {
+  std::vector<Transform> poses;
+  std::vector<std::string> states;
+  for (const dfpc::Message& m : r.products) {
+    if (m.channel == "/cdff/lidar_tracking/pose")
+      if (const RigidBodyState* s = m.as<RigidBodyState>()) poses.push_back(s->pose);
+    if (m.channel == "/cdff/lidar_tracking/track_state")
+      if (const TrackState* s = m.as<TrackState>()) states.push_back(std::string(toString(*s)));
+  }
+  std::vector<std::pair<Transform, std::string>> out;
+  for (std::size_t i = 0; i < std::min(poses.size(), states.size()); ++i)
+    out.emplace_back(poses[i], states[i]);
+  return out;
+}
+
 }  // namespace cdff::lidar_tracking

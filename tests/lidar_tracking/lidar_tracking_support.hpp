@@ -79,4 +79,8 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
                              const RigidBodyState& initial, double settle_s,
                              const GraphEdit& edit = {});
 
+/// The track state reported with each pose product: the EKF's step publishes both, the pose
+/// first, so the n-th pose product goes with the n-th track_state product.
+std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r);
+
 }  // namespace cdff::lidar_tracking

@@ -57,6 +57,14 @@ std::vector<Draw> DrawSets::evaluationDraws(std::uint64_t n) const {
   return out;
 }
 
+std::vector<Draw> DrawSets::tuningDraws(std::uint64_t n) const {
+  const std::uint64_t cap = std::min<std::uint64_t>(tuning.count, 10000);
+  const std::uint64_t count = n == 0 ? cap : std::min(n, cap);
+  std::vector<Draw> out;
+  for (std::uint64_t k = 0; k < count; ++k) out.push_back(drawOf(tuning.first + k));
+  return out;
+}
+
 Result<DrawSets> loadDrawSets(const std::string& path) {
   Result<schema::Document> document = schema::Document::loadFile(path, "draw-set file");
   if (!document) return document.status();

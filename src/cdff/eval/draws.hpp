@@ -38,6 +38,8 @@ struct DrawSets {
   /// The first `n` evaluation draws (all of them when n is 0 or larger than the set).
   std::vector<Draw> evaluationDraws(std::uint64_t n = 0) const;
   std::vector<Draw> ciDraws() const { return evaluationDraws(ci); }
+  /// The first `n` tuning draws (at most 10000 of them, all of them when n is 0 or larger).
+  std::vector<Draw> tuningDraws(std::uint64_t n) const;
 };
 
 /// Reads a draw-set file: the two ranges must not overlap, `ci` is at most the evaluation count.
