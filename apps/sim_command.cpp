@@ -179,10 +179,7 @@ int runSim(const SimOptions& options) {
     return 1;
   }
   if (!options.export_dir.empty()) {
-    Result<egse::TargetModel> model =
-        scenario->procedural_target
-            ? egse::makeTargetSatellite(scenario->target_spec)
-            : egse::loadModel(scenario->target_mesh, scenario->mesh_options);
+    Result<egse::TargetModel> model = egse::makeScenarioTarget(*scenario);
     if (!model) {
       fmt::print(stderr, "error: {}\n", model.status().message());
       return 1;
