@@ -152,11 +152,11 @@ TEST_P(ModelErrors, AWrongModelKeepsTheTrackWithinTwiceTheGoals) {
   expectWithin(*r, withErrors(c));
 }
 
-// The tumbling target with every model error at once is not within them: its accuracy is
-// (2026-12-04: 0.23 % / 1.18 degrees p95) but three registrations in a row are gated out three
-// times (the registrations' covariance does not include the model error: pose NEES mean 15.7),
-// so the track is LOST three times for 0.25 s, 97.7 % tracked against 99 %
-// (docs/lidar-tracking.md, Limits). Run with --gtest_also_run_disabled_tests.
+// The tumbling target with every model error at once is not within them: its accuracy is, but
+// the registrations' covariance does not include the model error, so the EKF gates out three
+// in a row now and then and the track is LOST for a few scans, under 99 % tracked (figures in
+// docs/lidar-tracking.md, "Another target, model errors and calibration errors"). Run with
+// --gtest_also_run_disabled_tests.
 INSTANTIATE_TEST_SUITE_P(Scenarios, ModelErrors, ::testing::Values(cases()[0], cases()[1]),
                          caseName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_Limit, ModelErrors, ::testing::Values(cases()[2]), caseName);
