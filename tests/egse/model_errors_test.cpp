@@ -119,6 +119,20 @@ TEST(SecondTarget, IsClearlyDifferentFromTheFirst) {
   EXPECT_LT(hex.bounds().min().x(), -0.7 - 0.3);
 }
 
+// data/models/hexagonal_target.ply is the export of the generator's default (the command in
+// data/models/README.md): the same geometry and parts.
+TEST(SecondTarget, TheCommittedModelIsTheGeneratorsExport) {
+  const TargetModel hex = std::move(makeHexagonalSatellite()).value();
+  auto committed =
+      loadModel(std::filesystem::path(CDFF_SOURCE_DIR) / "data/models/hexagonal_target.ply");
+  ASSERT_OK(committed.status());
+  EXPECT_EQ(committed->parts, hex.parts);
+  EXPECT_EQ(committed->mesh.triangles.size(), hex.mesh.triangles.size());
+  EXPECT_NEAR(committed->surfaceArea(), hex.surfaceArea(), 1e-6 * hex.surfaceArea());
+  EXPECT_LT((committed->bounds().min() - hex.bounds().min()).norm(), 1e-6);
+  EXPECT_LT((committed->bounds().max() - hex.bounds().max()).norm(), 1e-6);
+}
+
 TEST(SecondTarget, ItsSpecIsValidated) {
   HexagonalTargetSpec spec;
   spec.bus_length = -1;
