@@ -14,5 +14,6 @@ void addDfpcCommands(CLI::App& root, int& exit_code);
 void addRunCommand(CLI::App& root, int& exit_code);
 void addEvalCommand(CLI::App& root, int& exit_code);
 void addInitialStateCommand(CLI::App& root, int& exit_code);
+void addModelCommands(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -179,10 +180,7 @@ int runSim(const SimOptions& options) {
     return 1;
   }
   if (!options.export_dir.empty()) {
-    Result<egse::TargetModel> model =
-        scenario->procedural_target
-            ? egse::makeTargetSatellite(scenario->target_spec)
-            : egse::loadModel(scenario->target_mesh, scenario->mesh_options);
+    Result<egse::TargetModel> model = egse::makeScenarioTarget(*scenario);
     if (!model) {
       fmt::print(stderr, "error: {}\n", model.status().message());
       return 1;
@@ -211,6 +209,17 @@ int runSim(const SimOptions& options) {
     fmt::print("{}: ok\n  {}\n  duration {} s, seed {}, renderer {}\n", path->string(),
                scenario->description, (*sim)->duration(), (*sim)->seed(),
                (*sim)->rendererDescription());
+    const egse::TargetModel& target = (*sim)->target();
+    fmt::print("  target model '{}', {} triangles, parts: {}\n", target.name,
+               target.mesh.triangles.size(),
+               target.parts.empty() ? std::string("none")
+                                    : fmt::format("{}", fmt::join(target.parts, ", ")));
+    const egse::CalibrationErrorSpec& ce = scenario->calibration_error;
+    if (ce.active())
+      fmt::print(
+          "  calibration error ({}): extrinsics {} deg, {} m; intrinsics {}\n",
+          ce.distribution == egse::CalibrationErrorDistribution::kFixed ? "fixed" : "gaussian",
+          ce.extrinsic_angle * 180.0 / M_PI, ce.extrinsic_position, ce.intrinsics_fraction);
     for (const auto& s : scenario->sensors)
       if (s.enabled)
         fmt::print("  {:<14} {:<7} {:>6.1f} Hz  frame {:<22} {}\n", s.name, egse::toString(s.type),

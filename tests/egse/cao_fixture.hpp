@@ -15,5 +15,9 @@ struct CaoFixture {
 };
 
 CaoFixture writeTargetCao(const std::string& path);
+/// The second procedural target's .cao (the hexagonal satellite), and the first target's with
+/// model errors (1 % larger, without its antenna, with a box added, re-triangulated).
+CaoFixture writeHexagonalCao(const std::string& path);
+CaoFixture writePerturbedCao(const std::string& path);
 
 }  // namespace cdff::egse::testing

@@ -121,8 +121,8 @@ TEST(ScenarioErrors, HaveTheSharedFormat) {
   expectError(parseScenario("duration: 10\nlightning: {eclipses: false}\n", "s.yaml"),
               {"s.yaml", 2, 1},
               "s.yaml:2:1: lightning: unknown key; expected one of {name, description, duration, "
-              "seed, orbit, renderer, target, servicer, lighting, background, sensors, faults, "
-              "truth} (did you mean 'lighting'?)");
+              "seed, orbit, renderer, target, servicer, lighting, background, sensors, "
+              "calibration_error, faults, truth} (did you mean 'lighting'?)");
   // A malformed key: a section that is not a map.
   expectError(parseScenario("orbit: 500000\n", "s.yaml"), {"s.yaml", 1, 8},
               "s.yaml:1:8: orbit = 500000: expected the orbit {enabled, altitude} (a map of key: "

@@ -57,5 +57,19 @@ TEST(VispCao, LoadsInVpMbGenericTrackerWithOutwardFaces) {
     EXPECT_EQ(faces.isVisible(f), expected[f]) << "bus face " << f;
 }
 
+// The second target's and a perturbed model's face models load too, every polygon kept.
+TEST(VispCao, TheSecondTargetAndAPerturbedModelLoad) {
+  for (const auto writer : {&testing::writeHexagonalCao, &testing::writePerturbedCao}) {
+    const auto path = std::filesystem::temp_directory_path() /
+                      ("cdff_visp_other_" + std::to_string(::getpid()) + ".cao");
+    const testing::CaoFixture fixture = writer(path.string());
+    ASSERT_TRUE(fixture.error.empty()) << fixture.error;
+    vpMbGenericTracker tracker(1, vpMbGenericTracker::EDGE_TRACKER);
+    ASSERT_NO_THROW(tracker.loadModel(path.string()));
+    std::filesystem::remove(path);
+    EXPECT_EQ(tracker.getNbPolygon(), fixture.polygon_count);
+  }
+}
+
 }  // namespace
 }  // namespace cdff::egse

@@ -23,7 +23,20 @@ Status TargetModel::validate() const {
     if (triangle_material[t] >= materials.size())
       return invalidInput("model '{}' triangle {} uses material {}; expected an index < {}", name,
                           t, triangle_material[t], materials.size());
+  if (parts.empty() != triangle_part.empty() ||
+      (!parts.empty() && triangle_part.size() != mesh.triangles.size()))
+    return invalidInput(
+        "model '{}' has {} parts and {} triangle parts for {} triangles; expected "
+        "one part per triangle, or none",
+        name, parts.size(), triangle_part.size(), mesh.triangles.size());
+  for (std::size_t t = 0; t < triangle_part.size(); ++t)
+    if (triangle_part[t] >= parts.size())
+      return invalidInput("model '{}' triangle {} belongs to part {}; expected an index < {}", name,
+                          t, triangle_part[t], parts.size());
   for (std::size_t p = 0; p < polygons.size(); ++p) {
+    if (!parts.empty() && polygons[p].part >= parts.size())
+      return invalidInput("model '{}' polygon {} belongs to part {}; expected an index < {}", name,
+                          p, polygons[p].part, parts.size());
     if (polygons[p].vertices.size() < 3)
       return invalidInput("model '{}' polygon {} has {} vertices; expected at least 3", name, p,
                           polygons[p].vertices.size());
@@ -77,6 +90,13 @@ std::uint16_t ModelBuilder::material(MaterialId id) {
 std::uint16_t ModelBuilder::addMaterial(const Material& material) {
   materials_.push_back(material);
   return static_cast<std::uint16_t>(materials_.size() - 1);
+}
+
+void ModelBuilder::beginPart(const std::string& name) {
+  const auto it = std::find(parts_.begin(), parts_.end(), name);
+  const auto index = static_cast<std::uint16_t>(it - parts_.begin());
+  if (it == parts_.end()) parts_.push_back(name);
+  part_starts_.push_back({triangles_.size(), polygons_.size(), index});
 }
 
 std::uint32_t ModelBuilder::addVertex(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
@@ -211,6 +231,22 @@ void ModelBuilder::addAnnulus(const Eigen::Isometry3d& pose, double inner, doubl
 
 TargetModel ModelBuilder::build() {
   TargetModel model;
+  if (!part_starts_.empty()) {
+    // Whatever was added before the first part is the first part's too.
+    part_starts_.front().triangle = 0;
+    part_starts_.front().polygon = 0;
+    model.triangle_part.resize(triangles_.size());
+    for (std::size_t s = 0; s < part_starts_.size(); ++s) {
+      const PartStart& start = part_starts_[s];
+      const bool last = s + 1 == part_starts_.size();
+      const std::size_t triangle_end = last ? triangles_.size() : part_starts_[s + 1].triangle;
+      const std::size_t polygon_end = last ? polygons_.size() : part_starts_[s + 1].polygon;
+      for (std::size_t t = start.triangle; t < triangle_end; ++t)
+        model.triangle_part[t] = start.part;
+      for (std::size_t p = start.polygon; p < polygon_end; ++p) polygons_[p].part = start.part;
+    }
+    model.parts = std::move(parts_);
+  }
   model.name = name_;
   model.mesh.frame_id = "target";
   model.mesh.vertices = Buffer<Eigen::Vector3f>::fromVector(std::move(vertices_));

@@ -23,6 +23,7 @@ namespace cdff::egse {
 struct ModelPolygon {
   std::vector<std::uint32_t> vertices;
   std::uint16_t material = 0;
+  std::uint16_t part = 0;  // index into TargetModel::parts (0 when the model has no parts)
 };
 
 struct TargetModel {
@@ -31,9 +32,14 @@ struct TargetModel {
   std::vector<std::uint16_t> triangle_material;  // index into `materials`, one per triangle
   std::vector<Material> materials;
   std::vector<ModelPolygon> polygons;  // the face model; empty for loaded meshes (triangles serve)
+  /// Named parts ("bus", "antenna", ...), so that a model error can drop one; empty when the
+  /// model has none (then `triangle_part` is empty too).
+  std::vector<std::string> parts;
+  std::vector<std::uint16_t> triangle_part;  // index into `parts`, one per triangle
 
-  /// Ok when the mesh is valid, has vertex normals, one material per triangle in range and
-  /// polygons with at least 3 vertices in range.
+  /// Ok when the mesh is valid, has vertex normals, one material per triangle in range,
+  /// polygons with at least 3 vertices in range, and (with parts) one part per triangle in
+  /// range.
   Status validate() const;
   Eigen::AlignedBox3d bounds() const;
   /// Centre of the bounding box and the radius of the sphere around it that holds every vertex.
@@ -55,6 +61,9 @@ class ModelBuilder {
   /// Uses the built-in material table; returns the index to pass to the add functions.
   std::uint16_t material(MaterialId id);
   std::uint16_t addMaterial(const Material& material);
+  /// Everything added from now on belongs to the part `name` (a new part, or an earlier one of
+  /// that name); a model built without a call has no parts.
+  void beginPart(const std::string& name);
 
   /// A planar convex polygon (counter-clockwise seen from outside), flat-shaded.
   void addPolygon(const std::vector<Eigen::Vector3d>& points, std::uint16_t material);
@@ -88,6 +97,13 @@ class ModelBuilder {
   std::vector<Material> materials_;
   std::vector<int> builtin_index_;  // MaterialId -> index in materials_, or -1
   std::vector<ModelPolygon> polygons_;
+  std::vector<std::string> parts_;
+  // Where each part starts: (first triangle, first polygon, part index), in order.
+  struct PartStart {
+    std::size_t triangle, polygon;
+    std::uint16_t part;
+  };
+  std::vector<PartStart> part_starts_;
 };
 
 /// An edge of the mesh with the normals of the faces on either side, for edge-based trackers:

@@ -94,12 +94,17 @@ Status writePly(const TargetModel& model, const std::filesystem::path& path, boo
                model.mesh.frame_id.c_str());
   for (std::size_t m = 0; m < model.materials.size(); ++m)
     std::fprintf(f, "comment cdff_material %zu %s\n", m, sanitise(model.materials[m].name).c_str());
+  const bool parts = !model.parts.empty();
+  for (std::size_t p = 0; p < model.parts.size(); ++p)
+    std::fprintf(f, "comment cdff_part %zu %s\n", p, sanitise(model.parts[p]).c_str());
   std::fprintf(f, "element vertex %zu\n", model.mesh.vertices.size());
   std::fprintf(f, "property float x\nproperty float y\nproperty float z\n");
   std::fprintf(f, "property float nx\nproperty float ny\nproperty float nz\n");
   std::fprintf(f, "element face %zu\nproperty list uchar uint vertex_indices\n",
                model.mesh.triangles.size());
-  std::fprintf(f, "property ushort material\nend_header\n");
+  std::fprintf(f, "property ushort material\n");
+  if (parts) std::fprintf(f, "property ushort part\n");
+  std::fprintf(f, "end_header\n");
   for (std::size_t i = 0; i < model.mesh.vertices.size(); ++i) {
     const auto& v = model.mesh.vertices[i];
     const auto& n = model.mesh.vertex_normals[i];
@@ -118,6 +123,10 @@ Status writePly(const TargetModel& model, const std::filesystem::path& path, boo
       std::fwrite(&count, 1, 1, f);
       std::fwrite(tri.data(), sizeof(std::uint32_t), 3, f);
       std::fwrite(&material, sizeof(material), 1, f);
+      if (parts) std::fwrite(&model.triangle_part[t], sizeof(std::uint16_t), 1, f);
+    } else if (parts) {
+      std::fprintf(f, "3 %u %u %u %u %u\n", tri[0], tri[1], tri[2], material,
+                   model.triangle_part[t]);
     } else {
       std::fprintf(f, "3 %u %u %u %u\n", tri[0], tri[1], tri[2], material);
     }

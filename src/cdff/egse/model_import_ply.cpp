@@ -75,6 +75,7 @@ struct PlyHeader {
   PlyFormat format = PlyFormat::kAscii;
   std::vector<PlyElement> elements;
   std::map<std::size_t, std::string> material_names;  // from "comment cdff_material i name"
+  std::map<std::size_t, std::string> part_names;      // from "comment cdff_part i name"
   std::size_t body_offset = 0;
   int body_line = 0;
 };
@@ -99,6 +100,11 @@ Result<PlyHeader> parsePlyHeader(const std::string& text, const std::string& fil
         long long index;
         if (parseLong(t[2], index) && index >= 0)
           header.material_names[static_cast<std::size_t>(index)] = std::string(t[3]);
+      }
+      if (t.size() >= 4 && t[1] == "cdff_part") {
+        long long index;
+        if (parseLong(t[2], index) && index >= 0 && index < 65536)
+          header.part_names[static_cast<std::size_t>(index)] = std::string(t[3]);
       }
       continue;
     }
@@ -276,7 +282,7 @@ class PlyBody {
 // Where a mesh's element keeps what the loader reads: the vertex coordinates, the face's vertex
 // list and its material (-1 where the element has no such property).
 struct PlyMeshProperties {
-  int x = -1, y = -1, z = -1, face = -1, material = -1;
+  int x = -1, y = -1, z = -1, face = -1, material = -1, part = -1;
 
   explicit PlyMeshProperties(const PlyElement& element) {
     for (std::size_t p = 0; p < element.properties.size(); ++p) {
@@ -287,6 +293,7 @@ struct PlyMeshProperties {
       if ((name == "vertex_indices" || name == "vertex_index") && element.properties[p].is_list)
         face = static_cast<int>(p);
       if (name == "material" || name == "material_index") material = static_cast<int>(p);
+      if (name == "part") part = static_cast<int>(p);
     }
   }
 };
@@ -296,6 +303,7 @@ struct PlyMesh {
   std::vector<Eigen::Vector3f> positions;
   std::vector<std::array<std::uint32_t, 3>> triangles;
   std::vector<std::size_t> raw_material;  // per triangle, the file's material index
+  std::vector<std::size_t> raw_part;      // per triangle, the file's part index (0 without)
 };
 
 // Reads instance i of `element` (a vertex, a face, or anything else, skipped) into `mesh`.
@@ -306,7 +314,7 @@ Status readPlyMeshElement(PlyBody& body, const PlyElement& element, std::size_t 
   body.setContext(fmt::format("{} {}", element.name, i));
   Eigen::Vector3f p = Eigen::Vector3f::Zero();
   std::vector<std::uint32_t> face;
-  std::size_t material = 0;
+  std::size_t material = 0, part = 0;
   for (std::size_t k = 0; k < element.properties.size(); ++k) {
     const PlyProperty& prop = element.properties[k];
     if (prop.is_list) {
@@ -337,6 +345,8 @@ Status readPlyMeshElement(PlyBody& body, const PlyElement& element, std::size_t 
       }
       if (is_face && static_cast<int>(k) == at.material && value >= 0)
         material = static_cast<std::size_t>(value);
+      if (is_face && static_cast<int>(k) == at.part && value >= 0)
+        part = static_cast<std::size_t>(value);
     }
   }
   CDFF_RETURN_IF_ERROR(body.endElement());
@@ -348,6 +358,7 @@ Status readPlyMeshElement(PlyBody& body, const PlyElement& element, std::size_t 
     for (std::size_t j = 1; j + 1 < face.size(); ++j) {
       mesh.triangles.push_back({face[0], face[j], face[j + 1]});
       mesh.raw_material.push_back(material);
+      mesh.raw_part.push_back(part);
     }
   }
   return Status::ok();
@@ -385,8 +396,21 @@ Result<TargetModel> loadPly(const std::filesystem::path& path, const MeshLoadOpt
     auto it = header->material_names.find(m);
     triangle_material.push_back(table.index(it != header->material_names.end() ? it->second : ""));
   }
-  return finish(path.stem().string(), std::move(mesh.positions), mesh.triangles, triangle_material,
-                table.take(), options, path);
+  auto model = finish(path.stem().string(), std::move(mesh.positions), mesh.triangles,
+                      triangle_material, table.take(), options, path);
+  if (!model || header->part_names.empty()) return model;
+  // The named parts of a PLY written by cdff (writePly): a part without a name comment gets
+  // part_<index>.
+  for (std::size_t p : mesh.raw_part)
+    if (!header->part_names.contains(p)) header->part_names[p] = fmt::format("part_{}", p);
+  std::map<std::size_t, std::uint16_t> index;
+  for (const auto& [p, name] : header->part_names) {
+    index[p] = static_cast<std::uint16_t>(model->parts.size());
+    model->parts.push_back(name);
+  }
+  for (std::size_t p : mesh.raw_part) model->triangle_part.push_back(index[p]);
+  CDFF_RETURN_IF_ERROR(model->validate().withContext(file));
+  return model;
 }
 
 Result<PointCloud> readPointCloudPly(const std::filesystem::path& path) {

@@ -33,6 +33,7 @@ Eigen::Matrix3d zTo(const Eigen::Vector3d& axis) {
 }  // namespace
 
 Status TargetSpec::validate() const {
+  if (kind == TargetKind::kHexagonal) return hexagonal.validate();
   CDFF_RETURN_IF_ERROR(positive(bus_size.x(), "bus_size[0]"));
   CDFF_RETURN_IF_ERROR(positive(bus_size.y(), "bus_size[1]"));
   CDFF_RETURN_IF_ERROR(positive(bus_size.z(), "bus_size[2]"));
@@ -102,6 +103,7 @@ void addSolarWings(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector3
                    const TargetMaterials& m) {
   const auto structure = m.structure, panel_back = m.panel_back, cells = m.cells;
   for (int side : {-1, 1}) {
+    b.beginPart(side > 0 ? "wing_left" : "wing_right");
     // Yoke: a thin strut from the +-y face to the first panel.
     const double yoke_y = h.y() + spec.yoke_length / 2;
     b.addBox(at({0, side * yoke_y, 0}), {0.02, spec.yoke_length / 2, 0.02}, structure);
@@ -130,6 +132,7 @@ void addAdapterRing(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector
   const double ro = spec.ring_diameter / 2, ri = ro - spec.ring_wall;
   const double hr = spec.ring_height, flange = spec.ring_flange_width;
   const double lip = std::min(0.02, hr / 3);
+  b.beginPart("adapter_ring");
   b.addRevolution(base, {{ro, 0.0}, {ro, hr - lip}}, spec.segments, ring, true);
   b.addAnnulus(at(base * Eigen::Vector3d(0, 0, hr - lip), R), ro, ro + flange, spec.segments, ring,
                false);
@@ -137,6 +140,7 @@ void addAdapterRing(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector
   b.addAnnulus(at(base * Eigen::Vector3d(0, 0, hr), R), ri, ro + flange, spec.segments, ring, true);
   b.addRevolution(base, {{ri, 0.0}, {ri, hr}}, spec.segments, ring, false);
   if (spec.launcher_brackets) {
+    b.beginPart("launcher_brackets");
     // Four brackets on the deck, outside the ring, at 45 degrees.
     for (int k = 0; k < 4; ++k) {
       const double a = M_PI / 4 + k * M_PI / 2;
@@ -152,6 +156,7 @@ void addAdapterRing(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector
 void addThrusters(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector3d& h,
                   const TargetMaterials& m) {
   const auto thruster = m.thruster;
+  b.beginPart("thrusters");
   const Eigen::Matrix3d R = zTo(-Eigen::Vector3d::UnitX());
   const double inset = 0.08;
   for (int sy : {-1, 1})
@@ -170,6 +175,7 @@ void addThrusters(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector3d
 void addAntenna(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector3d& h,
                 const TargetMaterials& m) {
   const auto antenna = m.antenna, structure = m.structure;
+  b.beginPart("antenna");
   // Mast from the +z face, then a parabolic dish opening towards +z.
   const double mast_r = 0.025;
   const Eigen::Vector3d base(0.15 * spec.bus_size.x(), 0, h.z());
@@ -194,12 +200,15 @@ void addAntenna(ModelBuilder& b, const TargetSpec& spec, const Eigen::Vector3d& 
 }  // namespace
 
 Result<TargetModel> makeTargetSatellite(const TargetSpec& spec) {
-  CDFF_RETURN_IF_ERROR(spec.validate());
+  TargetSpec satellite = spec;
+  satellite.kind = TargetKind::kSatellite;
+  CDFF_RETURN_IF_ERROR(satellite.validate());
   ModelBuilder b("target_satellite");
   const TargetMaterials m(b);
   const Eigen::Vector3d h = spec.bus_size / 2;
   // Bus: -x aft deck in silver MLI (the ring stands on it), +x and +-z in gold MLI, +-y
   // radiators.
+  b.beginPart("bus");
   b.addBox(Eigen::Isometry3d::Identity(), h,
            {m.silver, m.gold, m.radiator, m.radiator, m.gold, m.gold});
   if (spec.solar_wings) addSolarWings(b, spec, h, m);
@@ -209,6 +218,11 @@ Result<TargetModel> makeTargetSatellite(const TargetSpec& spec) {
   TargetModel model = b.build();
   CDFF_RETURN_IF_ERROR(model.validate());
   return model;
+}
+
+Result<TargetModel> makeProceduralTarget(const TargetSpec& spec) {
+  if (spec.kind == TargetKind::kHexagonal) return makeHexagonalSatellite(spec.hexagonal);
+  return makeTargetSatellite(spec);
 }
 
 Status ServicerSpec::validate() const {

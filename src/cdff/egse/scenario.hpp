@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "cdff/egse/calibration_error.hpp"
 #include "cdff/egse/camera_sensor.hpp"
 #include "cdff/egse/imu.hpp"
 #include "cdff/egse/model_io.hpp"
@@ -138,6 +139,9 @@ struct Scenario {
   bool earth = true;  // drawn when the orbit is enabled
 
   std::vector<SensorConfig> sensors;
+  /// The calibrations published differ from those simulated by this drawn error (none by
+  /// default); the truth channels keep the true ones.
+  CalibrationErrorSpec calibration_error;
   std::vector<FaultConfig> faults;
   double truth_rate = 50.0;  // Hz
   bool truth_camera_depth = false;

@@ -56,6 +56,50 @@ namespace {
 
 // ----------------------------------------------------------------------------- the file
 
+const Table<CalibrationErrorSpec>& calibrationErrorTable() {
+  using C = CalibrationErrorSpec;
+  static const Table<CalibrationErrorSpec> table =
+      Table<CalibrationErrorSpec>(
+          "the calibration error {seed, extrinsic_angle_deg, extrinsic_position, "
+          "intrinsics_fraction, distribution, sensors}")
+          .optional("seed",
+                    [](const Field& f, C& c) -> Status {
+                      std::uint64_t seed = 0;
+                      CDFF_RETURN_IF_ERROR(f.read(seed));
+                      c.seed = seed;
+                      return Status::ok();
+                    })
+          .optional("extrinsic_angle_deg",
+                    degrees(&C::extrinsic_angle, Range::closed(0, 10, "deg")))
+          .optional("extrinsic_position",
+                    schema::number(&C::extrinsic_position, Range::closed(0, 1, "m")))
+          .optional("intrinsics_fraction",
+                    schema::number(&C::intrinsics_fraction, Range::closed(0, 0.49)))
+          .optional("distribution",
+                    schema::named(&C::distribution,
+                                  {{"gaussian", CalibrationErrorDistribution::kGaussian},
+                                   {"fixed", CalibrationErrorDistribution::kFixed}}))
+          .optional("sensors", [](const Field& f, C& c) {
+            return f.words(c.sensors, "a list of sensor names");
+          });
+  return table;
+}
+
+// After the sensors: the names it lists must be sensors of the scenario.
+Status readCalibrationError(const Field& f, Scenario& sc) {
+  CDFF_RETURN_IF_ERROR(calibrationErrorTable().read(f, sc.calibration_error));
+  for (std::size_t i = 0; i < sc.calibration_error.sensors.size(); ++i) {
+    const std::string& name = sc.calibration_error.sensors[i];
+    if (sc.sensor(name)) continue;
+    std::vector<std::string> known;
+    for (const SensorConfig& s : sc.sensors) known.push_back(s.name);
+    return f["sensors"][i].fail(
+        fmt::format("one of the scenario's sensors ({})", fmt::join(known, ", ")),
+        fmt::format("no sensor '{}'", name));
+  }
+  return sc.calibration_error.validate().withContext(f.path()).at(f.location());
+}
+
 const Table<ScenarioDraft>& scenarioTable() {
   // Rows are read in this order: the renderer before the sensors (cameras take its shadow map
   // size), the sensors before the faults (which name them).
@@ -80,6 +124,7 @@ const Table<ScenarioDraft>& scenarioTable() {
                       return backgroundTable().read(f, s);
                     }))
           .optional("sensors", readSensors)
+          .optional("calibration_error", inScenario(readCalibrationError))
           .optional("faults", readFaults)
           .optional("truth", inScenario([](const Field& f, Scenario& s) {
                       return truthTable().read(f, s);
@@ -107,8 +152,7 @@ void finish(ScenarioDraft& draft) {
 Result<Scenario> readScenario(schema::Document document, const std::vector<std::string>& overrides,
                               const std::filesystem::path& base) {
   for (const std::string& text : overrides) {
-    Result<schema::Override> o =
-        schema::parseOverride(text, "sensors.lidar.range_noise=0.05");
+    Result<schema::Override> o = schema::parseOverride(text, "sensors.lidar.range_noise=0.05");
     if (!o) return o.status();
     CDFF_RETURN_IF_ERROR(schema::applyOverride(document, *o));
   }

@@ -24,11 +24,39 @@ Status readModel(const Field& f, ScenarioDraft& d) {
   return Status::ok();
 }
 
+const Table<HexagonalTargetSpec>& hexagonalTable() {
+  using T = HexagonalTargetSpec;
+  const auto metres = [](double low, double high) { return Range::leftOpen(low, high, "m"); };
+  static const Table<HexagonalTargetSpec> table =
+      Table<HexagonalTargetSpec>("the hexagonal target's dimensions")
+          .optional("bus_diameter", schema::number(&T::bus_diameter, metres(0, 20)))
+          .optional("bus_length", schema::number(&T::bus_length, metres(0, 20)))
+          .optional("panels", schema::integer(&T::panels, 0, 8))
+          .optional("panel_size",
+                    [](const Field& f, T& s) -> Status {
+                      std::vector<double> v;
+                      CDFF_RETURN_IF_ERROR(f.numbers(v, 2, 2));
+                      s.panel_size = {v[0], v[1]};
+                      return Status::ok();
+                    })
+          .optional("panel_thickness", schema::number(&T::panel_thickness, metres(0, 1)))
+          .optional("yoke_length", schema::number(&T::yoke_length, metres(0, 10)))
+          .optional("wing_angle_deg", degrees(&T::wing_angle, Range::closed(-180, 180, "deg")))
+          .optional("boom_length", schema::number(&T::boom_length, Range::closed(0, 20, "m")))
+          .optional("nozzle_length", schema::number(&T::nozzle_length, Range::closed(0, 5, "m")))
+          .optional("nozzle_exit_diameter", schema::number(&T::nozzle_exit_diameter, metres(0, 10)))
+          .optional("segments", schema::integer(&T::segments, 8, 256));
+  return table;
+}
+
 const Table<TargetSpec>& proceduralTable() {
   using T = TargetSpec;
   const auto metres = [](double low, double high) { return Range::leftOpen(low, high, "m"); };
   static const Table<TargetSpec> table =
-      Table<TargetSpec>("the procedural target's dimensions")
+      Table<TargetSpec>("the procedural target's kind and dimensions")
+          .optional("kind", schema::named(&T::kind, {{"satellite", TargetKind::kSatellite},
+                                                     {"hexagonal", TargetKind::kHexagonal}}))
+          .optional("hexagonal", schema::nested(&T::hexagonal, hexagonalTable()))
           .optional("bus_size", vec3(&T::bus_size))
           .optional("solar_wings", schema::flag(&T::solar_wings))
           .optional("panels_per_wing", schema::integer(&T::panels_per_wing, 1, 8))
@@ -64,6 +92,18 @@ const Table<TargetSpec>& proceduralTable() {
 
 Status readProcedural(const Field& f, Scenario& sc) {
   CDFF_RETURN_IF_ERROR(proceduralTable().read(f, sc.target_spec));
+  // Each kind has its own keys: the satellite's at this level, the hexagonal one's under
+  // `hexagonal`; a key of the other kind would be silently ignored.
+  if (f.isMap())
+    for (const Field::Entry& entry : f.entries()) {
+      const bool hexagonal = sc.target_spec.kind == TargetKind::kHexagonal;
+      if (entry.key == "kind" || (entry.key == "hexagonal") == hexagonal) continue;
+      return entry.value.fail(
+          hexagonal ? "the hexagonal target's keys under target.procedural.hexagonal"
+                    : "the hexagonal target's keys only with target.procedural.kind: hexagonal",
+          fmt::format("'{}' does not apply to kind {}", entry.key,
+                      hexagonal ? "hexagonal" : "satellite"));
+    }
   return sc.target_spec.validate().withContext(f.path()).at(f.location());
 }
 

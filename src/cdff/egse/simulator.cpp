@@ -18,6 +18,9 @@ struct Simulator::SensorState {
   std::uint64_t index = 0;  // measurements so far
   Eigen::Isometry3d servicer_T_frame = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d frame_T_servicer = Eigen::Isometry3d::Identity();
+  // The calibration error drawn for this sensor (zero without `calibration_error`): what its
+  // published mounting and intrinsics differ by from the true ones.
+  SensorCalibrationError calibration_error;
   std::optional<CameraSensor> camera;
   std::optional<LidarSensor> lidar;
   std::optional<TofSensor> tof;
@@ -137,20 +140,22 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
   return sim;
 }
 
+Result<TargetModel> makeScenarioTarget(const Scenario& sc) {
+  if (sc.procedural_target) return makeProceduralTarget(sc.target_spec);
+  auto model = loadModel(sc.target_mesh, sc.mesh_options);
+  if (!model) return model.status();
+  Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
+  R.linear() = sc.mesh_rotation.toRotationMatrix();
+  TargetModel target = transformModel(*model, R);
+  target.mesh.frame_id = "target";
+  return target;
+}
+
 Status Simulator::loadModels() {
   const Scenario& sc = scenario_;
-  if (sc.procedural_target) {
-    auto model = makeTargetSatellite(sc.target_spec);
-    if (!model) return model.status();
-    target_ = std::move(model).value();
-  } else {
-    auto model = loadModel(sc.target_mesh, sc.mesh_options);
-    if (!model) return model.status();
-    Eigen::Isometry3d R = Eigen::Isometry3d::Identity();
-    R.linear() = sc.mesh_rotation.toRotationMatrix();
-    target_ = transformModel(*model, R);
-    target_.mesh.frame_id = "target";
-  }
+  auto target = makeScenarioTarget(sc);
+  if (!target) return target.status();
+  target_ = std::move(target).value();
   if (sc.servicer_mockup) {
     auto mockup = makeServicerMockup(sc.servicer_spec);
     if (!mockup) return mockup.status();
@@ -166,6 +171,7 @@ Status Simulator::createSensors(bool& cameras, bool& rays) {
     state->config = &s;
     state->servicer_T_frame = s.servicerTframe();
     state->frame_T_servicer = state->servicer_T_frame.inverse();
+    state->calibration_error = drawCalibrationError(scenario_.calibration_error, seed_, s.name);
     switch (s.type) {
       case SensorType::kCamera: {
         auto camera = CameraSensor::create(s.camera, s.name);
@@ -298,10 +304,21 @@ Status Simulator::begin(SimulationSink& sink) {
   mesh.stamp = 0;
   mesh.frame_id = "target";
   queue("/truth/target_mesh", 0, std::move(mesh));
-  // Static transforms: every sensor's mounting.
-  for (const auto& s : sensors_)
-    queue("/chaser/tf/" + s->config->frame(), 0,
-          toTransform(s->servicer_T_frame, "servicer", s->config->frame(), 0));
+  // Static transforms: every sensor's mounting as calibrated (with the calibration error); with
+  // a calibration error, the true mountings and intrinsics as truth.
+  const bool calibration_error = scenario_.calibration_error.active();
+  for (const auto& s : sensors_) {
+    const std::string frame = s->config->frame();
+    queue("/chaser/tf/" + frame, 0,
+          toTransform(perturbedMounting(s->servicer_T_frame, s->calibration_error), "servicer",
+                      frame, 0));
+    if (!calibration_error) continue;
+    queue("/truth/tf/" + frame, 0, toTransform(s->servicer_T_frame, "servicer", frame, 0));
+    const SensorConfig& c = *s->config;
+    if (c.type == SensorType::kCamera || c.type == SensorType::kTof)
+      queue("/truth/" + c.name + "/calibration", 0,
+            CameraInfo{0, frame, c.type == SensorType::kCamera ? c.camera.model : c.tof.model});
+  }
   time_ = 0;
   done_ = false;
   return Status::ok();
@@ -469,8 +486,11 @@ Status Simulator::processCamera(SensorState& sensor, double t, Timestamp availab
   if (!frame) return frame.status().withContext(c.name);
   frame->image.stamp = stamp;
   frame->image.frame_id = c.frame();
+  // The image carries the calibration as published (with the calibration error).
+  const CameraModel calibrated = perturbedIntrinsics(c.camera.model, sensor.calibration_error);
+  frame->image.camera = calibrated;
   queue(prefix + "/image", available, frame->image);
-  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.camera.model});
+  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), calibrated});
   if (scenario_.truth_camera_depth) {
     frame->depth.image.stamp = stamp;
     frame->depth.image.frame_id = c.frame();
@@ -562,8 +582,10 @@ Status Simulator::processTof(SensorState& sensor, double t, Timestamp available,
   if (!depth) return depth.status().withContext(c.name);
   depth->image.stamp = stamp;
   depth->image.frame_id = c.frame();
+  const CameraModel calibrated = perturbedIntrinsics(c.tof.model, sensor.calibration_error);
+  if (depth->image.camera) depth->image.camera = calibrated;
   queue(prefix + "/depth", available, std::move(depth).value());
-  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), c.tof.model});
+  queue(prefix + "/calibration", available, CameraInfo{stamp, c.frame(), calibrated});
   queue("/truth/" + c.name + "/target_pose", stamp,
         truthState(c.frame(), sensor.frame_T_servicer, t).poseWithCovariance());
   return Status::ok();

@@ -31,6 +31,10 @@
 
 namespace cdff::egse {
 
+/// The scenario's target model as the simulator uses it: the procedural target its spec selects,
+/// or its mesh file loaded and turned by `target.mesh.rpy_deg`.
+Result<TargetModel> makeScenarioTarget(const Scenario& scenario);
+
 /// Called as simulated time advances (about every 1 % of the run).
 using ProgressCallback = std::function<void(double time, double duration)>;
 
