@@ -156,35 +156,49 @@ INSTANTIATE_TEST_SUITE_P(EvaluationDraws, SecondTargetTumblingDraws,
 // flipped, edges split to 10 cm): every model error of the issue at once.
 using ModelErrors = ScenarioCase;
 
-TEST_P(ModelErrors, AWrongModelKeepsTheTrackWithinTwiceTheGoals) {
-  const Case& c = GetParam();
+Result<TrackingResult> trackWithModelErrors(const Case& c) {
   Result<egse::TargetModel> target = egse::makeTargetSatellite();
-  ASSERT_OK(target.status());
+  if (!target) return target.status();
   egse::ModelPerturbation p;
   p.scale_error = Eigen::Vector3d::Constant(0.01);
   p.remove_parts = {"antenna"};
   p.flip_diagonals = true;
   p.max_edge = 0.1;
   Result<egse::TargetModel> wrong = egse::perturbModel(*target, p);
-  ASSERT_OK(wrong.status());
+  if (!wrong) return wrong.status();
   const auto file = std::filesystem::temp_directory_path() /
                     ("cdff_wrong_model_" + std::to_string(::getpid()) + ".ply");
-  ASSERT_OK(egse::writePly(*wrong, file));
+  CDFF_RETURN_IF_ERROR(egse::writePly(*wrong, file));
   Result<TrackingResult> r = trackDraw(c.scenario, c.extra_yaml, {}, file);
   std::filesystem::remove(file);
+  return r;
+}
+
+TEST_P(ModelErrors, AWrongModelKeepsTheTrackWithinTwiceTheGoals) {
+  const Case& c = GetParam();
+  Result<TrackingResult> r = trackWithModelErrors(c);
   ASSERT_OK(r.status());
   print("model_errors_" + c.scenario, *r);
   expectWithin(*r, withErrors(c));
 }
 
-// The tumbling target with every model error at once is not within them: its accuracy is, but
-// the registrations' covariance does not include the model error, so the EKF gates out three
-// in a row now and then and the track is LOST for a few scans, under 99 % tracked (figures in
-// docs/lidar-tracking.md, "Another target, model errors and calibration errors"). Run with
-// --gtest_also_run_disabled_tests.
 INSTANTIATE_TEST_SUITE_P(Scenarios, ModelErrors, ::testing::Values(cases()[0], cases()[1]),
                          caseName);
-INSTANTIATE_TEST_SUITE_P(DISABLED_Limit, ModelErrors, ::testing::Values(cases()[2]), caseName);
+
+// The tumbling target with every model error at once: its accuracy is within the goals, but the
+// registrations' covariance does not include the model error, so the EKF gates out three in a
+// row now and then and the track is LOST for a few scans: 97.7 % tracked against the 99 % goal
+// (docs/lidar-tracking.md, "Another target, model errors and calibration errors"). Asserted:
+// the accuracy goals, and the tracked fraction against a regression below today's.
+TEST(ModelErrorsTumbling, TheAccuracyHoldsAndTheTrackedFractionKeepsTodaysFigure) {
+  const Case c = cases()[2];  // a copy: cases() returns a temporary
+  Result<TrackingResult> r = trackWithModelErrors(c);
+  ASSERT_OK(r.status());
+  print("model_errors_" + c.scenario, *r);
+  EXPECT_LE(r->evaluation.position_error_pct_range.p95, c.goal.position_pct);
+  EXPECT_LE(r->evaluation.angle_error_deg.p95, c.goal.angle_deg);
+  EXPECT_GE(r->tracked_fraction, 0.96);
+}
 
 // The LIDAR's published mounting off by the issue's 0.2 degrees and 2 mm (Gaussian, RMS sizes,
 // drawn from the draw's simulator seed).
