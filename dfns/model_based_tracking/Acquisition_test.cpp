@@ -99,6 +99,43 @@ TEST(Prediction, ItsSpreadInTheImageGrowsWithItsUncertainty) {
   EXPECT_NEAR(modelSizePx(*model, frame, predicted, 0.01), 2 * model->radius * 600, 1e-9);
 }
 
+// The visible spread (the acquisition's trigger) projects the whole covariance: it follows the
+// uncertainty like the bound, stays within it, and a lateral offset and a rotation that
+// compensate each other in the image (correlated so) do not add up as the bound adds them.
+TEST(Prediction, ItsVisibleSpreadProjectsTheCovarianceWithItsCorrelations) {
+  Result<TrackingModel> model = TrackingModel::build(testing::lShapeModel(0.1), {});
+  ASSERT_OK(model.status());
+  const CameraFrame frame{nullptr, testing::pinholeCamera(640, 480, 600),
+                          Transform::identity("camera", "camera")};
+  PoseWithCovariance predicted;
+  predicted.pose = pose(Eigen::Vector3d(0, 0, 1) - model->centre);
+  predicted.covariance.diagonal() << Eigen::Vector3d::Constant(1e-4),
+      Eigen::Vector3d::Constant(1e-4);
+  const double spread = visibleSpreadPx(*model, frame, predicted, 3, 0.01);
+  // 3 sigma of 1 cm laterally on each of two axes at 1 m and 600 px: at least 25 px.
+  EXPECT_GT(spread, 3 * std::sqrt(2e-4) * 600);
+  EXPECT_LE(spread, predictionSpreadPx(*model, frame, predicted, 3, 0.01));
+  predicted.covariance *= 4;
+  EXPECT_NEAR(visibleSpreadPx(*model, frame, predicted, 3, 0.01), 2 * spread, 1e-9);
+  EXPECT_EQ(visibleSpreadPx(*model, frame, predicted, 0, 0.01), 0);  // acquisition off
+  // A model 1 m in front of its origin (towards the camera): a rotation about the origin's y axis
+  // moves it sideways as a lateral offset does, so a lateral offset and a rotation correlated to
+  // cancel each other (dx = +dtheta_y, in m and rad) leave it (almost) in place. Each alone
+  // spreads as the bound says; together, far less.
+  PolygonModel shifted = testing::lShapeModel(0.1);
+  for (Eigen::Vector3d& p : shifted.points) p.z() -= 1.0;
+  Result<TrackingModel> far = TrackingModel::build(shifted, {});
+  ASSERT_OK(far.status());
+  const double s = 0.01;  // m and rad
+  predicted.covariance.setZero();
+  predicted.covariance(0, 0) = predicted.covariance(4, 4) = s * s;
+  predicted.covariance(0, 4) = predicted.covariance(4, 0) = s * s;
+  predicted.pose = pose(Eigen::Vector3d(0, 0, 2));  // the model 1 m in front of the camera
+  EXPECT_GT(visibleSpreadPx(*far, frame, predicted, 3, 0.01), 0);
+  EXPECT_LT(visibleSpreadPx(*far, frame, predicted, 3, 0.01),
+            0.25 * predictionSpreadPx(*far, frame, predicted, 3, 0.01));
+}
+
 TEST(AcquisitionGate, AdmitsWhatTheCovarianceCovers) {
   const Transform predicted = pose(Eigen::Vector3d(0, 0, 2));
   const Matrix6d covariance = Matrix6d::Identity() * 1e-4;  // 1 cm, 0.01 rad

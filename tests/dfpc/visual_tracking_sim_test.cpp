@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 
+#include "cdff/eval/draws.hpp"
 #include "simulated_approach.hpp"
 #include "support/synthetic.hpp"
 
@@ -35,6 +37,8 @@ void record(const std::string& tag, const ApproachResult& r) {
       f.nees_mean, 100 * f.within_95_fraction);
   std::printf("  CPU per frame: max %.1f ms (usually the acquisition frame)\n",
               r.cpu_per_frame_s.max * 1e3);
+  if (r.lost > 0)  // why frames were lost: the DFNs' first warnings
+    for (const std::string& w : r.warnings) std::printf("  warning: %s\n", w.c_str());
 }
 
 // Tracked throughout (no frame LOST, no divergence left unreported, no DFN error) over at least
@@ -47,6 +51,19 @@ void expectTrackedWithinTheMidRangeGoals(const ApproachResult& r, std::size_t mi
   EXPECT_LE(r.filtered.position_error_pct_range.p95, 1.0);
   EXPECT_LE(r.filtered.angle_error_deg.p95, 1.0);
   EXPECT_EQ(r.dfn_errors, 0u);
+}
+
+// The covariance's goal (docs/visual-tracking.md, "Covariance"): a pose NEES mean within a factor
+// 2 of 6 (honest: 6), for the tracker's measurement and the filtered pose; and a regression
+// bound, 1.5 x `measured` (the largest measured on 2026-12-04: of the evaluation draws in the draw
+// tests).
+void expectHonestCovariance(const ApproachResult& r, double measured) {
+  for (const eval::CovarianceConsistency* c : {&r.measurement.covariance, &r.filtered.covariance}) {
+    EXPECT_GT(c->count, 0u);
+    EXPECT_GE(c->nees_mean, 3.0);
+    EXPECT_LE(c->nees_mean, 12.0);
+    EXPECT_LE(c->nees_mean, 1.5 * measured);
+  }
 }
 
 // Close range, 2 m -> 0.5 m from the adapter ring (issue: position p95 <= 10 mm, angle p95 <=
@@ -63,6 +80,7 @@ TEST(VisualTrackingSimulated, CloseRangeApproachMono) {
   EXPECT_LE(r->filtered.position_error_m.p95, 0.010);
   EXPECT_LE(r->filtered.angle_error_deg.p95, 0.5);
   EXPECT_EQ(r->dfn_errors, 0u);
+  expectHonestCovariance(*r, 4.2);
 }
 
 // Mid range, 17 m -> 2 m, from the prescribed 5 % / 5 degree initial error (issue: position p95
@@ -80,6 +98,7 @@ TEST(VisualTrackingSimulated, MidRangeApproachFromAPerturbedPoseIsAcquiredAndTra
   ASSERT_OK(r.status());
   record("mid_range_mono_5pct_full", *r);
   expectTrackedWithinTheMidRangeGoals(*r, 170u);
+  expectHonestCovariance(*r, 4.4);
 }
 
 // The same acquisition through the stereo graph (acquisition_coarse_search on there too: the
@@ -140,6 +159,7 @@ TEST(VisualTrackingSimulated, MidRangeApproachIsTrackedOnceAcquired) {
   ASSERT_OK(r.status());
   record("mid_range_mono_acquired", *r);
   expectTrackedWithinTheMidRangeGoals(*r, 170u);
+  expectHonestCovariance(*r, 4.4);
 }
 
 // One camera of the stereo pair dark for 4 s, then dropping frames: tracking carries on with the
@@ -166,6 +186,7 @@ TEST(VisualTrackingSimulated, CloseRangeStereoCarriesOnWhenACameraFails) {
     EXPECT_LT(std::abs(r->position_error_m[i] - r->position_error_m[i - 1]), 0.010)
         << "at " << r->stamps_s[i] << " s";
   EXPECT_LE(r->filtered.position_error_m.p95, 0.010);
+  expectHonestCovariance(*r, 4.8);
 }
 
 // The seed's two lighting boundary conditions: degradation is allowed, divergence without a LOST
@@ -196,6 +217,88 @@ TEST(VisualTrackingSimulated, SpecularGlareIsTrackedDegraded) {
   EXPECT_EQ(r->lost, 0u);
   EXPECT_LE(r->filtered.position_error_pct_range.p95, 1.0);
   EXPECT_LE(r->filtered.angle_error_deg.p95, 1.0);
+}
+
+// The evaluation draws of data/evaluation/draws.yaml a draw test runs: the first `ci` of them, or
+// the first N with CDFF_VT_DRAWS=N (the figures of docs/visual-tracking.md).
+std::vector<eval::Draw> evaluationDraws() {
+  Result<eval::DrawSets> sets =
+      eval::loadDrawSets(std::string(CDFF_SOURCE_DIR) + "/data/evaluation/draws.yaml");
+  EXPECT_OK(sets.status());
+  if (!sets) return {};
+  const char* n = std::getenv("CDFF_VT_DRAWS");
+  return sets->evaluationDraws(n ? std::strtoull(n, nullptr, 10) : 2);
+}
+
+// Runs `o` on each evaluation draw (its simulator seed and its initial error's seed); prints each
+// draw's row and the NEES over all of them; returns the runs.
+std::vector<ApproachResult> runDraws(ApproachOptions o, const std::string& tag) {
+  std::vector<ApproachResult> runs;
+  double measurement = 0, filtered = 0;
+  for (const eval::Draw& d : evaluationDraws()) {
+    o.seed = d.simulator_seed;
+    o.initial_seed = static_cast<std::uint32_t>(d.initial_error_seed);
+    Result<ApproachResult> r = runApproach(o);
+    EXPECT_OK(r.status());
+    if (!r) continue;
+    record(tag + "_draw_" + std::to_string(d.number), *r);
+    measurement += r->measurement.covariance.nees_mean;
+    filtered += r->filtered.covariance.nees_mean;
+    runs.push_back(std::move(r).value());
+  }
+  if (!runs.empty())
+    std::printf("%s over %zu draws: NEES mean measurement %.2f, filtered pose %.2f\n", tag.c_str(),
+                runs.size(), measurement / runs.size(), filtered / runs.size());
+  return runs;
+}
+
+// The draw tests start from within the tracker's own accuracy (0.2 % of the range and 0.2 degrees
+// in a direction drawn with the draw) and measure the covariance over the track. The acquisition
+// from 5 % / 5 degrees on independent draws is issue 16's separate item: on the first four
+// evaluation draws it locks onto a wrong alignment on two at close range, before and after the
+// covariance's change (docs/visual-tracking.md, "Covariance").
+ApproachOptions trackedFromTheStart(const std::string& scenario) {
+  ApproachOptions o;
+  o.scenario = scenario;
+  o.initial_range_fraction = 0.002;
+  o.initial_angle = 0.2 * M_PI / 180;
+  return o;
+}
+
+// The close-range approach (2 m -> 0.5 m), at 2 Hz: no loss, within the close-range goals
+// (position p95 <= 10 mm, angle p95 <= 0.5 degree), an honest covariance.
+TEST(VisualTrackingSimulatedDraws, CloseRangeCovarianceIsHonest) {
+  for (const ApproachResult& r :
+       runDraws(trackedFromTheStart("close_range_approach"), "close_range_mono")) {
+    EXPECT_EQ(r.lost, 0u);
+    EXPECT_EQ(r.unreported_divergence, 0u);
+    EXPECT_LE(r.filtered.position_error_m.p95, 0.010);
+    EXPECT_LE(r.filtered.angle_error_deg.p95, 0.5);
+    expectHonestCovariance(r, 4.2);
+  }
+}
+
+// Stereo, the first 30 s of the close-range approach (both cameras working).
+TEST(VisualTrackingSimulatedDraws, CloseRangeStereoCovarianceIsHonest) {
+  ApproachOptions o = trackedFromTheStart("close_range_approach");
+  o.stereo = true;
+  o.duration = 30;
+  for (const ApproachResult& r : runDraws(o, "close_range_stereo")) {
+    EXPECT_EQ(r.lost, 0u);
+    EXPECT_EQ(r.unreported_divergence, 0u);
+    EXPECT_LE(r.filtered.position_error_m.p95, 0.010);
+    EXPECT_LE(r.filtered.angle_error_deg.p95, 0.5);
+    expectHonestCovariance(r, 4.8);
+  }
+}
+
+// Mid range (17 m -> 2 m), the whole approach at 2 Hz, within the mid-range goals.
+TEST(VisualTrackingSimulatedDraws, MidRangeCovarianceIsHonest) {
+  for (const ApproachResult& r :
+       runDraws(trackedFromTheStart("mid_range_approach"), "mid_range_mono_acquired")) {
+    expectTrackedWithinTheMidRangeGoals(r, 170u);
+    expectHonestCovariance(r, 4.8);
+  }
 }
 
 }  // namespace

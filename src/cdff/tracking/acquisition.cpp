@@ -27,6 +27,38 @@ double predictionSpreadPx(const TrackingModel& model, const CameraFrame& frame,
   return sigmas * f / z * (lateral + range * r / z + attitude * r);
 }
 
+double visibleSpreadPx(const TrackingModel& model, const CameraFrame& frame,
+                       const PoseWithCovariance& predicted, double sigmas, double near_clipping) {
+  if (sigmas <= 0) return 0;
+  const Matrix6d& c = predicted.covariance;
+  if (!c.allFinite() || c.diagonal().maxCoeff() <= 0 || c.diagonal().maxCoeff() >= 1e5) return 0;
+  const Eigen::Isometry3d r_T_m = predicted.pose.isometry();
+  const Eigen::Isometry3d c_T_r = frame.camera_T_reference.isometry();
+  if ((c_T_r * r_T_m * model.centre).z() <= near_clipping) return 0;
+  const CameraModel& k = frame.camera;
+  // A point x (reference frame) moves by dt + dtheta x (x - t) under the perturbation [dt,
+  // dtheta] (rotation about the model's origin t); its pixel by the projection's Jacobian J of
+  // that.
+  double worst = 0, worst_any = 0;
+  for (const Eigen::Vector3d& p : model.points) {
+    const Eigen::Vector3d x = r_T_m * p;
+    const Eigen::Vector3d xc = c_T_r * x;
+    if (xc.z() <= near_clipping) continue;
+    Eigen::Matrix<double, 3, 6> moves;
+    moves << Eigen::Matrix3d::Identity(), -skew(x - r_T_m.translation());
+    Eigen::Matrix<double, 2, 3> project;
+    project << k.fx / xc.z(), 0, -k.fx * xc.x() / (xc.z() * xc.z()), 0, k.fy / xc.z(),
+        -k.fy * xc.y() / (xc.z() * xc.z());
+    const Eigen::Matrix<double, 2, 6> J = project * c_T_r.linear() * moves;
+    // The root-mean-square displacement over both image axes.
+    const double px = std::sqrt(std::max(0.0, (J * c * J.transpose()).trace()));
+    worst_any = std::max(worst_any, px);
+    const double u = k.fx * xc.x() / xc.z() + k.cx, v = k.fy * xc.y() / xc.z() + k.cy;
+    if (u >= 0 && v >= 0 && u < k.width && v < k.height) worst = std::max(worst, px);
+  }
+  return sigmas * (worst > 0 ? worst : worst_any);
+}
+
 double modelSizePx(const TrackingModel& model, const CameraFrame& frame,
                    const PoseWithCovariance& predicted, double near_clipping) {
   const Eigen::Isometry3d c_T_m = frame.camera_T_reference.isometry() * predicted.pose.isometry();
@@ -140,10 +172,11 @@ struct Acquisition {
     const std::size_t reference = referenceCamera(frame.cameras);
     const CameraFrame& ref = frame.cameras[reference];
     const double near = options.visibility.near_clipping;
-    const double spread = tracker.hasModel() ? predictionSpreadPx(tracker.model(), ref, predicted,
-                                                                  acquisition.sigmas, near)
-                                             : 0;
-    if (spread <= options.search.search_distance) return out;
+    if (!tracker.hasModel() || visibleSpreadPx(tracker.model(), ref, predicted, acquisition.sigmas,
+                                               near) <= options.search.search_distance)
+      return out;
+    const double spread =
+        predictionSpreadPx(tracker.model(), ref, predicted, acquisition.sigmas, near);
     out.ran = true;
     const int levels = acquisitionLevels(spread, options.search.search_distance,
                                          modelSizePx(tracker.model(), ref, predicted, near));
@@ -159,7 +192,16 @@ struct Acquisition {
   bool lateralAccepted(const AcquisitionResult& r, bool coarse_placed) const {
     return r.acquired && r.tracking.status != TrackingStatus::kLost &&
            (coarse_placed || r.tracking.status == TrackingStatus::kTracking) &&
-           testGate(r.tracking.reference_T_model, predicted.pose, predicted.covariance).admitted;
+           testGate(r.tracking.reference_T_model, predicted.pose, gateCovariance(r.tracking))
+               .admitted;
+  }
+
+  // The covariance of the acquired pose's difference from the prediction: the prediction's plus
+  // the estimate's own (the estimate is a measurement with its error, not the truth).
+  Matrix6d gateCovariance(const TrackingResult& t) const {
+    Matrix6d c = predicted.covariance;
+    if (t.status != TrackingStatus::kLost && t.covariance.allFinite()) c += t.covariance;
+    return c;
   }
 
   // The plain hypothesis from `start`: its result replaces the lateral-first one when that is not
@@ -198,13 +240,14 @@ struct Acquisition {
     } else if (t.status == TrackingStatus::kLost) {
       t.reference_T_model = predicted.pose;
     } else if (r.ran) {
-      const GateTest test = testGate(t.reference_T_model, predicted.pose, predicted.covariance);
+      const GateTest test = testGate(t.reference_T_model, predicted.pose, gateCovariance(t));
       if (test.admitted) return;
       const Vector6d d = poseDifference(t.reference_T_model, predicted.pose);
       t.status = TrackingStatus::kLost;
       t.reason = fmt::format(
           "the acquired pose is {:.3f} m and {:.2f} deg from the prediction, a squared "
-          "Mahalanobis distance of {:.1f} under its covariance (gate {:.2f}: chi-square, 6 dof, "
+          "Mahalanobis distance of {:.1f} under its and the estimate's covariance (gate {:.2f}: "
+          "chi-square, 6 dof, "
           "0.999)",
           d.head<3>().norm(), d.tail<3>().norm() * 180 / M_PI, test.distance, kAcquisitionGate);
       t.reference_T_model = predicted.pose;

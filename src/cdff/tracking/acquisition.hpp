@@ -30,13 +30,29 @@ struct AcquisitionOptions {
   bool lateral_first = true;     // the lateral-first hypothesis first (else the plain one only)
 };
 
-/// How far, in pixels, the prediction's uncertainty moves the model's image in `frame`: `sigmas`
-/// standard deviations of the lateral position, of the range (which scales the image about its
-/// centre) and of the attitude (which swings the model's extent). 0 without acquisition (sigmas
-/// 0), for a covariance that is not finite, not positive or of no information (1e5 or more), or
-/// a model centre nearer than `near_clipping`.
+/// How far, in pixels, the prediction's uncertainty may move the model's image in `frame`, as a
+/// bound that sizes the acquisition's pyramid and searches: `sigmas` standard deviations of the
+/// lateral position, of the range (which scales the image about its centre) and of the attitude
+/// (which swings the model's extent), added. 0 without acquisition (sigmas 0), for a covariance
+/// that is not finite, not positive or of no information (1e5 or more), or a model centre nearer
+/// than `near_clipping`.
 double predictionSpreadPx(const TrackingModel& model, const CameraFrame& frame,
                           const PoseWithCovariance& predicted, double sigmas, double near_clipping);
+
+/// How far, in pixels, the prediction's uncertainty moves the visible model's image in `frame`,
+/// which decides whether the acquisition (and the coarse alignment) runs at all: `sigmas`
+/// times the largest root-mean-square displacement of a model point's image, under the pose
+/// covariance projected through the camera, over the model's points that project into the image
+/// (over all points in front when none does). Projecting the full covariance keeps its
+/// correlations: a lateral offset and a rotation that move the visible part of the model alike and
+/// are each uncertain, but not together, do not add up. 0 without acquisition (sigmas 0), for a
+/// covariance that is not finite, not positive or of no information (1e5 or more), or a model
+/// centre nearer than `near_clipping`. The bound above adds the terms, each at its worst: with an
+/// honest covariance (one that does not shrink with the samples per contour) it is 4 times this
+/// spread or more at close range, far beyond the search, where the visible model moves by less than
+/// it.
+double visibleSpreadPx(const TrackingModel& model, const CameraFrame& frame,
+                       const PoseWithCovariance& predicted, double sigmas, double near_clipping);
 
 /// The diameter of the model's bounding sphere in `frame`'s image at the prediction (0 for a
 /// centre nearer than `near_clipping`).

@@ -279,8 +279,9 @@ Result<CoarseAlignment> alignCoarsely(const TrackingModel& model,
   const CameraFrame& frame = frames[reference];
   if (!frame.image) return out;
   const double near = options.visibility.near_clipping;
-  const double spread = predictionSpreadPx(model, frame, predicted, acquisition.sigmas, near);
-  if (spread <= options.search.search_distance) return out;
+  if (visibleSpreadPx(model, frame, predicted, acquisition.sigmas, near) <=
+      options.search.search_distance)
+    return out;
   const double model_px = modelSizePx(model, frame, predicted, near);
   if (model_px >= std::min(frame.camera.width, frame.camera.height)) return out;
   const int level = alignmentLevel(model_px);

@@ -36,7 +36,7 @@ struct CoarseAlignment {
 };
 
 /// Aligns the model's contours in the reference camera's image (the first camera with an image)
-/// with the image's edges, when the prediction's spread there (acquisition.sigmas) exceeds
+/// with the image's edges, when the prediction's visible spread there (visibleSpreadPx) exceeds
 /// options.search.search_distance and the model's image is narrower than the image (a model seen
 /// in part biases the score of its clipped contours towards whatever edges lie inside, and the
 /// acquisition's passes reach far enough there). Skipped, with a note, when the search's window

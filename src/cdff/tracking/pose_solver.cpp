@@ -1,10 +1,13 @@
 #include "cdff/tracking/pose_solver.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "cdff/tracking/contours.hpp"
 
@@ -60,16 +63,84 @@ struct Evaluation {
   double edge_sq = 0, depth_sq = 0;
 };
 
+// One weighted residual of the normal equations, with the cluster it belongs to (a contour chain,
+// in every camera that sees it, or a depth face): H += a J J^T, g += a r J.
+struct Term {
+  std::uint64_t cluster = 0;
+  double a = 0, r = 0;
+  Vector6 J = Vector6::Zero();
+};
+using Terms = std::vector<Term, Eigen::aligned_allocator<Term>>;
+
+// The contour chain of every segment: segments of one model edge, and segments that continue
+// each other at a shared end turning by less than `angle` (the pieces of a tessellated curve),
+// belong to one chain, identified by its smallest segment index.
+std::vector<std::uint32_t> contourChains(const ModelContours& mc, double angle) {
+  const std::size_t n = mc.segments.size();
+  std::vector<std::uint32_t> parent(n);
+  for (std::size_t i = 0; i < n; ++i) parent[i] = static_cast<std::uint32_t>(i);
+  const auto root = [&](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  const auto join = [&](std::uint32_t a, std::uint32_t b) {
+    a = root(a);
+    b = root(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  };
+  std::map<std::uint32_t, std::uint32_t> by_edge;
+  // Segment ends, rounded to 1 um: a model vertex shared by two visible edges.
+  std::map<std::array<std::int64_t, 3>, std::vector<std::uint32_t>> ends;
+  const auto key = [](const Eigen::Vector3d& p) {
+    return std::array<std::int64_t, 3>{std::llround(p.x() * 1e6), std::llround(p.y() * 1e6),
+                                       std::llround(p.z() * 1e6)};
+  };
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const ContourSegment& s = mc.segments[i];
+    const auto [it, fresh] = by_edge.try_emplace(s.edge, i);
+    if (!fresh) join(i, it->second);
+    ends[key(s.a)].push_back(i);
+    ends[key(s.b)].push_back(i);
+  }
+  const double straight = std::cos(angle);
+  for (const auto& [at, segments] : ends) {
+    for (std::size_t x = 0; x < segments.size(); ++x)
+      for (std::size_t y = x + 1; y < segments.size(); ++y) {
+        const ContourSegment& p = mc.segments[segments[x]];
+        const ContourSegment& q = mc.segments[segments[y]];
+        // Directions away from the shared end: a straight continuation points them apart.
+        const Eigen::Vector3d u = key(p.a) == at ? p.b - p.a : p.a - p.b;
+        const Eigen::Vector3d w = key(q.a) == at ? q.b - q.a : q.a - q.b;
+        const double nu = u.norm(), nw = w.norm();
+        if (nu > 0 && nw > 0 && -u.dot(w) >= straight * nu * nw) join(segments[x], segments[y]);
+      }
+  }
+  // Named by the smallest model edge index in the chain, so that the cameras of a rig that see
+  // the same contour put it in the same cluster.
+  std::vector<std::uint32_t> name(n, std::numeric_limits<std::uint32_t>::max());
+  for (std::uint32_t i = 0; i < n; ++i)
+    name[root(i)] = std::min(name[root(i)], mc.segments[i].edge);
+  std::vector<std::uint32_t> chain(n);
+  for (std::uint32_t i = 0; i < n; ++i) chain[i] = name[root(i)];
+  return chain;
+}
+
 class Problem {
  public:
   Problem(std::span<const EdgeView> views, const DepthPoints* depth, const PoseSolverOptions& o)
-      : views_(views), depth_(depth), o_(o) {}
+      : views_(views), depth_(depth), o_(o) {
+    // The chains depend on the contours only, not on the pose: once per solve.
+    for (const EdgeView& v : views_)
+      chains_.push_back(contourChains(*v.samples->contours, o.chain_angle));
+  }
 
   Evaluation evaluate(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
     Evaluation e;
+    terms_.clear();
     edge_r_.clear();
     edge_j_.clear();
     edge_view_.clear();
+    edge_cluster_.clear();
     e.views.resize(views_.size());
     for (std::size_t v = 0; v < views_.size(); ++v) {
       const ContourSamples& cs = *views_[v].samples;
@@ -83,6 +154,9 @@ class Problem {
     if (depth_ && !depth_->points.empty()) addDepthTerms(R, t, e);
     return e;
   }
+
+  /// The weighted residuals of the last evaluate(), with their clusters.
+  const Terms& terms() const { return terms_; }
 
  private:
   struct Line {
@@ -149,6 +223,7 @@ class Problem {
       edge_r_.push_back(best);
       edge_j_.push_back(J);
       edge_view_.push_back(v);
+      edge_cluster_.push_back(chains_[v][s.segment]);
     }
   }
 
@@ -170,6 +245,7 @@ class Problem {
       ++e.used;
       e.H.noalias() += (w * ie) * edge_j_[i] * edge_j_[i].transpose();
       e.g.noalias() += (w * ie * edge_r_[i]) * edge_j_[i];
+      terms_.push_back({edge_cluster_[i], w * ie, edge_r_[i], edge_j_[i]});
     }
   }
 
@@ -194,6 +270,9 @@ class Problem {
                                                static_cast<double>(n);
     const double id = share / (e.sigma_depth * e.sigma_depth);
     e.depth_points = n;
+    // Depth clusters: one per face plane, after every edge cluster (a model edge index, below
+    // 2^32).
+    std::map<std::array<double, 4>, std::uint64_t> faces;
     for (std::size_t i = 0; i < n; ++i) {
       const double w = tukey(depth_r_[i], cd);
       if (w <= 0) continue;
@@ -205,6 +284,9 @@ class Problem {
       J << -nr, nr.cross(depth_->points[i] - t);
       e.H.noalias() += (w * id) * J * J.transpose();
       e.g.noalias() += (w * id * depth_r_[i]) * J;
+      const Eigen::Vector4d& pl = depth_->planes[i];
+      const auto face = faces.try_emplace({pl.x(), pl.y(), pl.z(), pl.w()}, faces.size()).first;
+      terms_.push_back({(std::uint64_t{1} << 63) | face->second, w * id, depth_r_[i], J});
     }
   }
 
@@ -215,7 +297,56 @@ class Problem {
   std::vector<double> edge_r_, depth_r_, abs_;
   std::vector<Vector6, Eigen::aligned_allocator<Vector6>> edge_j_;
   std::vector<std::uint32_t> edge_view_;
+  std::vector<std::uint64_t> edge_cluster_;
+  std::vector<std::vector<std::uint32_t>> chains_;  // per view, per segment
+  Terms terms_;
 };
+
+// The jackknife over the clusters (pose_solver.hpp): sum over clusters c of d_c d_c^T, d_c =
+// (H - H_c)^-1 g_c, at least `floor` (the inverse of the information) in every direction. A
+// cluster without which H is singular (it alone fixes a direction) is counted with H^-1 g_c.
+Matrix6d clusterCovariance(const Terms& terms, const Matrix6d& H, const Matrix6d& floor,
+                           std::size_t& clusters) {
+  std::vector<const Term*> sorted(terms.size());
+  for (std::size_t i = 0; i < terms.size(); ++i) sorted[i] = &terms[i];
+  std::sort(sorted.begin(), sorted.end(),
+            [](const Term* a, const Term* b) { return a->cluster < b->cluster; });
+  const Eigen::LDLT<Matrix6d> full(H);
+  Matrix6d V = Matrix6d::Zero();
+  clusters = 0;
+  for (std::size_t i = 0; i < sorted.size();) {
+    Matrix6d Hc = Matrix6d::Zero();
+    Vector6 gc = Vector6::Zero();
+    std::size_t j = i;
+    for (; j < sorted.size() && sorted[j]->cluster == sorted[i]->cluster; ++j) {
+      Hc.noalias() += sorted[j]->a * sorted[j]->J * sorted[j]->J.transpose();
+      gc.noalias() += (sorted[j]->a * sorted[j]->r) * sorted[j]->J;
+    }
+    i = j;
+    ++clusters;
+    const Eigen::LDLT<Matrix6d> rest(H - Hc);
+    const Eigen::VectorXd d = rest.vectorD();
+    const bool regular = rest.info() == Eigen::Success && d.minCoeff() > 1e-9 * d.maxCoeff();
+    const Vector6 delta = regular ? Vector6(rest.solve(gc)) : Vector6(full.solve(gc));
+    V.noalias() += delta * delta.transpose();
+  }
+  // In the floor's whitened coordinates (floor = L L^T) the eigenvalues of L^-1 V L^-T are the
+  // factors by which the clusters' residuals inflate the floor, direction by direction. A sum
+  // over K clusters has rank K at most, and few clusters sample some directions poorly or not at
+  // all (at close range a handful of contours), so no factor is taken below their mean: a
+  // direction the residuals do not sample is as inflated as the average one, not left at the
+  // floor's optimism. Nor below 1 (the samples' own noise).
+  const Eigen::LLT<Matrix6d> llt(floor);
+  if (llt.info() != Eigen::Success) return V;
+  const Matrix6d L = llt.matrixL();
+  const Matrix6d Li = L.triangularView<Eigen::Lower>().solve(Matrix6d::Identity());
+  const Matrix6d W = Li * V * Li.transpose();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(0.5 * (W + W.transpose()));
+  const Vector6 lambda = eig.eigenvalues().cwiseMax(std::max(1.0, eig.eigenvalues().mean()));
+  const Matrix6d clamped =
+      eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+  return L * clamped * L.transpose();
+}
 
 }  // namespace
 
@@ -426,10 +557,17 @@ Result<PoseSolution> solvePose(const Eigen::Isometry3d& initial, std::span<const
   out.depth_rms = e.depth_inliers ? std::sqrt(e.depth_sq / e.depth_inliers) : 0.0;
   const Eigen::LDLT<Matrix6d> information(e.H);
   if (information.info() == Eigen::Success && e.H.diagonal().minCoeff() > 0) {
-    out.covariance = information.solve(Matrix6d::Identity());
+    out.information_covariance = information.solve(Matrix6d::Identity());
+    out.information_covariance =
+        0.5 * (out.information_covariance + out.information_covariance.transpose()).eval();
+    out.covariance =
+        options.edge_cluster_covariance
+            ? clusterCovariance(problem.terms(), e.H, out.information_covariance, out.clusters)
+            : out.information_covariance;
     out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
   } else {
     out.covariance = Matrix6d::Identity() * 1e6;  // unobservable: say so with a huge variance
+    out.information_covariance = out.covariance;
   }
   return out;
 }

@@ -12,9 +12,27 @@
 // contribute in one set of normal equations.
 //
 // Perturbations follow docs/conventions.md: t = t_hat + dt, R = exp(dtheta) R_hat in the
-// reference frame; the covariance is the inverse of the weighted information matrix, ordered
-// [dt, dtheta].
+// reference frame; the covariance is ordered [dt, dtheta].
+//
+// Covariance: the samples of one contour are not independent measurements. Their errors come
+// mostly from what the contour shares (its rendering or blur, a model edge off by a fraction of a
+// pixel, a shadow or a texture next to it), so the inverse of the weighted information, which
+// counts every sample as independent, shrinks with the number of samples per contour while the
+// true error does not (a covariance 20 times too small in variance at close range). The
+// covariance is therefore estimated from the residuals with each contour chain as one
+// measurement (a cluster): the samples of the segments that continue one another turning by
+// less than chain_angle at shared ends (one straight edge, or a tessellated curve), in every
+// camera that sees them (what makes the error is the edge's, seen by both cameras of a rig), and
+// the depth points of one face. The estimate is the jackknife over the clusters: the sum over
+// clusters c of (H - H_c)^-1 g_c g_c^T (H - H_c)^-1, where H is the weighted information, H_c and
+// g_c the information and the weighted residual gradient of cluster c's samples (to first order,
+// how the estimate moves when cluster c is left out). It follows the errors as they are,
+// correlated along a contour or not, and counts a contour that alone fixes a direction (whose
+// residuals the fit absorbs) by the uncertainty of leaving it out. Relative to the inverse of the
+// information it is inflated by at least its mean factor in every direction, as a handful of
+// clusters (close range) leaves directions unsampled, and never shrunk below it.
 
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -75,6 +93,14 @@ struct PoseSolverOptions {
   /// moves the model's image most, and range and attitude, weakly observed from a wrong
   /// association at a coarse level, would run away with the update.
   bool lateral_only = false;
+  /// true: the covariance is the jackknife over the contour chains (above); false: the inverse of
+  /// the weighted information, every sample an independent measurement (optimistic).
+  bool edge_cluster_covariance = true;
+  /// rad: contour segments that continue each other turning by less than this at a shared end
+  /// are one chain. A curve tessellated into n segments turns by 360/n degrees at each (10 for
+  /// the 36 facets of the tracking model's cylinders and circles), the corners of a spacecraft's
+  /// parts by 45 degrees or more.
+  double chain_angle = 30.0 * M_PI / 180.0;
 };
 
 struct ViewStatistics {
@@ -86,6 +112,10 @@ struct ViewStatistics {
 struct PoseSolution {
   Eigen::Isometry3d reference_T_model = Eigen::Isometry3d::Identity();
   Matrix6d covariance = Matrix6d::Zero();  // [dt, dtheta], reference frame
+  /// The inverse of the weighted information (every sample independent), whatever
+  /// edge_cluster_covariance says.
+  Matrix6d information_covariance = Matrix6d::Zero();
+  std::size_t clusters = 0;  // contour chains and depth faces with residuals
   int iterations = 0;
   bool converged = false;
   bool diverged = false;
