@@ -72,7 +72,15 @@ class Feeder final : public egse::SimulationSink {
       ++late_frames;
       return Status::ok();
     }
+    const bool first = !started_;
     CDFF_RETURN_IF_ERROR(startIfNeeded(image->stamp));
+    // A drawn initial state is that of the first image, which is then not tracked (the tracker
+    // has no prediction when it comes, as in `cdff run`).
+    if (first && options_.initial_error) {
+      skipped_ = image->stamp;
+      return Status::ok();
+    }
+    if (skipped_ && image->stamp == *skipped_) return Status::ok();
     if (!options_.stereo) {
       last_stamp_ = image->stamp;
       return left ? o_.process(dfpc::Message::of(kLeft, image->stamp, *image)) : Status::ok();
@@ -109,6 +117,18 @@ class Feeder final : public egse::SimulationSink {
     }
     CDFF_RETURN_IF_ERROR(
         o_.process(dfpc::Message::of("/cdff/visual_tracking/model", stamp, model_)));
+    if (options_.initial_error) {
+      // The truth just before and after the image brackets its time, as a recording's does.
+      std::vector<Transform> around;
+      for (const double dt : {-1e-3, 1e-3})
+        around.push_back(Transform::fromIsometry(sim_.sensorTtarget(*camera, t + dt),
+                                                 "camera_left_optical", "target",
+                                                 stamp + static_cast<Timestamp>(dt * 1e6)));
+      Result<RigidBodyState> drawn =
+          eval::perturbedInitialState(around, stamp, *options_.initial_error);
+      if (!drawn) return drawn.status();
+      return o_.process(dfpc::Message::of("/cdff/visual_tracking/initial_pose", stamp, *drawn));
+    }
     RigidBodyState s;
     const double offset = options_.initial_range_fraction * truth_pose.translation().norm();
     Eigen::Isometry3d p = truth_pose;
@@ -145,6 +165,7 @@ class Feeder final : public egse::SimulationSink {
   std::mt19937 rng_;
   bool started_ = false;
   Timestamp last_stamp_ = 0;
+  std::optional<Timestamp> skipped_;  // the first image's stamp, when not tracked
   Transform right_T_left_;
   std::optional<StereoImagePair> pending_;
 };
@@ -293,7 +314,19 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
       evaluate(products.messages("/cdff/visual_tracking/measurement"), 0, feeder.camera_truth);
   if (!measured) return measured.status();
   r.measurement = std::move(measured).value();
+  // The track state at each frame: the latest change recorded at or before it ("OLD -> NEW").
+  std::vector<std::pair<Timestamp, std::string>> changes;
+  for (const dfpc::Event& e : products.events(dfpc::EventType::kTrackStateChanged)) {
+    const std::size_t arrow = e.message.rfind("-> ");
+    changes.emplace_back(e.stamp,
+                         arrow == std::string::npos ? e.message : e.message.substr(arrow + 3));
+  }
+  std::size_t next_change = 0;
+  std::string track_state = "UNINITIALISED";
   for (std::size_t i = 0; i < r.frames; ++i) {
+    while (next_change < changes.size() && changes[next_change].first <= statuses[i].stamp)
+      track_state = changes[next_change++].second;
+    r.valid.push_back(track_state == "TRACKING" || track_state == "DEGRADED");
     const int s = *statuses[i].as<int>();
     r.status.push_back(s);
     r.stamps_s.push_back(toSeconds(statuses[i].stamp));
@@ -325,6 +358,52 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
   for (double c : per_frame) sum += c;
   r.mean_cpu_per_frame_s = per_frame.empty() ? 0 : sum / per_frame.size();
   return r;
+}
+
+ApproachOptions drawOptions(const eval::Draw& draw, const std::string& scenario,
+                            std::optional<double> duration, double position_fraction, double angle,
+                            double linear_velocity_sigma, double angular_velocity_sigma) {
+  ApproachOptions o;
+  o.scenario = scenario;
+  o.duration = duration;
+  o.seed = draw.simulator_seed;
+  eval::InitialStatePerturbation p;
+  p.position_fraction = position_fraction;
+  p.angle_rad = angle;
+  p.linear_velocity_sigma = linear_velocity_sigma;
+  p.angular_velocity_sigma = angular_velocity_sigma;
+  p.seed = draw.initial_error_seed;
+  o.initial_error = p;
+  return o;
+}
+
+Result<eval::DrawSets> drawSets(const std::string& source_dir) {
+  const std::string source = source_dir.empty() ? CDFF_SOURCE_DIR : source_dir;
+  return eval::loadDrawSets(source + "/data/evaluation/draws.yaml");
+}
+
+AcquisitionOutcome acquisitionOutcome(const ApproachResult& r) {
+  AcquisitionOutcome a;
+  a.frames = r.frames;
+  for (std::size_t i = 0; i < r.frames && i < r.valid.size(); ++i) {
+    if (!r.valid[i]) {
+      a.lost_after_track += a.tracked;
+      continue;
+    }
+    if (!a.tracked) {
+      a.tracked = true;
+      a.time_to_track_s = r.stamps_s[i] - r.stamps_s.front();
+      a.first_acquisition_confirmed = i == 1;
+    }
+    ++a.valid_frames;
+    if (i >= r.position_error_m.size()) continue;
+    const double pct = 100 * r.position_error_m[i] / r.range_m[i];
+    a.position_error_m.push_back(r.position_error_m[i]);
+    a.position_error_pct.push_back(pct);
+    a.angle_error_deg.push_back(r.angle_error_deg[i]);
+    a.wrong_frames += pct > 5 || r.angle_error_deg[i] > 10;
+  }
+  return a;
 }
 
 std::string summaryLine(const std::string& label, const ApproachResult& r) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "cdff/eval/draws.hpp"
+#include "cdff/eval/initial_state.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/types/image.hpp"
 #include "cdff/types/polygon_model.hpp"
@@ -36,6 +38,13 @@ struct ApproachOptions {
   double initial_range_fraction = 0.05;
   double initial_angle = 5.0 * 3.14159265358979323846 / 180.0;  // rad
   std::uint32_t initial_seed = 1;
+  /// When set, the initial state is drawn as `cdff initial-state` draws it
+  /// (eval::perturbedInitialState: a Gaussian error, the covariance the filter is told, the twist
+  /// sigmas; the fixed-size error above is not used) and stamped at the first image, which is
+  /// then not tracked: as with `cdff initial-state --at IMAGE_CHANNEL` and `cdff run`, where the
+  /// image comes before the state of the same stamp, the first tracked frame is one camera period
+  /// after the initial state, as for a detection that arrives late.
+  std::optional<eval::InitialStatePerturbation> initial_error;
   std::string source_dir;  // the repository (dfpcs/); CDFF_SOURCE_DIR when empty
 };
 
@@ -45,7 +54,10 @@ struct ApproachResult {
   eval::PoseEvaluation measurement;   // the tracker's own estimates (camera frame)
   std::vector<double> stamps_s;       // per frame
   std::vector<int> status;            // per frame: 0 tracking, 1 degraded, 2 lost
-  std::vector<double> range_m;        // per frame, the true range
+  /// Per frame: the DFPC's track state then was a track (TRACKING or DEGRADED; not LOST,
+  /// ACQUIRING or UNINITIALISED), what `cdff eval` counts as a valid estimate.
+  std::vector<bool> valid;
+  std::vector<double> range_m;                            // per frame, the true range
   std::vector<double> position_error_m, angle_error_deg;  // per frame, of the filtered pose
   std::size_t frames = 0, lost = 0, degraded = 0;
   /// Frames whose filtered error exceeds 10 % of the range or 10 degrees while the status is
@@ -62,6 +74,31 @@ struct ApproachResult {
 
 /// Runs the scenario (cameras only) through the DFPC.
 Result<ApproachResult> runApproach(const ApproachOptions& options);
+
+/// The options of one draw (data/evaluation/draws.yaml): the simulator's seed and the initial
+/// error's, a Gaussian error of RMS `position_fraction` of the range and `angle` (rad) with twist
+/// sigmas `linear_velocity_sigma` (m/s) and `angular_velocity_sigma` (rad/s).
+ApproachOptions drawOptions(const eval::Draw& draw, const std::string& scenario,
+                            std::optional<double> duration, double position_fraction, double angle,
+                            double linear_velocity_sigma, double angular_velocity_sigma);
+
+/// The draw sets of data/evaluation/draws.yaml (in `source_dir`, CDFF_SOURCE_DIR when empty).
+Result<eval::DrawSets> drawSets(const std::string& source_dir = "");
+
+/// How one run acquired: from the first tracked frame, the time to the first frame reported as a
+/// track (valid), and what the track reported afterwards.
+struct AcquisitionOutcome {
+  bool tracked = false;         // some frame was valid
+  double time_to_track_s = -1;  // first valid frame's time - first frame's time (-1: never)
+  /// The first acquisition held: the first valid frame is the second one (the acquisition is
+  /// reported ACQUIRING until the next frame confirms it).
+  bool first_acquisition_confirmed = false;
+  std::size_t wrong_frames = 0;      // valid frames off by more than 5 % of the range or 10 degrees
+  std::size_t lost_after_track = 0;  // LOST or ACQUIRING frames after the first valid one
+  std::size_t valid_frames = 0, frames = 0;
+  std::vector<double> position_error_m, position_error_pct, angle_error_deg;  // valid frames
+};
+AcquisitionOutcome acquisitionOutcome(const ApproachResult& r);
 
 /// The left camera's frames of the scenario with the true camera_left_optical_T_target of each,
 /// the camera's mounting (servicer_T_camera_left_optical) and the target's model (its .cao

@@ -6,6 +6,7 @@ void AcquiringEdgeTracker::configure(const AcquiringEdgeTrackerOptions& options)
   options_ = options;
   tracker_ = EdgeTracker();
   confirmation_.reset();
+  on_track_ = false;
   if (options_.coarse_alignment) warmUpChamferAlignment(options_.chamfer);
 }
 
@@ -15,8 +16,32 @@ Status AcquiringEdgeTracker::setModel(const PolygonModel& model) {
 
 Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasurements& frame,
                                                             const PosePrediction& prediction) {
+  // While an acquired pose awaits confirmation, the prediction is searched with its pose
+  // covariance carried to the image's time with the velocity covariance: the filter has fused one
+  // acquired pose, and its velocity is the initial state's corrected by that pose's offset from
+  // the initial pose (the filter cannot tell an initial error from motion since the initial
+  // state), so the prediction can be off by as much as the velocity is uncertain, far beyond the
+  // edge search (degrees at close range from 5 % / 5 deg with the initial state one frame before
+  // the first image). Once confirmed, the filter's velocity rests on consecutive poses and
+  // its covariance mostly carries the process noise, an allowance for manoeuvres that the target
+  // does not make (carried over a frame, it would trigger the acquisition on most frames): the
+  // state's own covariance decides.
   PosePrediction predicted = prediction;
-  predicted.pose.covariance = confirmation_.widened(prediction.pose.covariance);
+  predicted.pose.covariance = confirmation_.widened(
+      confirmation_.awaiting() && prediction.carried_covariance ? *prediction.carried_covariance
+                                                                : prediction.pose.covariance);
+  if (confirmation_.awaiting() && tracker_.hasModel()) {
+    Result<std::optional<TrackingResult>> direct = trackAwaitedDirectly(frame, prediction);
+    if (!direct) return direct.status();
+    if (*direct) {
+      AcquiringTrackingResult out;
+      out.tracking = std::move(**direct);
+      confirmAcquisition(confirmation_, out.tracking, false, predicted);
+      out.acquiring = confirmation_.awaiting();
+      on_track_ = out.tracking.status != TrackingStatus::kLost && !out.acquiring;
+      return out;
+    }
+  }
   FramePyramids pyramids(frame.cameras);
   Transform start = predicted.pose.pose;
   bool coarse_placed = false;
@@ -37,10 +62,54 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
   AcquiringTrackingResult out;
   out.tracking = std::move(acquired->tracking);
   out.acquisition_ran = acquired->ran;
-  confirmAcquisition(confirmation_, out.tracking, out.acquisition_ran, predicted);
+  // An acquisition that leaves fewer than degraded_inlier_ratio of the samples matched is a
+  // partial alignment unless a coarse placement put the model on the image's edges (at long range
+  // every track has such a ratio): without one, the model is wider than the image, and the
+  // passes' coarse levels, which do not see its finer edges, can settle where only its large
+  // edges fit (at close range the adapter ring's circles fit at any rotation about its axis,
+  // with about a third of the samples matched against three quarters when right). Such a pose,
+  // confirmed by the next frame tracking the same partial alignment, would be a wrong track. It
+  // applies to acquisitions off a track (from the initial state, or after a loss): one from a
+  // track, triggered as its covariance grows, starts at its own accuracy, and near 1 m right
+  // tracks match fewer than half their samples.
+  if (out.acquisition_ran && !coarse_placed && !on_track_ &&
+      out.tracking.status == TrackingStatus::kDegraded &&
+      out.tracking.inlier_ratio < options_.tracking.degraded_inlier_ratio) {
+    out.tracking.reason = fmt::format(
+        "the acquired pose matches {:.2f} of its samples, below degraded_inlier_ratio {:.2f}, "
+        "without a coarse placement: a partial alignment",
+        out.tracking.inlier_ratio, options_.tracking.degraded_inlier_ratio);
+    out.tracking.status = TrackingStatus::kLost;
+    out.tracking.reference_T_model = predicted.pose.pose;
+    out.tracking.covariance = noInformationCovariance();
+  }
+  // The confirmation is for acquisitions off a track, whose gate can admit a wrong alignment once
+  // lost frames have widened the prediction; one from a track (triggered as the track's
+  // covariance grows: at close range with an honest covariance) is gated by the track's own
+  // prediction and stands as a tracked frame.
+  confirmAcquisition(confirmation_, out.tracking, out.acquisition_ran && !on_track_, predicted);
   if (out.acquisition_ran && !coarse_note.empty()) out.tracking.reason += " (" + coarse_note + ")";
-  out.acquiring = out.acquisition_ran && out.tracking.status != TrackingStatus::kLost;
+  out.acquiring = confirmation_.awaiting();
+  on_track_ = out.tracking.status != TrackingStatus::kLost && !out.acquiring;
   return out;
+}
+
+Result<std::optional<TrackingResult>> AcquiringEdgeTracker::trackAwaitedDirectly(
+    const FrameMeasurements& frame, const PosePrediction& prediction) {
+  std::vector<Transform> starts = {prediction.pose.pose};
+  if (const std::optional<Transform>& held = confirmation_.acquiredPose()) {
+    starts.push_back(*held);
+    starts.back().stamp = prediction.pose.pose.stamp;
+  }
+  std::optional<TrackingResult> best;
+  for (const Transform& start : starts) {
+    Result<TrackingResult> t = tracker_.track(frame.cameras, frame.depth, frame.depth_T_reference,
+                                              start, options_.tracking);
+    if (!t) return t.status();
+    if (t->status != TrackingStatus::kLost && (!best || t->inlier_ratio > best->inlier_ratio))
+      best = std::move(t).value();
+  }
+  return best;
 }
 
 }  // namespace cdff::tracking

@@ -1,13 +1,19 @@
 #pragma once
 // The edge tracker with its acquisition: what ModelBasedTracking/EdgeTracker runs on every frame.
 //
-// Each frame: the prediction, widened after a failed confirmation, is placed by the coarse
-// alignment (chamfer_alignment.hpp, when enabled), acquired coarse to fine when its spread in the
-// image exceeds the edge search (acquisition.hpp), tracked at full resolution and gated; an
-// acquired pose then awaits the next frame's confirmation (acquisition_confirmation.hpp). The
-// image pyramid is built once per frame for all of them. This class keeps what persists between
-// frames: the EdgeTracker (its model and cached contours) and the confirmation's state.
+// Each frame: the prediction (its covariance carried to the image's time while an acquired pose
+// awaits confirmation, widened after a failed confirmation) is placed by the coarse alignment
+// (chamfer_alignment.hpp, when enabled), acquired coarse to fine when its spread in the image
+// exceeds the edge search (acquisition.hpp), tracked at full resolution and gated. An acquisition
+// off a track (from the initial state or after a lost frame) that matches fewer than
+// degraded_inlier_ratio of its samples without a coarse placement is lost (a partial alignment);
+// one that is not lost awaits the next frame's confirmation (acquisition_confirmation.hpp), which
+// is first tracked directly from two starts. An acquisition from a track stands. The image
+// pyramid is built once per frame for all of them. This class keeps what persists between frames:
+// the EdgeTracker (its model and cached contours), the confirmation's state and whether the last
+// frame was a track.
 
+#include <optional>
 #include <span>
 #include <string>
 
@@ -31,7 +37,7 @@ struct AcquiringTrackingResult {
   /// the coarse alignment's note when the alignment was skipped.
   TrackingResult tracking;
   bool acquisition_ran = false;  // the prediction's spread exceeded the search
-  bool acquiring = false;        // an acquired pose awaits the next frame (track state ACQUIRING)
+  bool acquiring = false;  // after this frame an acquired pose awaits the next one (ACQUIRING)
 };
 
 class AcquiringEdgeTracker {
@@ -53,9 +59,19 @@ class AcquiringEdgeTracker {
   const EdgeTracker& tracker() const { return tracker_; }
 
  private:
+  /// While an acquired pose awaits confirmation, the frame is first tracked directly from the
+  /// filter's prediction and from the acquired pose held still: the filter's velocity after one
+  /// acquired pose attributes part of the pose's offset from the initial state to motion, the held
+  /// pose none of it, and the truth lies within the search of one of them unless the target moves
+  /// fast. The result not LOST with the higher inlier ratio, if any, is the frame's (the
+  /// confirmation then checks it); none, and the frame acquires from the carried covariance.
+  Result<std::optional<TrackingResult>> trackAwaitedDirectly(const FrameMeasurements& frame,
+                                                             const PosePrediction& prediction);
+
   AcquiringEdgeTrackerOptions options_;
   EdgeTracker tracker_;
   AcquisitionConfirmation confirmation_;
+  bool on_track_ = false;  // the last frame was a track: not LOST, no acquisition awaiting
 };
 
 }  // namespace cdff::tracking

@@ -133,14 +133,21 @@ struct Acquisition {
   }
 
   // The passes of one level, from out.pose; the coarsest level (`coarsest`) with the wide search.
-  // With `lateral_first` it first finds the lateral offset alone with the wide search, then all
-  // six degrees of freedom from there with the usual one.
+  // With `lateral_first` the coarsest level finds the lateral offset alone with the wide search,
+  // and all six degrees of freedom are freed with the usual search from the next finer level on
+  // (on the same level when it is full resolution). A pixel of level L is 2^L at full
+  // resolution: the attitude and range a six-dof pass takes there come from associations too
+  // coarse to tell the model's finer edges apart (at close range such a pass turns the model
+  // about the adapter ring's axis, where the ring's circles still fit, by more than the finer
+  // levels' searches bring back).
   Status levelPasses(int level, bool coarsest, std::size_t reference, double spread,
                      bool lateral_first, EdgeTrackerOptions& coarse, Passes& out) {
     const std::vector<CameraFrame> scaled = levelFrames(level, reference);
     const int search = options.search.search_distance;
     const double level_spread = spread / (1 << level);
-    for (int step = coarsest && lateral_first ? 0 : 1; step < 2; ++step) {
+    const bool lateral_only_level = coarsest && lateral_first;
+    const int steps = lateral_only_level && level > 0 ? 1 : 2;
+    for (int step = lateral_only_level ? 0 : 1; step < steps; ++step) {
       coarse.solver.lateral_only = step == 0;
       coarse.search.search_distance = coarsest && (step == 0 || !lateral_first)
                                           ? std::clamp(static_cast<int>(std::ceil(level_spread)),

@@ -1,5 +1,7 @@
 #include "cdff/tracking/acquisition_confirmation.hpp"
 
+#include <string>
+
 #include <Eigen/Cholesky>
 
 namespace cdff::tracking {
@@ -27,9 +29,11 @@ Matrix6d AcquisitionConfirmation::widened(const Matrix6d& predicted) const {
   return predicted;
 }
 
-void AcquisitionConfirmation::acquired(const Matrix6d& covariance) {
+void AcquisitionConfirmation::acquired(const Matrix6d& covariance,
+                                       const std::optional<Transform>& pose) {
   awaiting_ = true;
   acquisition_covariance_ = covariance;
+  acquired_pose_ = pose;
 }
 
 AcquisitionConfirmation::Check AcquisitionConfirmation::confirm(bool lost,
@@ -39,6 +43,7 @@ AcquisitionConfirmation::Check AcquisitionConfirmation::confirm(bool lost,
   Check check;
   if (!awaiting_) return check;
   awaiting_ = false;
+  acquired_pose_.reset();
   check.checked = true;
   if (!lost) {
     const GateTest gate = testGate(estimate, predicted, gate_covariance);
@@ -54,6 +59,7 @@ AcquisitionConfirmation::Check AcquisitionConfirmation::confirm(bool lost,
 
 void AcquisitionConfirmation::reset() {
   awaiting_ = false;
+  acquired_pose_.reset();
   reacquisition_covariance_.reset();
 }
 
@@ -67,27 +73,34 @@ Matrix6d confirmationCovariance(const TrackingResult& result, const PosePredicti
 void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
                         bool acquisition_ran, const PosePrediction& prediction) {
   const bool lost = result.status == TrackingStatus::kLost;
-  if (acquisition_ran) {
-    if (lost) return;
-    state.acquired(prediction.pose.covariance);
-    if (result.status == TrackingStatus::kTracking) {
+  if (state.awaiting()) {
+    const AcquisitionConfirmation::Check check =
+        state.confirm(lost, result.reference_T_model, prediction.pose.pose,
+                      lost ? Matrix6d::Zero() : confirmationCovariance(result, prediction));
+    if (check.confirmed) return;
+    const std::string why = fmt::format(
+        "the next frame did not confirm the acquired pose ({}; squared Mahalanobis distance "
+        "{:.1f} from the prediction, gate {:.2f})",
+        lost ? result.reason : (acquisition_ran ? "acquired again" : "tracked"), check.distance,
+        kAcquisitionGate);
+    if (acquisition_ran && !lost) {
+      state.acquired(prediction.pose.covariance, result.reference_T_model);
       result.status = TrackingStatus::kDegraded;
-      result.reason = "acquired; not tracking until the next frame confirms the acquired pose";
+      result.reason = why + ": this frame's acquired pose replaces it and awaits the next frame";
+      return;
     }
+    result.reason = why + ": acquiring again";
+    result.status = TrackingStatus::kLost;
+    result.reference_T_model = prediction.pose.pose;
+    result.covariance = noInformationCovariance();
     return;
   }
-  if (!state.awaiting()) return;
-  const AcquisitionConfirmation::Check check =
-      state.confirm(lost, result.reference_T_model, prediction.pose.pose,
-                    lost ? Matrix6d::Zero() : confirmationCovariance(result, prediction));
-  if (check.confirmed) return;
-  result.reason = fmt::format(
-      "the next frame did not confirm the acquired pose ({}; squared Mahalanobis distance "
-      "{:.1f} from the prediction, gate {:.2f}): acquiring again",
-      lost ? result.reason : "tracked", check.distance, kAcquisitionGate);
-  result.status = TrackingStatus::kLost;
-  result.reference_T_model = prediction.pose.pose;
-  result.covariance = noInformationCovariance();
+  if (!acquisition_ran || lost) return;
+  state.acquired(prediction.pose.covariance, result.reference_T_model);
+  if (result.status == TrackingStatus::kTracking) {
+    result.status = TrackingStatus::kDegraded;
+    result.reason = "acquired; not tracking until the next frame confirms the acquired pose";
+  }
 }
 
 }  // namespace cdff::tracking

@@ -4,13 +4,18 @@
 // A wide acquisition can lock onto a wrong alignment: at long range the model's image is small
 // next to the search, and once lost frames have widened the prediction a wrong alignment can pass
 // both the prediction's gate and the inlier test. So an acquired pose is first gated by the
-// prediction's covariance (not admitted: lost), and an admitted one is not yet a track: it is
-// reported degraded (track state ACQUIRING) until the next frame, tracked directly from the
-// filter's prediction, confirms it: not lost, and admitted by that prediction's pose covariance
-// carried to the image's time plus the estimate's own. A failed confirmation is lost, and the
-// following frames acquire again from a covariance as wide as the unconfirmed acquisition's
-// (the filter's state has been pulled to the wrong alignment and its covariance no longer covers
-// the truth).
+// prediction's covariance (not admitted: lost), and an admitted one off a track (from the initial
+// state, or after a lost frame; the caller, AcquiringEdgeTracker, decides) is not yet a track: it
+// is reported degraded (track state ACQUIRING) until the next frame confirms it: that frame's
+// estimate, tracked directly or acquired again from the filter's prediction, is not lost and is
+// admitted by that prediction's pose covariance carried to the image's time plus the estimate's
+// own. A frame that acquires again and is not admitted replaces the awaited pose (one of the two
+// is wrong; the newer one is searched from the wider prediction); any other failed confirmation
+// is lost, and the following frames acquire again from a covariance as wide as the unconfirmed
+// acquisition's (the filter's state has been pulled to the wrong alignment and its covariance no
+// longer covers the truth). Whether the confirming frame acquired does not matter: the widened
+// covariance makes every frame after a failed confirmation acquire, so a confirmation only by a
+// frame that did not would never come.
 
 #include <optional>
 
@@ -47,18 +52,21 @@ class AcquisitionConfirmation {
   /// unconfirmed acquisition's when its trace exceeds `predicted`'s (until a confirmation).
   Matrix6d widened(const Matrix6d& predicted) const;
 
-  /// A frame acquired a pose that is not lost, searching the prediction's `covariance`: the pose
-  /// awaits the next frame.
-  void acquired(const Matrix6d& covariance);
+  /// A frame acquired `pose`, not lost, searching the prediction's `covariance`: the pose awaits
+  /// the next frame.
+  void acquired(const Matrix6d& covariance, const std::optional<Transform>& pose = std::nullopt);
+
+  /// The pose that awaits confirmation, when one does and was given.
+  const std::optional<Transform>& acquiredPose() const { return acquired_pose_; }
 
   struct Check {
     bool checked = false;    // an acquired pose awaited this frame
     bool confirmed = false;  // ... and this frame confirmed it
     double distance = 0;     // squared Mahalanobis distance (0 when lost or not checked)
   };
-  /// A frame tracked directly from the prediction: when an acquired pose awaits it, this frame
-  /// confirms it if not `lost` and `gate_covariance` admits `estimate` about `predicted`. A failed
-  /// confirmation makes widened() return the acquisition's covariance.
+  /// The frame after an acquisition: when an acquired pose awaits it, this frame confirms it if
+  /// not `lost` and `gate_covariance` admits `estimate` about `predicted`. A failed confirmation
+  /// makes widened() return the acquisition's covariance.
   Check confirm(bool lost, const Transform& estimate, const Transform& predicted,
                 const Matrix6d& gate_covariance);
 
@@ -68,6 +76,7 @@ class AcquisitionConfirmation {
  private:
   bool awaiting_ = false;
   Matrix6d acquisition_covariance_ = Matrix6d::Zero();
+  std::optional<Transform> acquired_pose_;
   std::optional<Matrix6d> reacquisition_covariance_;
 };
 
@@ -78,11 +87,13 @@ class AcquisitionConfirmation {
 /// covariance when it came as a pose, plus the estimate's covariance when finite.
 Matrix6d confirmationCovariance(const TrackingResult& result, const PosePrediction& prediction);
 
-/// Applies the confirmation to one frame's edge-tracking result, after the acquisition's gate:
-/// an acquisition that ran and is not lost awaits the next frame (a TRACKING result is reported
-/// DEGRADED until then); a frame without acquisition checks an awaiting one and, when it does not
-/// confirm it, is LOST with the prediction's pose and a no-information covariance.
-/// `prediction.pose` is the prediction as searched (widened()).
+/// Applies the confirmation to one frame's edge-tracking result, after the acquisition's gate.
+/// When an acquired pose awaits, this frame checks it: confirmed, the result stands; not
+/// confirmed, a frame whose acquisition ran and is not lost awaits the next frame in its place
+/// (DEGRADED), any other is LOST with the prediction's pose and a no-information covariance.
+/// When none awaits, an acquisition that ran and is not lost awaits the next frame (a TRACKING
+/// result is reported DEGRADED until then). `prediction.pose` is the prediction as searched
+/// (widened()).
 void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
                         bool acquisition_ran, const PosePrediction& prediction);
 
