@@ -24,21 +24,30 @@ Status readModel(const Field& f, ScenarioDraft& d) {
   return Status::ok();
 }
 
+/// A length in (low, high] metres.
+Range metres(double low, double high) {
+  return Range::leftOpen(low, high, "m");
+}
+
+/// Two numbers into an Eigen::Vector2d member (a panel's width and height).
+template <class S>
+auto size2(Eigen::Vector2d S::*member) {
+  return [member](const Field& f, S& s) -> Status {
+    std::vector<double> v;
+    CDFF_RETURN_IF_ERROR(f.numbers(v, 2, 2));
+    s.*member = {v[0], v[1]};
+    return Status::ok();
+  };
+}
+
 const Table<HexagonalTargetSpec>& hexagonalTable() {
   using T = HexagonalTargetSpec;
-  const auto metres = [](double low, double high) { return Range::leftOpen(low, high, "m"); };
   static const Table<HexagonalTargetSpec> table =
       Table<HexagonalTargetSpec>("the hexagonal target's dimensions")
           .optional("bus_diameter", schema::number(&T::bus_diameter, metres(0, 20)))
           .optional("bus_length", schema::number(&T::bus_length, metres(0, 20)))
           .optional("panels", schema::integer(&T::panels, 0, 8))
-          .optional("panel_size",
-                    [](const Field& f, T& s) -> Status {
-                      std::vector<double> v;
-                      CDFF_RETURN_IF_ERROR(f.numbers(v, 2, 2));
-                      s.panel_size = {v[0], v[1]};
-                      return Status::ok();
-                    })
+          .optional("panel_size", size2(&T::panel_size))
           .optional("panel_thickness", schema::number(&T::panel_thickness, metres(0, 1)))
           .optional("yoke_length", schema::number(&T::yoke_length, metres(0, 10)))
           .optional("wing_angle_deg", degrees(&T::wing_angle, Range::closed(-180, 180, "deg")))
@@ -51,7 +60,6 @@ const Table<HexagonalTargetSpec>& hexagonalTable() {
 
 const Table<TargetSpec>& proceduralTable() {
   using T = TargetSpec;
-  const auto metres = [](double low, double high) { return Range::leftOpen(low, high, "m"); };
   static const Table<TargetSpec> table =
       Table<TargetSpec>("the procedural target's kind and dimensions")
           .optional("kind", schema::named(&T::kind, {{"satellite", TargetKind::kSatellite},
@@ -60,13 +68,7 @@ const Table<TargetSpec>& proceduralTable() {
           .optional("bus_size", vec3(&T::bus_size))
           .optional("solar_wings", schema::flag(&T::solar_wings))
           .optional("panels_per_wing", schema::integer(&T::panels_per_wing, 1, 8))
-          .optional("panel_size",
-                    [](const Field& f, T& s) -> Status {
-                      std::vector<double> v;
-                      CDFF_RETURN_IF_ERROR(f.numbers(v, 2, 2));
-                      s.panel_size = {v[0], v[1]};
-                      return Status::ok();
-                    })
+          .optional("panel_size", size2(&T::panel_size))
           .optional("panel_thickness", schema::number(&T::panel_thickness, metres(0, 1)))
           .optional("panel_gap", schema::number(&T::panel_gap, Range::closed(0, 1, "m")))
           .optional("yoke_length", schema::number(&T::yoke_length, metres(0, 10)))
