@@ -128,7 +128,7 @@ Status readTrajectory(const Field& f, Scenario& sc) {
                         "parallel to the reference");
 }
 
-const Table<Scenario>& attitudeTable() {
+const Table<Scenario>& servicerAttitudeTable() {
   static const Table<Scenario> table =
       Table<Scenario>(
           "the servicer's attitude {mode, up, yaw_offset_deg, pitch_offset_deg, rpy_deg}")
@@ -172,8 +172,8 @@ const Table<Scenario>& servicerTable() {
   static const Table<Scenario> table =
       Table<Scenario>("the servicer {trajectory, attitude, mockup}")
           .optional("trajectory", readTrajectory)
-          .optional("attitude",
-                    [](const Field& f, Scenario& sc) { return attitudeTable().read(f, sc); })
+          .optional("attitude", [](const Field& f,
+                                   Scenario& sc) { return servicerAttitudeTable().read(f, sc); })
           .optional("mockup", readMockup);
   return table;
 }

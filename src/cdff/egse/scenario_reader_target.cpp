@@ -123,7 +123,7 @@ const Table<Scenario>& meshTable() {
   return table;
 }
 
-const Table<Scenario>& attitudeTable() {
+const Table<Scenario>& targetAttitudeTable() {
   static const Table<Scenario> table =
       Table<Scenario>("the target's attitude {mode, rpy_deg, rate_deg_s, inertia}")
           .optional("mode", schema::named(&Scenario::target_attitude,
@@ -163,7 +163,7 @@ const Table<ScenarioDraft>& targetTable() {
                       return meshTable().read(f, sc);
                     }))
           .optional("attitude", inScenario([](const Field& f, Scenario& sc) {
-                      return attitudeTable().read(f, sc);
+                      return targetAttitudeTable().read(f, sc);
                     }));
   return table;
 }

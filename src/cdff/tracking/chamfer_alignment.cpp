@@ -168,7 +168,7 @@ cv::Rect searchWindow(const ContourTemplate& t, const SearchExtent& e, const Cam
          cv::Rect(0, 0, camera.width, camera.height);
 }
 
-struct Placement {
+struct ChamferPlacement {
   double score = 0;
   double scale = 1, x = 0, y = 0;  // about the contour's mean; px
 };
@@ -189,8 +189,9 @@ double score(const ChamferMap& map, const ContourTemplate& t, double s, double d
 // A grid as coarse as the truncation allows (the score still falls towards the minimum within
 // it). Its shifts are whole pixels, so each sample's pixel is rounded once per scale; a shift stops
 // being scored once its partial sum reaches the best (the costs are not negative).
-Placement gridSearch(const ChamferMap& map, const ContourTemplate& t, const SearchExtent& e) {
-  Placement best;
+ChamferPlacement gridSearch(const ChamferMap& map, const ContourTemplate& t,
+                            const SearchExtent& e) {
+  ChamferPlacement best;
   best.score = score(map, t, 1, 0, 0);
   struct Placed {
     int x, y;
@@ -223,7 +224,7 @@ Placement gridSearch(const ChamferMap& map, const ContourTemplate& t, const Sear
 // Finer grids around the best: shifts of 2, 1 and 0.5 px, scales of the grid's step times the
 // shift over kGrid.
 void refine(const ChamferMap& map, const ContourTemplate& t, const SearchExtent& e,
-            Placement& best) {
+            ChamferPlacement& best) {
   for (double step = 2; step >= 0.5; step /= 2) {
     const double s0 = best.scale, x0 = best.x, y0 = best.y;
     for (int k = -1; k <= 1; ++k)
@@ -239,9 +240,10 @@ void refine(const ChamferMap& map, const ContourTemplate& t, const SearchExtent&
 
 // The prediction moved by a placement: the model's centre moves with the contours' image, its
 // depth scales inversely; the attitude stays.
-Transform placedPose(const Placement& best, const ContourTemplate& t, const CameraModel& camera,
-                     const Eigen::Isometry3d& c_T_r, const Eigen::Isometry3d& c_T_m,
-                     const Eigen::Vector3d& centre, const Transform& predicted) {
+Transform placedPose(const ChamferPlacement& best, const ContourTemplate& t,
+                     const CameraModel& camera, const Eigen::Isometry3d& c_T_r,
+                     const Eigen::Isometry3d& c_T_m, const Eigen::Vector3d& centre,
+                     const Transform& predicted) {
   const double z = centre.z();
   const Eigen::Vector2d centre_px(camera.fx * centre.x() / z + camera.cx,
                                   camera.fy * centre.y() / z + camera.cy);
@@ -306,7 +308,7 @@ Result<CoarseAlignment> alignCoarsely(const TrackingModel& model,
         map.edge_pixels, window.width, window.height, level, contour.samples.size());
     return out;
   }
-  Placement best = gridSearch(map, contour, extent);
+  ChamferPlacement best = gridSearch(map, contour, extent);
   refine(map, contour, extent, best);
   out.start = placedPose(best, contour, camera, c_T_r, c_T_m, centre, predicted.pose);
   return out;
