@@ -12,7 +12,7 @@
 namespace cdff::dfpc {
 
 namespace {
-constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+constexpr std::size_t kNoMessage = std::numeric_limits<std::size_t>::max();
 
 std::size_t faultIndex(FaultKind kind) {
   return static_cast<std::size_t>(kind);
@@ -347,7 +347,7 @@ void Dfpc::trySync(std::size_t n, Timestamp now, bool final) {
       const auto& q = inst.queues[k];
       if ((q.empty() || q.back().stamp < p) && !time_passed) return;
     }
-    std::vector<std::size_t> best(inst.queues.size(), kNone);
+    std::vector<std::size_t> best(inst.queues.size(), kNoMessage);
     bool complete = true;
     for (std::size_t k = 1; k < inst.queues.size(); ++k) {
       const auto& q = inst.queues[k];
@@ -359,7 +359,7 @@ void Dfpc::trySync(std::size_t n, Timestamp now, bool final) {
           best[k] = i;
         }
       }
-      complete = complete && best[k] != kNone;
+      complete = complete && best[k] != kNoMessage;
     }
     if (!complete) {
       dropSync(

@@ -14,7 +14,7 @@
 namespace cdff::dfpc {
 
 namespace {
-constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+constexpr std::size_t kNoIndex = std::numeric_limits<std::size_t>::max();
 }  // namespace
 
 Result<std::unique_ptr<Dfpc>> Dfpc::create(GraphSpec spec) {
@@ -75,13 +75,13 @@ namespace {
 std::size_t inputPortIndex(const dfn::Node& node, const std::string& port) {
   for (std::size_t i = 0; i < node.inputs().size(); ++i)
     if (node.inputs()[i]->name() == port) return i;
-  return kNone;
+  return kNoIndex;
 }
 
 std::size_t outputPortIndex(const dfn::Node& node, const std::string& port) {
   for (std::size_t i = 0; i < node.outputs().size(); ++i)
     if (node.outputs()[i]->name() == port) return i;
-  return kNone;
+  return kNoIndex;
 }
 
 }  // namespace
@@ -122,10 +122,10 @@ Result<std::vector<std::size_t>> Dfpc::executionOrder() const {
   std::vector<std::size_t> order;
   std::vector<bool> placed(count, false);
   while (order.size() < count) {
-    std::size_t next = kNone;
-    for (std::size_t i = 0; i < count && next == kNone; ++i)
+    std::size_t next = kNoIndex;
+    for (std::size_t i = 0; i < count && next == kNoIndex; ++i)
       if (!placed[i] && indegree[i] == 0) next = i;
-    if (next == kNone) return Status(StatusCode::kInternal, "cycle left in a checked graph");
+    if (next == kNoIndex) return Status(StatusCode::kInternal, "cycle left in a checked graph");
     placed[next] = true;
     order.push_back(next);
     for (std::size_t s : successors[next]) --indegree[s];

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "cdff/egse/procedural_placement.hpp"
+
 namespace cdff::egse {
 
 namespace {
@@ -13,22 +15,8 @@ Status positive(double value, const char* name) {
   return Status::ok();
 }
 
-Eigen::Isometry3d at(const Eigen::Vector3d& t) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = t;
-  return pose;
-}
-
-Eigen::Isometry3d at(const Eigen::Vector3d& t, const Eigen::Matrix3d& R) {
-  Eigen::Isometry3d pose = at(t);
-  pose.linear() = R;
-  return pose;
-}
-
-// Rotation taking +z to `axis` (unit).
-Eigen::Matrix3d zTo(const Eigen::Vector3d& axis) {
-  return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
-}
+using placement::at;
+using placement::zTo;
 
 }  // namespace
 

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "cdff/egse/procedural.hpp"
+#include "cdff/egse/procedural_placement.hpp"
 
 namespace cdff::egse {
 
@@ -22,17 +23,8 @@ Status nonNegativeLength(double value, const char* name) {
   return Status::ok();
 }
 
-Eigen::Isometry3d at(const Eigen::Vector3d& t,
-                     const Eigen::Matrix3d& R = Eigen::Matrix3d::Identity()) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = t;
-  pose.linear() = R;
-  return pose;
-}
-
-Eigen::Matrix3d zTo(const Eigen::Vector3d& axis) {
-  return Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
-}
+using placement::at;
+using placement::zTo;
 
 // The hexagon's corner k in the y-z plane at `x`: corners at 30 + 60 k degrees from +y towards
 // +z, so that two flats face +y and -y.

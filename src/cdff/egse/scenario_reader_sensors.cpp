@@ -19,7 +19,7 @@ const std::vector<std::pair<std::string, SensorType>> kSensorTypes = {
     {"imu", SensorType::kImu},       {"radar", SensorType::kRadar}, {"ahrs", SensorType::kAhrs}};
 
 /// The `type` row: read before the table, which it chooses (sensorFor).
-Status typeRead(const Field&, Sensor&) {
+Status sensorTypeRead(const Field&, Sensor&) {
   return Status::ok();
 }
 
@@ -41,7 +41,7 @@ Status readMount(const Field& f, Sensor& s) {
 /// The keys of every sensor.
 Table<Sensor> sensorKeys(std::string what) {
   Table<Sensor> table(std::move(what));
-  table.optional("type", typeRead)
+  table.optional("type", sensorTypeRead)
       .optional("enabled", schema::flag(&Sensor::enabled))
       .optional("rate", schema::number(&Sensor::rate, Range::leftOpen(0, 10000, "Hz")))
       .optional("phase", schema::number(&Sensor::phase, Range::closed(0, 1e6, "s")))

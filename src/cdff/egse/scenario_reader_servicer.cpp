@@ -11,13 +11,13 @@ namespace {
 using S = Scenario;
 
 /// The row of a trajectory's `type`: read first, by readTrajectory, to choose the table.
-Status typeRead(const Field&, Scenario&) {
+Status trajectoryTypeRead(const Field&, Scenario&) {
   return Status::ok();
 }
 
 const Table<Scenario>& holdTable() {
   static const Table<Scenario> table = Table<Scenario>("a hold {type, position}")
-                                           .optional("type", typeRead)
+                                           .optional("type", trajectoryTypeRead)
                                            .optional("position", vec3(&S::start));
   return table;
 }
@@ -25,7 +25,7 @@ const Table<Scenario>& holdTable() {
 const Table<Scenario>& lineTable() {
   static const Table<Scenario> table =
       Table<Scenario>("a line {type, start, end, start_time, end_time, profile}")
-          .optional("type", typeRead)
+          .optional("type", trajectoryTypeRead)
           .required("start", vec3(&S::start), "the start position (lvlh, m)")
           .required("end", vec3(&S::end), "the end position (lvlh, m)")
           .optional("start_time", schema::number(&S::start_time, Range::closed(0, 1e6, "s")))
@@ -68,7 +68,7 @@ const Table<Scenario>& waypointsTable() {
   // The times first: the positions are one per time.
   static const Table<Scenario> table =
       Table<Scenario>("waypoints {type, times, positions}")
-          .optional("type", typeRead)
+          .optional("type", trajectoryTypeRead)
           .required("times", waypointTimes, "the waypoints' times (s)")
           .required("positions", waypointPositions, "the waypoints' positions (lvlh, m)");
   return table;
@@ -79,7 +79,7 @@ const Table<Scenario>& flyAroundTable() {
       Table<Scenario>(
           "a fly-around {type, centre, axis, reference, radius, radial_rate, rate_deg_s, "
           "phase_deg}")
-          .optional("type", typeRead)
+          .optional("type", trajectoryTypeRead)
           .optional("centre", vec3(&S::centre))
           .optional("axis", direction(&S::axis))
           .optional("reference", direction(&S::reference))
@@ -92,7 +92,7 @@ const Table<Scenario>& flyAroundTable() {
 
 const Table<Scenario>& cwTable() {
   static const Table<Scenario> table = Table<Scenario>("a CW trajectory {type, position, velocity}")
-                                           .optional("type", typeRead)
+                                           .optional("type", trajectoryTypeRead)
                                            .optional("position", vec3(&S::start))
                                            .optional("velocity", vec3(&S::velocity));
   return table;

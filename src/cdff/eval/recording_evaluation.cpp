@@ -57,7 +57,7 @@ std::string dfpcOf(const std::string& channel) {
   return channel.substr(prefix.size(), end - prefix.size());
 }
 
-struct Series {
+struct PoseSeries {
   std::vector<Transform> poses;
   std::vector<std::optional<Matrix6d>> covariances;
   // For products: how many track-state changes of their DFPC the recording held before each pose.
@@ -65,12 +65,12 @@ struct Series {
   std::string type;
 };
 
-std::string framesOf(const Series& s) {
+std::string framesOf(const PoseSeries& s) {
   if (s.poses.empty()) return "(no message)";
   return fmt::format("{}_T_{}", s.poses.front().parent_frame, s.poses.front().child_frame);
 }
 
-std::string listChannels(const std::map<std::string, Series>& series) {
+std::string listChannels(const std::map<std::string, PoseSeries>& series) {
   std::string out;
   for (const auto& [name, s] : series)
     out += fmt::format("{}{} ({}, {})", out.empty() ? "" : ", ", name, s.type, framesOf(s));
@@ -83,7 +83,7 @@ void addNote(RecordingEvaluationNotes* notes, std::string text) {
 
 // What the evaluation reads from a recording.
 struct RecordingContents {
-  std::map<std::string, Series> products, truths;
+  std::map<std::string, PoseSeries> products, truths;
   // dfpc -> the states its track-state changes left, in recording order, after the state before
   // the first change. A product takes the state of the changes recorded before it (not those
   // at or before its stamp: a DFPC publishes its step's products and then the change the step
@@ -128,7 +128,7 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
       const bool is_truth = dfpc.empty();
       Result<DecodedPose> decoded = decodePose(m);
       if (!decoded) return decoded.status();
-      Series& s = (is_truth ? out.truths : out.products)[channel];
+      PoseSeries& s = (is_truth ? out.truths : out.products)[channel];
       s.type = std::string(m.type().name());
       s.poses.push_back(decoded->pose);
       s.covariances.push_back(decoded->covariance);
@@ -144,8 +144,8 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
 
 // The truth channel to measure `product` (on `channel`) against: the one --pair names, else the
 // one of the same transform; "" (with a note) when there is none.
-Result<std::string> truthChannelFor(const std::string& channel, const Series& product,
-                                    const std::map<std::string, Series>& truths,
+Result<std::string> truthChannelFor(const std::string& channel, const PoseSeries& product,
+                                    const std::map<std::string, PoseSeries>& truths,
                                     const RecordingEvaluationOptions& options,
                                     RecordingEvaluationNotes* notes) {
   if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
@@ -178,7 +178,7 @@ Result<std::string> truthChannelFor(const std::string& channel, const Series& pr
 
 // The product's poses as estimates, in stamp order: not valid where not finite or while its
 // DFPC's track was not tracking (`states`); with the latency of the step that made them.
-std::vector<EstimateSample> estimatesOf(const Series& product,
+std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
                                         const std::vector<std::optional<TrackState>>& states,
                                         const std::map<Timestamp, double>& walls) {
   std::vector<EstimateSample> estimates;

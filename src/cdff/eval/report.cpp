@@ -84,14 +84,14 @@ double niceStep(double span, int count) {
   return 10.0 * magnitude;
 }
 
-struct Series {
+struct PlotSeries {
   std::vector<double> x, y;
 };
 
 // One scatter-and-line plot as inline SVG: axes with ticks, the data, and an optional
 // horizontal threshold line (the requirement) drawn dashed.
 std::string svgPlot(const std::string& title, const std::string& x_label,
-                    const std::string& y_label, const Series& data, double threshold = NAN,
+                    const std::string& y_label, const PlotSeries& data, double threshold = NAN,
                     bool connect = true) {
   constexpr double kWidth = 560, kHeight = 260, kLeft = 62, kRight = 14, kTop = 26, kBottom = 40;
   const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
@@ -290,7 +290,7 @@ std::string productHtml(const PoseEvaluation& p) {
 // One product's plots: errors over time and over range, NEES.
 std::string productPlotsHtml(const PoseEvaluation& p) {
   std::string html;
-  Series position, angle, percent_by_range, nees;
+  PlotSeries position, angle, percent_by_range, nees;
   const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
   for (const MatchedError& e : p.errors) {
     const double t = toSeconds(e.stamp - t0);
