@@ -2,7 +2,10 @@
 // draw simulates the scenario with its own seed (scan noise, dropped scans) and starts the DFPC
 // from its own Gaussian initial error of RMS 10 % of the range and 10 degrees. One benchmark per
 // scenario runs every evaluation draw once (CDFF_DRAWS=N runs the first N; CDFF_DRAW_SET=tuning
-// runs the first N tuning draws instead, the ones to tune on) and reports, besides
+// runs the first N tuning draws instead, the ones to tune on; CDFF_VERBOSE=1 prints the track
+// state changes and wrong locks, CDFF_VERBOSE=2 also every scan's registration and filter step
+// and every pose's error; CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." changes the graph's parameters
+// as `cdff run --set` does) and reports, besides
 // the time per draw, the accuracy counters quoted in docs/lidar-tracking.md:
 //   draws_within_goal  fraction of draws whose p95 errors and tracked fraction meet the goal
 //   wrong_lock_draws   draws with a pose reported TRACKING > 10 deg or 5 % of the range off
@@ -15,8 +18,13 @@
 // 0.5 deg; tumbling acquisition: twice the mid-range goals), with >= 99 % of scans tracked.
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
+#include <string>
+
+#include <fmt/format.h>
 
 #include "bench_support.hpp"
 #include "lidar_tracking_support.hpp"
@@ -39,6 +47,35 @@ struct Case {
   std::string extra_yaml;
   Goal goal;
 };
+
+// CDFF_VERBOSE=2: every scan's registration and filter step, and every pose product's error
+// against the truth with its track state and the filter's angular velocity (rad/s).
+void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::SimulatedRun& run,
+                Timestamp t0) {
+  std::map<Timestamp, std::string> rows;
+  for (const dfpc::Message& m : r.products) {
+    std::string& row = rows[m.stamp];
+    if (m.channel == "/cdff/lidar_tracking/fitness")
+      if (const double* v = m.as<double>()) row += fmt::format(" | scan fitness {:.2f}", *v);
+    if (m.channel == "/cdff/lidar_tracking/nis")
+      if (const double* v = m.as<double>(); v && std::isfinite(*v))
+        row += fmt::format(" NIS {:.1f}", *v);
+    if (m.channel == "/cdff/lidar_tracking/accepted")
+      if (const bool* v = m.as<bool>(); v && *v) row += " fused";
+    if (m.channel == "/cdff/lidar_tracking/track_state")
+      if (const TrackState* v = m.as<TrackState>()) row += fmt::format(" {}", toString(*v));
+    if (m.channel == "/cdff/lidar_tracking/pose")
+      if (const RigidBodyState* v = m.as<RigidBodyState>())
+        if (const std::optional<Transform> truth = eval::truthAt(run.truth, m.stamp, {}))
+          row += fmt::format(
+              " | pose {:.2f} deg {:.3f} m off, w ({:.3f} {:.3f} {:.3f})",
+              Eigen::AngleAxisd(v->pose.rotation * truth->rotation.inverse()).angle() / kDeg,
+              (v->pose.translation - truth->translation).norm(), v->twist.angular.x(),
+              v->twist.angular.y(), v->twist.angular.z());
+  }
+  for (const auto& [stamp, row] : rows)
+    if (!row.empty()) std::fprintf(stderr, "  %6.2f s%s\n", toSeconds(stamp - t0), row.c_str());
+}
 
 void runDraws(benchmark::State& state, const Case& c) {
   const eval::DrawSets& sets = lidar_tracking::drawSets();
@@ -81,6 +118,7 @@ void runDraws(benchmark::State& state, const Case& c) {
         for (const dfpc::Event& ev : r->events)
           if (ev.type == dfpc::EventType::kTrackStateChanged)
             std::fprintf(stderr, "  %.2f s: %s\n", toSeconds(ev.stamp - t0), ev.message.c_str());
+        if (std::string(std::getenv("CDFF_VERBOSE")) == "2") printTrace(*r, d->run, t0);
         double last_wrong = -1;
         for (const eval::MatchedError& m : reported->errors)
           if (m.angle_error_deg > 10.0 || 100.0 * m.position_error_m / m.range_m > 5.0) {

@@ -40,9 +40,12 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     Result<Eigen::Isometry3d> guess =
         registration3d::checkInputs(source, model, in.sensor.get(), in.initial_guess.get());
     if (!guess) return guess.status();
+    Result<std::optional<Eigen::Matrix3d>> position_covariance =
+        registration3d::guessPositionCovariance(source, in.guess_uncertainty.get());
+    if (!position_covariance) return position_covariance.status();
     registration3d::selectSource(source, params_.max_source_points, points_);
     Result<registration::Registration> result =
-        registration_.registerScan(points_, *guess, source.stamp, lasers());
+        registration_.registerScan(points_, *guess, source.stamp, lasers(), *position_covariance);
     if (!result) return result.status();
     const registration::Registration& r = *result;
     if (r.run.starved)
@@ -98,6 +101,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     confirmation.timeout = params_.confirmation_timeout;
     confirmation.follow_shift_sigma = params_.follow_shift_sigma;
     confirmation.follow_turn_sigma = params_.follow_turn_sigma;
+    confirmation.max_unexplained = params_.max_unexplained;
     return o;
   }
 

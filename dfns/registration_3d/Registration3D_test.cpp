@@ -607,5 +607,31 @@ TEST(Registration3DFastIcp, ConfirmationDecidesAtOnceWhenEveryStartEndsInOneMini
   EXPECT_LT(error.rotation, 1.0 * kDeg);
 }
 
+TEST(Registration3DFastIcp, ABadGuessUncertaintyIsReported) {
+  auto icp = makeFast("{hypotheses: 24}");
+  const Eigen::Isometry3d truth = lidarTTarget(5.0);
+  const PointCloud scan = scanAt(truth, 41);
+  icp->in.model.set(satelliteModel());
+  icp->in.initial_guess.set(guessOf(truth));
+  RigidBodyState uncertainty;
+  uncertainty.pose = guessOf(truth);
+  uncertainty.covariance.setIdentity();
+  uncertainty.covariance(2, 2) = std::nan("");
+  icp->in.source.set(scan);
+  icp->in.guess_uncertainty.set(uncertainty);
+  testing::expectRejected(*icp, "input 'guess_uncertainty' has a non-finite position covariance");
+  uncertainty.covariance.setIdentity();
+  uncertainty.pose.parent_frame = "servicer";
+  icp->in.source.set(scan);
+  icp->in.guess_uncertainty.set(uncertainty);
+  testing::expectRejected(*icp,
+                          "input 'guess_uncertainty' is expressed in frame 'servicer'; "
+                          "expected the source's frame 'lidar'");
+  uncertainty.pose.parent_frame = "lidar";
+  icp->in.source.set(scan);
+  icp->in.guess_uncertainty.set(uncertainty);
+  ASSERT_OK(icp->process());
+}
+
 }  // namespace
 }  // namespace cdff::dfn

@@ -1,6 +1,7 @@
 // The registration library (src/cdff/registration/) below the DFIs: the process-wide sharing of a
 // model's search structures, and the multi-scan hypothesis confirmation's decision rule through
-// its interface alone (a scan is only a misfit of each pose and a short run from a start).
+// its interface alone (a scan is only a misfit of each pose and a short run from a start), and
+// where the multi-start search starts.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "cdff/registration/hypothesis_confirmation.hpp"
+#include "cdff/registration/multi_start.hpp"
 #include "cdff/registration/shared_model_cache.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
@@ -138,6 +140,65 @@ TEST(RegistrationLibrary, ConfirmationDecidesALoneHypothesisAtOnceAndDropsAStale
   ASSERT_OK(r.status());
   EXPECT_TRUE(r->ambiguous);
   EXPECT_FALSE(r->best);
+}
+
+TEST(RegistrationLibrary, ConfirmationDecidesNoHypothesisThatLeavesTheScansUnexplained) {
+  ConfirmationOptions options = confirmationOptions();
+  options.max_unexplained = 0.25;  // at most 9 x 0.25 = 2.25 per return
+  HypothesisConfirmation confirmation;
+  confirmation.configure(options);
+  const Eigen::Isometry3d guess = Eigen::Isometry3d::Identity();
+  // Every pose leaves 4 per return of the 50 returns unexplained: the starts missed the pose
+  // that explains the scan. Even a lone hypothesis is not decided.
+  const auto unexplained = [](Timestamp stamp) {
+    ScanEvidence scan = scanAt(stamp);
+    scan.misfit = [](const Eigen::Isometry3d& pose) {
+      const double x = pose.translation().x();
+      return 200.0 + 100.0 * x * x;
+    };
+    return scan;
+  };
+  Result<ConfirmationResult> r =
+      confirmation.update(unexplained(0), guess, std::vector<Start>{startAt(0.0)});
+  ASSERT_OK(r.status());
+  EXPECT_TRUE(r->ambiguous);
+  EXPECT_NEAR(r->misfit_per_return, 4.0, 1e-6);
+  // Followed for `scans` scans, then dropped: the next scan searches anew.
+  for (int scan = 1; scan <= 2; ++scan) {
+    const Timestamp stamp = scan * 100'000;
+    ASSERT_TRUE(confirmation.following(stamp)) << "scan " << scan;
+    r = confirmation.update(unexplained(stamp), guess, {});
+    ASSERT_OK(r.status());
+    EXPECT_TRUE(r->ambiguous) << "scan " << scan;
+  }
+  EXPECT_FALSE(confirmation.following(300'000));
+
+  // The same rule passes the right pose of scanAt(), which leaves nothing unexplained.
+  r = confirmation.update(scanAt(300'000), guess, std::vector<Start>{startAt(0.0)});
+  ASSERT_OK(r.status());
+  EXPECT_FALSE(r->ambiguous);
+  EXPECT_LT(r->misfit_per_return, 0.01);
+}
+
+TEST(RegistrationLibrary, DepthStartsSpanTheGuesssDepthUncertaintyAlongTheLineOfSight) {
+  const Eigen::Vector3f viewpoint = Eigen::Vector3f::Zero();
+  const Eigen::Vector3d position(0.0, 0.0, 15.0);
+  // Depth sigma 0.8 m (along z, the line of sight), 0.1 m across it.
+  const Eigen::Matrix3d covariance = Eigen::Vector3d(0.01, 0.01, 0.64).asDiagonal();
+  const std::vector<Eigen::Vector3d> starts = depthStarts(position, covariance, viewpoint, 0.1);
+  ASSERT_EQ(starts.size(), 5u);
+  EXPECT_TRUE(starts.front().isApprox(position));
+  std::vector<double> depths;
+  for (const Eigen::Vector3d& p : starts) {
+    EXPECT_NEAR(p.x(), 0.0, 1e-12);
+    EXPECT_NEAR(p.y(), 0.0, 1e-12);
+    depths.push_back(p.z());
+  }
+  std::sort(depths.begin(), depths.end());
+  const std::vector<double> expected = {13.4, 14.2, 15.0, 15.8, 16.6};
+  for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_NEAR(depths[i], expected[i], 1e-9);
+  // A depth known to within the starts' resolution needs no other start.
+  EXPECT_EQ(depthStarts(position, Eigen::Matrix3d::Identity() * 0.0025, viewpoint, 0.1).size(), 1u);
 }
 
 }  // namespace

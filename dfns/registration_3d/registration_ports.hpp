@@ -4,8 +4,11 @@
 // algorithms are in src/cdff/registration/.
 
 #include <algorithm>
+#include <optional>
+#include <string>
 #include <vector>
 
+#include <fmt/ranges.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -45,6 +48,25 @@ inline Result<Eigen::Isometry3d> checkInputs(const PointCloud& source, const Poi
         "'source' and 'model')",
         initial_guess->parent_frame, initial_guess->child_frame, source.frame_id, model.frame_id);
   return initial_guess->isometry();
+}
+
+/// The position block of `uncertainty`'s pose covariance (none without it); an error when it
+/// is not finite or not expressed in the source's frame.
+inline Result<std::optional<Eigen::Matrix3d>> guessPositionCovariance(
+    const PointCloud& source, const RigidBodyState* uncertainty) {
+  if (uncertainty == nullptr) return std::optional<Eigen::Matrix3d>();
+  const Eigen::Matrix3d position = uncertainty->covariance.topLeftCorner<3, 3>();
+  if (!position.allFinite())
+    return invalidInput(
+        "input 'guess_uncertainty' has a non-finite position covariance (diagonal {}); expected "
+        "a finite covariance",
+        fmt::join(position.diagonal(), ", "));
+  const std::string& frame = uncertainty->pose.parent_frame;
+  if (!frame.empty() && !source.frame_id.empty() && frame != source.frame_id)
+    return invalidInput(
+        "input 'guess_uncertainty' is expressed in frame '{}'; expected the source's frame '{}'",
+        frame, source.frame_id);
+  return std::optional<Eigen::Matrix3d>(position);
 }
 
 /// The source points a DFI uses, into `out`: all, or at most `max_points` evenly strided ones.

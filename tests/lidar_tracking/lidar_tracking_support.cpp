@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -109,9 +110,26 @@ Result<DrawnRun> simulateDraw(const eval::Draw& draw, const std::string& scenari
 
 Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
                                               const GraphEdit& edit) {
-  Result<dfpc::GraphSpec> spec =
-      dfpc::loadGraphFile(std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml");
+  // CDFF_GRAPH_SET: `;`-separated NODE.PARAM=VALUE settings (as `cdff run --set`), for the
+  // benchmark's runs on the tuning draws.
+  std::vector<dfpc::ParameterSetting> settings;
+  if (const char* env = std::getenv("CDFF_GRAPH_SET")) {
+    std::stringstream list(env);
+    for (std::string text; std::getline(list, text, ';');) {
+      if (text.empty()) continue;
+      Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text);
+      if (!s) return s.status().withContext("CDFF_GRAPH_SET");
+      settings.push_back(std::move(s).value());
+    }
+  }
+  std::vector<bool> applied;
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(
+      std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml", settings, applied);
   if (!spec) return spec.status();
+  for (std::size_t i = 0; i < settings.size(); ++i)
+    if (!applied[i])
+      return invalidInput("CDFF_GRAPH_SET: '{}' addresses no node of lidar_tracking",
+                          settings[i].text);
   for (dfpc::InstanceSpec& instance : spec->instances)
     if (instance.name == "model") instance.parameters["mesh_file"] = mesh_file.string();
   if (edit) edit(*spec);

@@ -50,9 +50,9 @@ const std::vector<Eigen::Matrix3d>& FastIcp::turns() {
   return turns_;
 }
 
-Result<ConfirmationResult> FastIcp::acquire(std::span<const Eigen::Vector3f> points,
-                                            const Eigen::Isometry3d& guess, Timestamp stamp,
-                                            bool visibility_check) {
+Result<ConfirmationResult> FastIcp::acquire(
+    std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& guess, Timestamp stamp,
+    bool visibility_check, const std::optional<Eigen::Matrix3d>& position_covariance) {
   const MultiStartOptions& o = options_.multi_start;
   std::vector<Eigen::Vector3d> positions;
   // Hypotheses being followed need no new starts (the search is most of the cost).
@@ -63,8 +63,15 @@ Result<ConfirmationResult> FastIcp::acquire(std::span<const Eigen::Vector3f> poi
         model_centroid_ = modelCentroid(*model_.index);
         centroid_for_ = model_.index->builds;
       }
-      positions.push_back(
-          centredPosition(points, guess, model_centroid_, options_.icp.association.viewpoint));
+      const Eigen::Vector3d centred =
+          centredPosition(points, guess, model_centroid_, options_.icp.association.viewpoint);
+      if (position_covariance)
+        for (const Eigen::Vector3d& p :
+             depthStarts(centred, *position_covariance, options_.icp.association.viewpoint,
+                         options_.quality.inlier_distance))
+          positions.push_back(p);
+      else
+        positions.push_back(centred);
     }
   }
   Result<std::vector<Start>> starts =
@@ -93,16 +100,18 @@ Result<ConfirmationResult> FastIcp::acquire(std::span<const Eigen::Vector3f> poi
   return chosen;
 }
 
-Result<Registration> FastIcp::registerScan(std::span<const Eigen::Vector3f> points,
-                                           const Eigen::Isometry3d& guess, Timestamp stamp,
-                                           std::span<const double> lasers) {
+Result<Registration> FastIcp::registerScan(
+    std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& guess, Timestamp stamp,
+    std::span<const double> lasers,
+    const std::optional<Eigen::Matrix3d>& guess_position_covariance) {
   const bool visibility_check =
       options_.visibility_check &&
       visibility_.setScan(points, options_.icp.association.viewpoint, lasers);
   Registration r;
   IcpRun search = IcpRun::startingAt(guess, options_.icp.max_correspondence_distance);
   if (options_.multi_start.hypotheses > 1) {
-    Result<ConfirmationResult> chosen = acquire(points, guess, stamp, visibility_check);
+    Result<ConfirmationResult> chosen =
+        acquire(points, guess, stamp, visibility_check, guess_position_covariance);
     if (!chosen) return chosen.status();
     r.ambiguous = chosen->ambiguous;
     if (chosen->best) {

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -75,16 +76,20 @@ class FastIcp {
   /// against the prepared model from source_T_model `guess`; `stamp` orders the scans for the
   /// confirmation. `lasers`: the sensor's distinct laser elevations (rad), lowest first, for the
   /// visibility's empty rings (RingVisibility::setScan); empty: only the rings with returns.
-  Result<Registration> registerScan(std::span<const Eigen::Vector3f> points,
-                                    const Eigen::Isometry3d& guess, Timestamp stamp,
-                                    std::span<const double> lasers = {});
+  /// `guess_position_covariance` (source frame, m^2): how far the guess's position may be off;
+  /// an acquisition then also starts at other depths along the line of sight (depthStarts).
+  Result<Registration> registerScan(
+      std::span<const Eigen::Vector3f> points, const Eigen::Isometry3d& guess, Timestamp stamp,
+      std::span<const double> lasers = {},
+      const std::optional<Eigen::Matrix3d>& guess_position_covariance = std::nullopt);
 
  private:
   /// The acquisition's choice of a start (multi-start search, then confirmation or the best
   /// fit); none leaves the guess.
   Result<ConfirmationResult> acquire(std::span<const Eigen::Vector3f> points,
                                      const Eigen::Isometry3d& guess, Timestamp stamp,
-                                     bool visibility_check);
+                                     bool visibility_check,
+                                     const std::optional<Eigen::Matrix3d>& position_covariance);
   double visibilityAt(const Eigen::Isometry3d& pose);
   const std::vector<Eigen::Matrix3d>& turns();
 

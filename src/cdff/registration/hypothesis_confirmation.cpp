@@ -74,6 +74,7 @@ void HypothesisConfirmation::startSet(const ScanEvidence& scan, const Eigen::Iso
   const auto score = [&](const IcpRun& s) { return scan.misfit(s.pose); };
   hypotheses_.clear();
   scans_ = 0;
+  returns_ = 0;
   for (const Start& c : starts)
     hypotheses_.push_back({c.run, c.run.pose * guess.inverse(), score(c.run)});
   // Only the kept ones are moved to their misfit's minimum (the search costs about a hundred
@@ -136,6 +137,7 @@ Result<ConfirmationResult> HypothesisConfirmation::update(const ScanEvidence& sc
     CDFF_RETURN_IF_ERROR(follow(scan, guess));
   stamp_ = scan.stamp;
   ++scans_;
+  returns_ += scan.returns;
   keepDistinct();
   ConfirmationResult result;
   if (hypotheses_.empty()) {
@@ -146,10 +148,16 @@ Result<ConfirmationResult> HypothesisConfirmation::update(const ScanEvidence& sc
   // minimum) has no rival for more scans to rule out: it is decided at once.
   const double margin = hypotheses_.size() > 1 ? hypotheses_[1].misfit - hypotheses_[0].misfit
                                                : std::numeric_limits<double>::infinity();
-  result.ambiguous =
-      hypotheses_.size() > 1 && (scans_ < options_.scans || margin < options_.margin);
-  result.best = hypotheses_.front().run;
-  if (!result.ambiguous) hypotheses_.clear();
+  const Hypothesis& best = hypotheses_.front();
+  result.misfit_per_return = best.misfit / static_cast<double>(std::max<std::size_t>(1, returns_));
+  const bool explains = options_.max_unexplained <= 0 ||
+                        result.misfit_per_return <= kUnmatchedCost * options_.max_unexplained;
+  result.ambiguous = !explains || (hypotheses_.size() > 1 &&
+                                   (scans_ < options_.scans || margin < options_.margin));
+  result.best = best.run;
+  // Decided, or scored on enough scans without a hypothesis that explains them: a later scan
+  // starts a new set (from its own guess).
+  if (!result.ambiguous || (!explains && scans_ >= options_.scans)) hypotheses_.clear();
   return result;
 }
 

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <span>
 #include <vector>
@@ -35,11 +36,15 @@
 namespace cdff::registration {
 
 struct ConfirmationOptions {
-  int scans = 0;         // scans scored before a decision (0: off, every scan decides alone)
-  int kept = 6;          // distinct hypotheses followed
-  double margin = 20;    // summed misfit by which the best must beat every other
-  double timeout = 1.0;  // s: a scan later than this after the last starts a new set
-  double follow_shift_sigma = 0.3;               // m/s, the prior on a hypothesis's own move
+  int scans = 0;       // scans scored before a decision (0: off, every scan decides alone)
+  int kept = 6;        // distinct hypotheses followed
+  double margin = 20;  // summed misfit by which the best must beat every other
+  // The most the decided hypothesis may leave unexplained: its summed misfit at most that of
+  // this fraction of the returns unmatched (0: no bound). A set whose best is above it after
+  // `scans` scans holds no right pose (the search missed its basin) and is dropped.
+  double max_unexplained = 0;
+  double timeout = 1.0;             // s: a scan later than this after the last starts a new set
+  double follow_shift_sigma = 0.3;  // m/s, the prior on a hypothesis's own move
   double follow_turn_sigma = 10.0 * M_PI / 180;  // rad/s
   // The registration's: the residuals' noise is inlier_distance / 3; a followed run starts at
   // inlier_distance + 3 shift sigmas, within [min, max] correspondence distance.
@@ -68,6 +73,7 @@ struct Hypothesis {
 struct ConfirmationResult {
   std::optional<IcpRun> best;  // the least summed misfit; none when no hypothesis is left
   bool ambiguous = false;      // the best is not decided yet
+  double misfit_per_return = std::numeric_limits<double>::quiet_NaN();  // the best's, summed
 };
 
 class HypothesisConfirmation {
@@ -101,6 +107,7 @@ class HypothesisConfirmation {
   std::vector<Hypothesis> hypotheses_;  // best first
   Timestamp stamp_ = 0;                 // the scan they were last followed into
   int scans_ = 0;                       // scans scored since the set was made
+  std::size_t returns_ = 0;             // returns of those scans
 };
 
 }  // namespace cdff::registration

@@ -32,6 +32,17 @@ Eigen::Vector3d centredPosition(std::span<const Eigen::Vector3f> points,
   return guess.translation() + offset;
 }
 
+std::vector<Eigen::Vector3d> depthStarts(const Eigen::Vector3d& position,
+                                         const Eigen::Matrix3d& position_covariance,
+                                         const Eigen::Vector3f& viewpoint, double resolution) {
+  std::vector<Eigen::Vector3d> positions{position};
+  const Eigen::Vector3d sight = (position - viewpoint.cast<double>()).normalized();
+  const double sigma = std::sqrt(std::max(0.0, sight.dot(position_covariance * sight)));
+  if (!std::isfinite(sigma) || sigma <= resolution) return positions;
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) positions.push_back(position + k * sigma * sight);
+  return positions;
+}
+
 Result<std::vector<Start>> runStarts(Icp& icp, std::span<const Eigen::Vector3f> points,
                                      const ModelIndex& model, const Eigen::Isometry3d& guess,
                                      std::span<const Eigen::Vector3d> positions,

@@ -53,6 +53,15 @@ Eigen::Vector3d centredPosition(std::span<const Eigen::Vector3f> points,
                                 const Eigen::Vector3d& model_centroid,
                                 const Eigen::Vector3f& viewpoint);
 
+/// `position` and, when the guess's position covariance leaves its depth along the line of
+/// sight from `viewpoint` uncertain by more than `resolution` (m: starts closer than that share
+/// a basin), the positions 1 and 2 standard deviations nearer and farther along that line. The
+/// scan fixes the target across the line of sight (centredPosition) but not its depth, and a
+/// start a metre too deep or too shallow slides the model along the scan into a wrong minimum.
+std::vector<Eigen::Vector3d> depthStarts(const Eigen::Vector3d& position,
+                                         const Eigen::Matrix3d& position_covariance,
+                                         const Eigen::Vector3f& viewpoint, double resolution);
+
 /// Every start (each of `turns` applied to the guess's attitude, at each of `positions`) run
 /// for options.iterations ICP iterations from the ICP's max correspondence distance; those that
 /// starved or turned farther than options.max_turn from the guess are dropped (they found
