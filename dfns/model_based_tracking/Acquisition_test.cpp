@@ -153,6 +153,36 @@ TEST(AcquisitionGate, AdmitsWhatTheCovarianceCovers) {
   EXPECT_EQ(singular.distance, 0);
 }
 
+TEST(AcquisitionRestarts, TurnTheAttitudeAboutEachPrincipalAxisBothWaysLargestFirst) {
+  const Transform start = pose(Eigen::Vector3d(0.1, 0, 3), Eigen::Vector3d(0, 0.2, 0));
+  Matrix6d covariance = Matrix6d::Identity() * 1e-4;
+  covariance.bottomRightCorner<3, 3>().diagonal() << 1e-4, 4e-4, 9e-4;  // 0.01, 0.02, 0.03 rad
+  const std::vector<Transform> all = restartStarts(start, covariance, 2, 0, 8);
+  ASSERT_EQ(all.size(), 8u);
+  const Eigen::Vector3d expected[] = {{0, 0, 0.06},  {0, 0, -0.06}, {0, 0.04, 0},
+                                      {0, -0.04, 0}, {0.02, 0, 0},  {-0.02, 0, 0}};
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_TRUE(all[i].translation.isApprox(start.translation));
+    // The turn is applied in the reference frame, as the covariance's perturbation; an
+    // eigenvector's sign is the solver's, so each pair is checked up to it, one way then the other.
+    const Vector6d d = poseDifference(all[i], start);
+    EXPECT_NEAR(std::abs(d.tail<3>().dot(expected[i % 6])), expected[i % 6].squaredNorm(), 1e-9);
+    EXPECT_NEAR(d.tail<3>().norm(), expected[i % 6].norm(), 1e-9);
+    if (i % 2 == 1)
+      EXPECT_TRUE(d.tail<3>().isApprox(-poseDifference(all[i - 1], start).tail<3>(), 1e-9));
+  }
+  // A later part of the sequence is the same as its place in the whole.
+  const std::vector<Transform> part = restartStarts(start, covariance, 2, 3, 2);
+  ASSERT_EQ(part.size(), 2u);
+  EXPECT_TRUE(part[0].rotation.isApprox(all[3].rotation));
+  EXPECT_TRUE(part[1].rotation.isApprox(all[4].rotation));
+  // None without restarts, sigmas or an attitude covariance.
+  EXPECT_TRUE(restartStarts(start, covariance, 2, 0, 0).empty());
+  EXPECT_TRUE(restartStarts(start, covariance, 0, 0, 2).empty());
+  EXPECT_TRUE(restartStarts(start, Matrix6d::Zero(), 2, 0, 2).empty());
+}
+
 TEST(AcquisitionConfirmation, TheNextFrameConfirmsWhatItsPredictionAdmits) {
   const Transform predicted = pose(Eigen::Vector3d(0, 0, 2));
   const Matrix6d narrow = Matrix6d::Identity() * 1e-6, wide = Matrix6d::Identity() * 1e-2;
@@ -187,6 +217,38 @@ TEST(AcquisitionConfirmation, ARejectedAcquisitionIsSearchedAgainAsWideAsItWas) 
   c.acquired(wide);
   EXPECT_TRUE(c.confirm(false, predicted, predicted, narrow).confirmed);
   EXPECT_EQ(c.widened(narrow), narrow);
+}
+
+TEST(AcquisitionConfirmation, AfterARejectionTheSearchStartsWhereTheAcquisitionsDid) {
+  const Transform predicted = pose(Eigen::Vector3d(0, 0, 2));
+  const Matrix6d narrow = Matrix6d::Identity() * 1e-6, wide = Matrix6d::Identity() * 1e-2;
+  AcquisitionConfirmation c;
+  Transform later = pose(Eigen::Vector3d(0.2, 0, 2));
+  later.stamp = 7;
+  EXPECT_TRUE(c.anchored(later).translation.isApprox(later.translation));  // nothing rejected
+  // An acquisition searched about (0.5, 0, 2), then not confirmed: the following frames search
+  // from there, at their own time, until a confirmation.
+  c.acquired(wide, predicted, pose(Eigen::Vector3d(0.5, 0, 2)));
+  EXPECT_FALSE(c.confirm(true, predicted, predicted, narrow).confirmed);
+  const Transform anchored = c.anchored(later);
+  EXPECT_TRUE(anchored.translation.isApprox(Eigen::Vector3d(0.5, 0, 2)));
+  EXPECT_EQ(anchored.stamp, 7);
+  // A replacing acquisition (acquired again, not admitted) keeps that anchor.
+  PosePrediction prediction;
+  prediction.pose = {later, wide};
+  c.acquired(wide, predicted, anchored);
+  TrackingResult replacing;
+  replacing.status = TrackingStatus::kTracking;
+  replacing.reference_T_model = pose(Eigen::Vector3d(1, 0, 2));
+  confirmAcquisition(c, replacing, true, PosePrediction{{later, narrow}, narrow});
+  EXPECT_EQ(replacing.status, TrackingStatus::kDegraded);
+  EXPECT_TRUE(c.awaiting());
+  EXPECT_FALSE(c.confirm(true, predicted, predicted, narrow).confirmed);
+  EXPECT_TRUE(c.anchored(later).translation.isApprox(Eigen::Vector3d(0.5, 0, 2)));
+  // A confirmation ends it.
+  c.acquired(wide, predicted, anchored);
+  EXPECT_TRUE(c.confirm(false, predicted, predicted, narrow).confirmed);
+  EXPECT_TRUE(c.anchored(later).translation.isApprox(later.translation));
 }
 
 TEST(AcquisitionConfirmation, AnEdgeTrackingResultIsDegradedUntilConfirmed) {

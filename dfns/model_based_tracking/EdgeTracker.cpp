@@ -107,6 +107,8 @@ class ModelBasedTrackingEdgeTracker final : public ModelBasedTrackingEdgeTracker
     a.acquisition.sigmas = p.acquisition_sigmas;
     a.acquisition.max_search_distance = p.acquisition_max_search_distance;
     a.acquisition.lateral_first = p.acquisition_lateral_first;
+    a.acquisition.restarts = p.acquisition_restarts;
+    a.acquisition.restart_sigmas = p.acquisition_restart_sigmas;
     a.coarse_alignment = p.acquisition_coarse_search;
     a.chamfer.canny_low = p.acquisition_canny_low;
     return a;

@@ -11,8 +11,9 @@
 // valid frame off by more than 5 % of the range or 10 degrees (a wrong acquisition reported as a
 // track), no loss once tracked. Over the draws, beside the goal (issue 16: >= 98 % of the draws
 // acquire, a failed acquisition recovers within 2 s), bounds near today's figures on these draws
-// (2026-12-04) so that a regression fails: the share of draws tracked within 2 s, the slowest
-// draw's time to track, and the p95 errors of the valid frames (1.5x today's).
+// (2026-12-04) so that a regression fails: the share of draws tracked within 2 s and of draws
+// tracked at their first acquisition (one draw of slack), the slowest draw's time to track, and
+// the p95 errors of the valid frames (1.5x today's).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -29,6 +30,7 @@ constexpr double kDeg = M_PI / 180.0;
 
 struct Bounds {
   double tracked_within_2s = 1.0;  // fraction of the draws, at least
+  double first_confirmed = 1.0;    // fraction of the draws, at least
   double worst_time_to_track_s = 0;
   double position_p95_pct = 0;  // over all draws' valid frames
   double angle_p95_deg = 0;
@@ -85,29 +87,33 @@ void expectWithin(const Figures& f, const Bounds& b) {
   ::testing::Test::RecordProperty("worst_time_to_track_s", std::to_string(f.worst_time_to_track_s));
   EXPECT_EQ(f.tracked, f.draws);
   EXPECT_GE(f.within_2s / n, b.tracked_within_2s);
+  EXPECT_GE(f.first_confirmed / n, b.first_confirmed);
   EXPECT_LE(f.worst_time_to_track_s, b.worst_time_to_track_s);
   EXPECT_LE(pct, b.position_p95_pct);
   EXPECT_LE(deg, b.angle_p95_deg);
 }
 
-// Today (2026-12-04): all 8 draws tracked within 2 s (7 at the first acquisition, the slowest
-// 1.5 s), no wrong frame, p95 0.036 % of the range (1.1 mm at 2.7-3.1 m) and 0.071 deg. The
-// recovery bound is the goal's 2 s (1.5x today's 1.5 s would exceed it).
+// Today (2026-12-04, restarts and the anchor): all 8 draws tracked at the first acquisition
+// (confirmed by the second frame, 0.5 s), no wrong frame, p95 0.036 % of the range (1.1 mm at
+// 2.7-3.1 m) and 0.071 deg. One draw may need a second acquisition; the recovery bound is the
+// goal's 2 s.
 TEST(VisualAcquisitionDraws, CloseRange) {
   Bounds b;
   b.tracked_within_2s = 1.0;
+  b.first_confirmed = 7.0 / 8;
   b.worst_time_to_track_s = 2.0;
   b.position_p95_pct = 0.054;
   b.angle_p95_deg = 0.11;
   expectWithin(runDraws("close_range_approach"), b);
 }
 
-// Today (2026-12-04): all 8 draws tracked within 2 s (6 at the first acquisition, the slowest
-// 1.5 s), no wrong frame, p95 0.42 % of the range (at 16-17 m) and 0.40 deg; the mid-range goal
-// is 1 % and 1 deg.
+// Today (2026-12-04, restarts and the anchor): all 8 draws tracked at the first acquisition
+// (0.5 s; 6 before), no wrong frame, p95 0.42 % of the range (at 16-17 m) and 0.40 deg; the
+// mid-range goal is 1 % and 1 deg. One draw may need a second acquisition.
 TEST(VisualAcquisitionDraws, MidRange) {
   Bounds b;
   b.tracked_within_2s = 1.0;
+  b.first_confirmed = 7.0 / 8;
   b.worst_time_to_track_s = 2.0;
   b.position_p95_pct = 0.62;
   b.angle_p95_deg = 0.6;

@@ -7,6 +7,7 @@ void AcquiringEdgeTracker::configure(const AcquiringEdgeTrackerOptions& options)
   tracker_ = EdgeTracker();
   confirmation_.reset();
   on_track_ = false;
+  restart_cursor_ = 0;
   if (options_.coarse_alignment) warmUpChamferAlignment(options_.chamfer);
 }
 
@@ -30,6 +31,11 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
   predicted.pose.covariance = confirmation_.widened(
       confirmation_.awaiting() && prediction.carried_covariance ? *prediction.carried_covariance
                                                                 : prediction.pose.covariance);
+  // After a failed confirmation the search starts where the unconfirmed acquisition's did: the
+  // filter has fused the unconfirmed pose, and its prediction, pulled towards a wrong alignment,
+  // would lead the next acquisitions onto it (at 17 m a model 16 deg off in attitude and 3 m
+  // farther matches as many samples as the right one).
+  if (!confirmation_.awaiting()) predicted.pose.pose = confirmation_.anchored(prediction.pose.pose);
   if (confirmation_.awaiting() && tracker_.hasModel()) {
     Result<std::optional<TrackingResult>> direct = trackAwaitedDirectly(frame, prediction);
     if (!direct) return direct.status();
@@ -37,8 +43,7 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
       AcquiringTrackingResult out;
       out.tracking = std::move(**direct);
       confirmAcquisition(confirmation_, out.tracking, false, predicted);
-      out.acquiring = confirmation_.awaiting();
-      on_track_ = out.tracking.status != TrackingStatus::kLost && !out.acquiring;
+      settle(out);
       return out;
     }
   }
@@ -55,13 +60,42 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
     if (coarse_placed) start = *aligned->start;
     coarse_note = std::move(aligned->note);
   }
+  // Off a track, an acquisition that is not accepted restarts from turned attitudes, a few per
+  // frame (the frame's time), the next frame continuing the sequence where this one stopped: from
+  // one start the passes converge to the same alignment frame after frame.
+  const std::vector<Transform> restarts =
+      on_track_
+          ? std::vector<Transform>()
+          : restartStarts(start, predicted.pose.covariance, options_.acquisition.restart_sigmas,
+                          restart_cursor_, options_.acquisition.restarts);
   Result<AcquisitionResult> acquired =
       trackWithAcquisition(tracker_, frame, predicted.pose, start, coarse_placed, options_.tracking,
-                           options_.acquisition, pyramids);
+                           options_.acquisition, pyramids, restarts);
   if (!acquired) return acquired.status();
+  restart_cursor_ += acquired->restarts;
   AcquiringTrackingResult out;
   out.tracking = std::move(acquired->tracking);
   out.acquisition_ran = acquired->ran;
+  if (out.acquisition_ran && !coarse_placed && !on_track_)
+    losePartialAlignment(out.tracking, predicted.pose.pose);
+  // The confirmation is for acquisitions off a track, whose gate can admit a wrong alignment once
+  // lost frames have widened the prediction; one from a track (triggered as the track's
+  // covariance grows: at close range with an honest covariance) is gated by the track's own
+  // prediction and stands as a tracked frame.
+  confirmAcquisition(confirmation_, out.tracking, out.acquisition_ran && !on_track_, predicted);
+  if (out.acquisition_ran && !coarse_note.empty()) out.tracking.reason += " (" + coarse_note + ")";
+  settle(out);
+  return out;
+}
+
+void AcquiringEdgeTracker::settle(AcquiringTrackingResult& out) {
+  out.acquiring = confirmation_.awaiting();
+  on_track_ = out.tracking.status != TrackingStatus::kLost && !out.acquiring;
+  if (on_track_) restart_cursor_ = 0;
+}
+
+void AcquiringEdgeTracker::losePartialAlignment(TrackingResult& t,
+                                                const Transform& predicted) const {
   // An acquisition that leaves fewer than degraded_inlier_ratio of the samples matched is a
   // partial alignment unless a coarse placement put the model on the image's edges (at long range
   // every track has such a ratio): without one, the model is wider than the image, and the
@@ -72,26 +106,16 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
   // applies to acquisitions off a track (from the initial state, or after a loss): one from a
   // track, triggered as its covariance grows, starts at its own accuracy, and near 1 m right
   // tracks match fewer than half their samples.
-  if (out.acquisition_ran && !coarse_placed && !on_track_ &&
-      out.tracking.status == TrackingStatus::kDegraded &&
-      out.tracking.inlier_ratio < options_.tracking.degraded_inlier_ratio) {
-    out.tracking.reason = fmt::format(
-        "the acquired pose matches {:.2f} of its samples, below degraded_inlier_ratio {:.2f}, "
-        "without a coarse placement: a partial alignment",
-        out.tracking.inlier_ratio, options_.tracking.degraded_inlier_ratio);
-    out.tracking.status = TrackingStatus::kLost;
-    out.tracking.reference_T_model = predicted.pose.pose;
-    out.tracking.covariance = noInformationCovariance();
-  }
-  // The confirmation is for acquisitions off a track, whose gate can admit a wrong alignment once
-  // lost frames have widened the prediction; one from a track (triggered as the track's
-  // covariance grows: at close range with an honest covariance) is gated by the track's own
-  // prediction and stands as a tracked frame.
-  confirmAcquisition(confirmation_, out.tracking, out.acquisition_ran && !on_track_, predicted);
-  if (out.acquisition_ran && !coarse_note.empty()) out.tracking.reason += " (" + coarse_note + ")";
-  out.acquiring = confirmation_.awaiting();
-  on_track_ = out.tracking.status != TrackingStatus::kLost && !out.acquiring;
-  return out;
+  if (t.status != TrackingStatus::kDegraded ||
+      t.inlier_ratio >= options_.tracking.degraded_inlier_ratio)
+    return;
+  t.reason = fmt::format(
+      "the acquired pose matches {:.2f} of its samples, below degraded_inlier_ratio {:.2f}, "
+      "without a coarse placement: a partial alignment",
+      t.inlier_ratio, options_.tracking.degraded_inlier_ratio);
+  t.status = TrackingStatus::kLost;
+  t.reference_T_model = predicted;
+  t.covariance = noInformationCovariance();
 }
 
 Result<std::optional<TrackingResult>> AcquiringEdgeTracker::trackAwaitedDirectly(

@@ -4,14 +4,17 @@
 // Each frame: the prediction (its covariance carried to the image's time while an acquired pose
 // awaits confirmation, widened after a failed confirmation) is placed by the coarse alignment
 // (chamfer_alignment.hpp, when enabled), acquired coarse to fine when its spread in the image
-// exceeds the edge search (acquisition.hpp), tracked at full resolution and gated. An acquisition
+// exceeds the edge search (acquisition.hpp), tracked at full resolution and gated; off a track, an
+// acquisition that is not accepted restarts from turned attitudes (acquisition_restarts per
+// frame, the sequence continued by the next frame). An acquisition
 // off a track (from the initial state or after a lost frame) that matches fewer than
 // degraded_inlier_ratio of its samples without a coarse placement is lost (a partial alignment);
 // one that is not lost awaits the next frame's confirmation (acquisition_confirmation.hpp), which
-// is first tracked directly from two starts. An acquisition from a track stands. The image
-// pyramid is built once per frame for all of them. This class keeps what persists between frames:
-// the EdgeTracker (its model and cached contours), the confirmation's state and whether the last
-// frame was a track.
+// is first tracked directly from two starts; after a failed confirmation the search starts from
+// where the unconfirmed acquisition's did. An acquisition
+// from a track stands. The image pyramid is built once per frame for all of them. This class keeps
+// what persists between frames: the EdgeTracker (its model and cached contours), the confirmation's
+// state and whether the last frame was a track.
 
 #include <optional>
 #include <span>
@@ -68,10 +71,20 @@ class AcquiringEdgeTracker {
   Result<std::optional<TrackingResult>> trackAwaitedDirectly(const FrameMeasurements& frame,
                                                              const PosePrediction& prediction);
 
+  /// An acquisition off a track without a coarse placement that leaves fewer than
+  /// degraded_inlier_ratio of the samples matched is a partial alignment: `t` becomes LOST with
+  /// the `predicted` pose and a no-information covariance.
+  void losePartialAlignment(TrackingResult& t, const Transform& predicted) const;
+
+  /// The frame's ACQUIRING flag and whether it leaves a track (which resets the restarts).
+  void settle(AcquiringTrackingResult& out);
+
   AcquiringEdgeTrackerOptions options_;
   EdgeTracker tracker_;
   AcquisitionConfirmation confirmation_;
-  bool on_track_ = false;  // the last frame was a track: not LOST, no acquisition awaiting
+  bool on_track_ = false;
+  int restart_cursor_ = 0;  // the next restart of restartStarts' sequence, off a track  // the last
+                            // frame was a track: not LOST, no acquisition awaiting
 };
 
 }  // namespace cdff::tracking

@@ -5,6 +5,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
 #include "cdff/tracking/acquisition_confirmation.hpp"
 
 namespace cdff::tracking {
@@ -194,9 +196,26 @@ struct Acquisition {
     return out;
   }
 
-  // Whether the lateral-first result stands without the plain hypothesis: acquired, not lost,
-  // admitted by the prediction, and tracking unless a coarse placement preceded it.
-  bool lateralAccepted(const AcquisitionResult& r, bool coarse_placed) const {
+  // The acquisition from one start, before the gate: the lateral-first hypothesis, then the plain
+  // one when the lateral-first result is not accepted.
+  Result<AcquisitionResult> acquire(const Transform& start, bool coarse_placed) {
+    Result<Passes> lateral = passes(start, acquisition.lateral_first);
+    if (!lateral) return lateral.status();
+    Result<TrackingResult> tracked = track(lateral->pose);
+    if (!tracked) return tracked.status();
+    AcquisitionResult r;
+    r.ran = lateral->ran;
+    r.acquired = lateral->ok;
+    r.failure = lateral->failure;
+    r.tracking = std::move(tracked).value();
+    if (r.ran && acquisition.lateral_first && !accepted(r, coarse_placed))
+      CDFF_RETURN_IF_ERROR(plainHypothesis(start, r));
+    return r;
+  }
+
+  // Whether an acquisition's result stands without another hypothesis or start: acquired, not
+  // lost, admitted by the prediction, and tracking unless a coarse placement preceded it.
+  bool accepted(const AcquisitionResult& r, bool coarse_placed) const {
     return r.acquired && r.tracking.status != TrackingStatus::kLost &&
            (coarse_placed || r.tracking.status == TrackingStatus::kTracking) &&
            testGate(r.tracking.reference_T_model, predicted.pose, gateCovariance(r.tracking))
@@ -265,25 +284,48 @@ struct Acquisition {
 
 }  // namespace
 
+std::vector<Transform> restartStarts(const Transform& start, const Matrix6d& covariance,
+                                     double sigmas, int first, int count) {
+  std::vector<Transform> starts;
+  const Eigen::Matrix3d attitude = covariance.bottomRightCorner<3, 3>();
+  if (count <= 0 || sigmas <= 0 || !attitude.allFinite()) return starts;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(attitude);
+  if (axes.info() != Eigen::Success || axes.eigenvalues().minCoeff() <= 0) return starts;
+  for (int i = first; i < first + count; ++i) {
+    // Largest axis first, each to both sides: 0 and 1 about the largest, 2 and 3 the middle one.
+    const int k = (i / 2) % 3;
+    const Eigen::Vector3d turn = (i % 2 ? -sigmas : sigmas) * std::sqrt(axes.eigenvalues()(2 - k)) *
+                                 axes.eigenvectors().col(2 - k);
+    Transform s = start;
+    s.rotation = (expSO3(turn) * start.rotation).normalized();
+    starts.push_back(s);
+  }
+  return starts;
+}
+
 Result<AcquisitionResult> trackWithAcquisition(EdgeTracker& tracker, const FrameMeasurements& frame,
                                                const PoseWithCovariance& predicted,
                                                const Transform& start, bool coarse_placed,
                                                const EdgeTrackerOptions& options,
                                                const AcquisitionOptions& acquisition,
-                                               FramePyramids& pyramids) {
+                                               FramePyramids& pyramids,
+                                               std::span<const Transform> restarts) {
   Acquisition a{tracker, frame, predicted, options, acquisition, pyramids};
-  Result<Passes> lateral = a.passes(start, acquisition.lateral_first);
-  if (!lateral) return lateral.status();
-  Result<TrackingResult> tracked = a.track(lateral->pose);
-  if (!tracked) return tracked.status();
-  AcquisitionResult r;
-  r.ran = lateral->ran;
-  r.acquired = lateral->ok;
-  r.failure = lateral->failure;
-  r.tracking = std::move(tracked).value();
-  if (r.ran && acquisition.lateral_first && !a.lateralAccepted(r, coarse_placed))
-    CDFF_RETURN_IF_ERROR(a.plainHypothesis(start, r));
-  a.gate(r);
+  Result<AcquisitionResult> r = a.acquire(start, coarse_placed);
+  if (!r) return r.status();
+  if (r->ran && !a.accepted(*r, coarse_placed)) {
+    for (const Transform& other : restarts) {
+      ++r->restarts;
+      Result<AcquisitionResult> again = a.acquire(other, coarse_placed);
+      if (!again) return again.status();
+      if (!a.accepted(*again, coarse_placed)) continue;
+      const int tried = r->restarts;
+      r = std::move(again);
+      r->restarts = tried;
+      break;
+    }
+  }
+  a.gate(*r);
   return r;
 }
 

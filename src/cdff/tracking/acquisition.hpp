@@ -13,9 +13,14 @@
 // lateral-first one gives no acceptable result, as running both doubles the acquisition frame's
 // cost; the full-resolution result with the higher inlier ratio is then kept. An acquired pose
 // that the prediction's covariance does not admit is lost (acquisition_confirmation.hpp).
+//
+// Restarts: the acquisition from a start converges to the same alignment frame after frame, so
+// when it is not accepted the caller can give starts with the attitude turned about the
+// covariance's principal axes (restartStarts), tried in turn within the frame.
 
 #include <span>
 #include <string>
+#include <vector>
 
 #include "cdff/tracking/edge_tracker.hpp"
 #include "cdff/tracking/image_pyramid.hpp"
@@ -28,6 +33,12 @@ struct AcquisitionOptions {
   double sigmas = 3;
   int max_search_distance = 64;  // px of its level: the longest search of the coarsest pass
   bool lateral_first = true;     // the lateral-first hypothesis first (else the plain one only)
+  /// Starts tried per frame besides the prediction when the acquisition from the prediction is
+  /// not accepted (restartStarts); 0 tries none.
+  int restarts = 2;
+  /// How far a restart turns the prediction's attitude, in standard deviations of the attitude
+  /// covariance along one of its principal axes.
+  double restart_sigmas = 2;
 };
 
 /// How far, in pixels, the prediction's uncertainty may move the model's image in `frame`, as a
@@ -72,19 +83,34 @@ struct AcquisitionResult {
   std::string failure;      // why not acquired: where and why the passes lost the track
   TrackingResult tracking;  // the frame's result; lost with the prediction's pose when not
                             // acquired or not admitted by the prediction
+  int restarts = 0;         // restarts tried (after the acquisition from `start` was not accepted)
 };
+
+/// Restart `first` to `first + count - 1` of the sequence that the acquisition tries after one
+/// from `start` is not accepted: `start` with its attitude turned by `sigmas` standard deviations
+/// of `covariance`'s attitude block about each principal axis, both ways, the largest axis first,
+/// then the sequence again (index i turns about axis (i / 2) mod 3, the sign alternating). An
+/// acquisition from a start converges to the same alignment frame after frame: at close range
+/// the model's large edges (the adapter ring's circles) fit a wrong attitude a few degrees off,
+/// and a start on the other side of the truth converges to it. Empty when `count` or `sigmas` is
+/// not positive or the attitude covariance is not positive definite.
+std::vector<Transform> restartStarts(const Transform& start, const Matrix6d& covariance,
+                                     double sigmas, int first, int count);
 
 /// Tracks one frame from `start` (the prediction, or the coarse alignment's placement of it when
 /// `coarse_placed`), acquiring first when the prediction's spread in the reference camera exceeds
 /// options.search.search_distance. After a coarse placement the lateral offset comes from the
 /// image's edges, so the lateral-first result is kept when it is not lost and the prediction
 /// admits it (at long range it is degraded, as any track there); without one, only when it is
-/// tracking and admitted.
+/// tracking and admitted. When the result from `start` is not accepted so, the acquisition runs
+/// from each of `restarts` in turn (restartStarts) and the first accepted result is the frame's;
+/// none accepted, the result from `start` stands.
 Result<AcquisitionResult> trackWithAcquisition(EdgeTracker& tracker, const FrameMeasurements& frame,
                                                const PoseWithCovariance& predicted,
                                                const Transform& start, bool coarse_placed,
                                                const EdgeTrackerOptions& options,
                                                const AcquisitionOptions& acquisition,
-                                               FramePyramids& pyramids);
+                                               FramePyramids& pyramids,
+                                               std::span<const Transform> restarts = {});
 
 }  // namespace cdff::tracking

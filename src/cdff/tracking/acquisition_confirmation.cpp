@@ -29,9 +29,18 @@ Matrix6d AcquisitionConfirmation::widened(const Matrix6d& predicted) const {
   return predicted;
 }
 
+Transform AcquisitionConfirmation::anchored(const Transform& predicted) const {
+  if (!reacquisition_anchor_) return predicted;
+  Transform t = *reacquisition_anchor_;
+  t.stamp = predicted.stamp;
+  return t;
+}
+
 void AcquisitionConfirmation::acquired(const Matrix6d& covariance,
-                                       const std::optional<Transform>& pose) {
+                                       const std::optional<Transform>& pose,
+                                       const std::optional<Transform>& searched) {
   awaiting_ = true;
+  acquisition_anchor_ = searched;
   acquisition_covariance_ = covariance;
   acquired_pose_ = pose;
 }
@@ -50,10 +59,13 @@ AcquisitionConfirmation::Check AcquisitionConfirmation::confirm(bool lost,
     check.distance = gate.distance;
     check.confirmed = gate.admitted;
   }
-  if (check.confirmed)
+  if (check.confirmed) {
     reacquisition_covariance_.reset();
-  else
+    reacquisition_anchor_.reset();
+  } else {
     reacquisition_covariance_ = acquisition_covariance_;
+    reacquisition_anchor_ = acquisition_anchor_;
+  }
   return check;
 }
 
@@ -61,6 +73,8 @@ void AcquisitionConfirmation::reset() {
   awaiting_ = false;
   acquired_pose_.reset();
   reacquisition_covariance_.reset();
+  acquisition_anchor_.reset();
+  reacquisition_anchor_.reset();
 }
 
 Matrix6d confirmationCovariance(const TrackingResult& result, const PosePrediction& prediction) {
@@ -84,7 +98,9 @@ void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
         lost ? result.reason : (acquisition_ran ? "acquired again" : "tracked"), check.distance,
         kAcquisitionGate);
     if (acquisition_ran && !lost) {
-      state.acquired(prediction.pose.covariance, result.reference_T_model);
+      // The replacing acquisition keeps the anchor of the one it replaces.
+      state.acquired(prediction.pose.covariance, result.reference_T_model,
+                     state.anchored(prediction.pose.pose));
       result.status = TrackingStatus::kDegraded;
       result.reason = why + ": this frame's acquired pose replaces it and awaits the next frame";
       return;
@@ -96,7 +112,7 @@ void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
     return;
   }
   if (!acquisition_ran || lost) return;
-  state.acquired(prediction.pose.covariance, result.reference_T_model);
+  state.acquired(prediction.pose.covariance, result.reference_T_model, prediction.pose.pose);
   if (result.status == TrackingStatus::kTracking) {
     result.status = TrackingStatus::kDegraded;
     result.reason = "acquired; not tracking until the next frame confirms the acquired pose";

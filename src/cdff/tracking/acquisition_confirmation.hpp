@@ -13,7 +13,8 @@
 // is wrong; the newer one is searched from the wider prediction); any other failed confirmation
 // is lost, and the following frames acquire again from a covariance as wide as the unconfirmed
 // acquisition's (the filter's state has been pulled to the wrong alignment and its covariance no
-// longer covers the truth). Whether the confirming frame acquired does not matter: the widened
+// longer covers the truth), searched from the pose the unconfirmed acquisition was searched from
+// (anchored()). Whether the confirming frame acquired does not matter: the widened
 // covariance makes every frame after a failed confirmation acquire, so a confirmation only by a
 // frame that did not would never come.
 
@@ -52,9 +53,15 @@ class AcquisitionConfirmation {
   /// unconfirmed acquisition's when its trace exceeds `predicted`'s (until a confirmation).
   Matrix6d widened(const Matrix6d& predicted) const;
 
-  /// A frame acquired `pose`, not lost, searching the prediction's `covariance`: the pose awaits
-  /// the next frame.
-  void acquired(const Matrix6d& covariance, const std::optional<Transform>& pose = std::nullopt);
+  /// The pose this frame's prediction is searched from: after a failed confirmation, the pose
+  /// the unconfirmed acquisition was searched from (until a confirmation), stamped as `predicted`:
+  /// the filter has fused the unconfirmed pose and its prediction has moved towards it.
+  Transform anchored(const Transform& predicted) const;
+
+  /// A frame acquired `pose`, not lost, searching the prediction's `covariance` about `searched`:
+  /// the pose awaits the next frame.
+  void acquired(const Matrix6d& covariance, const std::optional<Transform>& pose = std::nullopt,
+                const std::optional<Transform>& searched = std::nullopt);
 
   /// The pose that awaits confirmation, when one does and was given.
   const std::optional<Transform>& acquiredPose() const { return acquired_pose_; }
@@ -66,7 +73,8 @@ class AcquisitionConfirmation {
   };
   /// The frame after an acquisition: when an acquired pose awaits it, this frame confirms it if
   /// not `lost` and `gate_covariance` admits `estimate` about `predicted`. A failed confirmation
-  /// makes widened() return the acquisition's covariance.
+  /// makes widened() return the acquisition's covariance and anchored() the pose it was searched
+  /// from.
   Check confirm(bool lost, const Transform& estimate, const Transform& predicted,
                 const Matrix6d& gate_covariance);
 
@@ -78,6 +86,7 @@ class AcquisitionConfirmation {
   Matrix6d acquisition_covariance_ = Matrix6d::Zero();
   std::optional<Transform> acquired_pose_;
   std::optional<Matrix6d> reacquisition_covariance_;
+  std::optional<Transform> acquisition_anchor_, reacquisition_anchor_;
 };
 
 /// The covariance of the difference between a confirming estimate and the prediction: the
@@ -93,7 +102,7 @@ Matrix6d confirmationCovariance(const TrackingResult& result, const PosePredicti
 /// (DEGRADED), any other is LOST with the prediction's pose and a no-information covariance.
 /// When none awaits, an acquisition that ran and is not lost awaits the next frame (a TRACKING
 /// result is reported DEGRADED until then). `prediction.pose` is the prediction as searched
-/// (widened()).
+/// (widened(), anchored()).
 void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
                         bool acquisition_ran, const PosePrediction& prediction);
 
