@@ -186,10 +186,10 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, ModelErrors, ::testing::Values(cases()[0], c
                          caseName);
 
 // The tumbling target with every model error at once: its accuracy is within the goals, but the
-// registrations' covariance does not include the model error, so the EKF gates out three in a
-// row now and then and the track is LOST for a few scans: 97.7 % tracked against the 99 % goal
-// (docs/lidar-tracking.md, "Another target, model errors and calibration errors"). Asserted:
-// the accuracy goals, and the tracked fraction against a regression below today's.
+// registrations' covariance does not include the model error, so the EKF gates out a
+// registration now and then: 699/705 (99.1 %) tracked today (docs/lidar-tracking.md, "Another
+// target, model errors and calibration errors"). Asserted: the accuracy goals, and the tracked
+// fraction against a regression below today's (98 %, about 7 scans of slack).
 TEST(ModelErrorsTumbling, TheAccuracyHoldsAndTheTrackedFractionKeepsTodaysFigure) {
   const Case c = cases()[2];  // a copy: cases() returns a temporary
   Result<TrackingResult> r = trackWithModelErrors(c);
@@ -197,7 +197,7 @@ TEST(ModelErrorsTumbling, TheAccuracyHoldsAndTheTrackedFractionKeepsTodaysFigure
   print("model_errors_" + c.scenario, *r);
   EXPECT_LE(r->evaluation.position_error_pct_range.p95, c.goal.position_pct);
   EXPECT_LE(r->evaluation.angle_error_deg.p95, c.goal.angle_deg);
-  EXPECT_GE(r->tracked_fraction, 0.96);
+  EXPECT_GE(r->tracked_fraction, 0.98);
 }
 
 // The LIDAR's published mounting off by the issue's 0.2 degrees and 2 mm (Gaussian, RMS sizes,
