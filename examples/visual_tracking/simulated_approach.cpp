@@ -39,11 +39,12 @@ Eigen::Vector3d randomDirection(std::mt19937& rng) {
 }
 
 // Feeds the simulator's camera frames to the Orchestrator as they come (a live system), with the
-// perturbed initial pose and the model before the first frame; keeps the truth for evaluation.
+// perturbed initial pose and the model (when given) before the first frame; keeps the truth for
+// evaluation.
 class Feeder final : public egse::SimulationSink {
  public:
   Feeder(dfpc::Orchestrator& o, const egse::Simulator& sim, const ApproachOptions& options,
-         PolygonModel model)
+         std::optional<PolygonModel> model)
       : o_(o), sim_(sim), options_(options), model_(std::move(model)), rng_(options.initial_seed) {}
 
   Status begin(const egse::SimulationMetadata&) override { return Status::ok(); }
@@ -115,8 +116,9 @@ class Feeder final : public egse::SimulationSink {
       right_T_left_ = Transform::fromIsometry(sim_.sensorTtarget(*r, t) * truth_pose.inverse(),
                                               "camera_right_optical", "camera_left_optical", 0);
     }
-    CDFF_RETURN_IF_ERROR(
-        o_.process(dfpc::Message::of("/cdff/visual_tracking/model", stamp, model_)));
+    if (model_)
+      CDFF_RETURN_IF_ERROR(
+          o_.process(dfpc::Message::of("/cdff/visual_tracking/model", stamp, *model_)));
     if (options_.initial_error) {
       // The truth just before and after the image brackets its time, as a recording's does.
       std::vector<Transform> around;
@@ -161,7 +163,7 @@ class Feeder final : public egse::SimulationSink {
   dfpc::Orchestrator& o_;
   const egse::Simulator& sim_;
   const ApproachOptions& options_;
-  PolygonModel model_;
+  std::optional<PolygonModel> model_;  // sent on the model input; none: the tracker's model_file
   std::mt19937 rng_;
   bool started_ = false;
   Timestamp last_stamp_ = 0;
@@ -238,8 +240,8 @@ Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
       // The graph's parameters are EdgeTracker's; another DFI starts from its defaults.
       inst.parameters = YAML::Node(YAML::NodeType::Map);
     }
-    // The model comes on the model input (the simulator's own target), not from the file.
-    inst.parameters["model_file"] = "";
+    // The model comes on the model input (the simulator's own target), or from the given file.
+    inst.parameters["model_file"] = options.model_file;
     if (!options.dfi_parameters.empty()) {
       YAML::Node extra = YAML::Load(options.dfi_parameters);
       for (const auto& kv : extra) inst.parameters[kv.first.as<std::string>()] = kv.second;
@@ -251,7 +253,8 @@ Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
 Result<SimulatedFrames> simulateFrames(const ApproachOptions& options) {
   Result<std::unique_ptr<egse::Simulator>> sim = makeSimulator(options);
   if (!sim) return sim.status();
-  Result<PolygonModel> model = targetModel(**sim);
+  Result<PolygonModel> model =
+      options.model_file.empty() ? targetModel(**sim) : loadCao(options.model_file);
   if (!model) return model.status();
   egse::MemorySink sink;
   CDFF_RETURN_IF_ERROR((*sim)->run(sink));
@@ -273,8 +276,12 @@ Result<SimulatedFrames> simulateFrames(const ApproachOptions& options) {
 Result<ApproachResult> runApproach(const ApproachOptions& options) {
   Result<std::unique_ptr<egse::Simulator>> sim = makeSimulator(options);
   if (!sim) return sim.status();
-  Result<PolygonModel> model = targetModel(**sim);
-  if (!model) return model.status();
+  std::optional<PolygonModel> model;
+  if (options.model_file.empty()) {
+    Result<PolygonModel> own = targetModel(**sim);
+    if (!own) return own.status();
+    model = std::move(own).value();
+  }
   Result<std::unique_ptr<dfpc::Dfpc>> dfpc = makeDfpc(options);
   if (!dfpc) return dfpc.status();
 
@@ -284,7 +291,7 @@ Result<ApproachResult> runApproach(const ApproachOptions& options) {
   dfpc::Orchestrator o(o_options);
   CDFF_RETURN_IF_ERROR(o.add(std::move(dfpc).value()));
   CDFF_RETURN_IF_ERROR(o.startAll());
-  Feeder feeder(o, **sim, options, std::move(model).value());
+  Feeder feeder(o, **sim, options, std::move(model));
   CDFF_RETURN_IF_ERROR((*sim)->run(feeder));
   CDFF_RETURN_IF_ERROR(o.finish());
 
@@ -401,9 +408,69 @@ AcquisitionOutcome acquisitionOutcome(const ApproachResult& r) {
     a.position_error_m.push_back(r.position_error_m[i]);
     a.position_error_pct.push_back(pct);
     a.angle_error_deg.push_back(r.angle_error_deg[i]);
+    if (i < r.filtered.errors.size() && std::isfinite(r.filtered.errors[i].nees))
+      a.nees.push_back(r.filtered.errors[i].nees);
     a.wrong_frames += pct > 5 || r.angle_error_deg[i] > 10;
   }
   return a;
+}
+
+Status writePerturbedModel(const ApproachOptions& options,
+                           const egse::ModelPerturbation& perturbation,
+                           const std::filesystem::path& path) {
+  Result<std::unique_ptr<egse::Simulator>> sim = makeSimulator(options);
+  if (!sim) return sim.status();
+  Result<egse::TargetModel> perturbed = egse::perturbModel((*sim)->target(), perturbation);
+  if (!perturbed) return perturbed.status();
+  // writeCao writes the mesh's triangles as faces when the model has no polygons.
+  if (perturbation.flip_diagonals || perturbation.max_edge > 0) perturbed->polygons.clear();
+  return egse::writeCao(*perturbed, path);
+}
+
+const char* toString(ModelVariant v) {
+  switch (v) {
+    case ModelVariant::kSecondTarget:
+      return "second_target";
+    case ModelVariant::kModelErrors:
+      return "model_errors";
+    case ModelVariant::kCalibrationErrors:
+      return "calibration_errors";
+  }
+  return "?";
+}
+
+egse::ModelPerturbation modelErrors() {
+  egse::ModelPerturbation p;
+  p.scale_error = Eigen::Vector3d::Constant(0.01);
+  p.remove_parts = {"thrusters"};
+  p.flip_diagonals = true;
+  return p;
+}
+
+Result<ApproachOptions> withVariant(ApproachOptions options, ModelVariant variant,
+                                    const std::filesystem::path& directory) {
+  const std::string source = options.source_dir.empty() ? CDFF_SOURCE_DIR : options.source_dir;
+  switch (variant) {
+    case ModelVariant::kSecondTarget:
+      options.overrides.push_back("target.procedural.kind=hexagonal");
+      options.model_file = source + "/data/models/hexagonal_target.cao";
+      return options;
+    case ModelVariant::kModelErrors: {
+      const std::filesystem::path file =
+          directory / (std::filesystem::path(options.scenario).stem().string() + "_wrong.cao");
+      CDFF_RETURN_IF_ERROR(writePerturbedModel(options, modelErrors(), file));
+      options.model_file = file.string();
+      return options;
+    }
+    case ModelVariant::kCalibrationErrors:
+      options.overrides.insert(options.overrides.end(),
+                               {"calibration_error.extrinsic_angle_deg=0.2",
+                                "calibration_error.extrinsic_position=0.002",
+                                "calibration_error.intrinsics_fraction=0.005",
+                                "calibration_error.sensors=[camera_left]"});
+      return options;
+  }
+  return invalidInput("unknown model variant");
 }
 
 std::string summaryLine(const std::string& label, const ApproachResult& r) {

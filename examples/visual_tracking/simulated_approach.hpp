@@ -5,11 +5,13 @@
 // against the simulator's ground truth with src/cdff/eval. Used by the end-to-end tests, the
 // benchmark and `visual_tracking_demo` (what `make demo` calls).
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "cdff/egse/model_perturbation.hpp"
 #include "cdff/eval/draws.hpp"
 #include "cdff/eval/initial_state.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
@@ -46,6 +48,10 @@ struct ApproachOptions {
   /// after the initial state, as for a detection that arrives late.
   std::optional<eval::InitialStatePerturbation> initial_error;
   std::string source_dir;  // the repository (dfpcs/); CDFF_SOURCE_DIR when empty
+  /// The tracker's model: when empty, the simulator's own target (its .cao export) on the
+  /// graph's model input; otherwise this .cao file as the tracker's `model_file` and nothing on
+  /// the model input, as a user runs the graph with only the model file changed.
+  std::string model_file;
 };
 
 struct ApproachResult {
@@ -97,6 +103,7 @@ struct AcquisitionOutcome {
   std::size_t lost_after_track = 0;  // LOST or ACQUIRING frames after the first valid one
   std::size_t valid_frames = 0, frames = 0;
   std::vector<double> position_error_m, position_error_pct, angle_error_deg;  // valid frames
+  std::vector<double> nees;  // valid frames: the filtered pose's 6-dof NEES (6 when honest)
 };
 AcquisitionOutcome acquisitionOutcome(const ApproachResult& r);
 
@@ -115,6 +122,37 @@ Result<SimulatedFrames> simulateFrames(const ApproachOptions& options);
 /// (graph, DFI and parameters).
 Result<std::unique_ptr<egse::Simulator>> makeSimulator(const ApproachOptions& options);
 Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options);
+
+/// Writes the target of `options`' scenario (as the simulator builds it, with the overrides)
+/// with `perturbation` applied, as a .cao file at `path`: a tracker's model that differs from the
+/// simulated target. A re-triangulation (flip_diagonals, max_edge) changes the mesh, not the face
+/// model's polygons, so the file's faces are then the mesh's triangles, as a CAD export that
+/// triangulates gives them.
+Status writePerturbedModel(const ApproachOptions& options,
+                           const egse::ModelPerturbation& perturbation,
+                           const std::filesystem::path& path);
+
+/// Issue 16's runs with a tracker's model or calibrations that are not the simulator's own
+/// (docs/visual-tracking.md, "Another target, model errors and calibration errors"); the graph
+/// is not edited:
+///   - kSecondTarget: the simulator's target is the second procedural target
+///     (target.procedural.kind=hexagonal) and the tracker's model_file its committed export,
+///     data/models/hexagonal_target.cao;
+///   - kModelErrors: the first target's model 1 % larger, without its thrusters (on the aft deck
+///     that both approaches see; the antenna is on the +z face, behind the bus at close range),
+///     re-triangulated (the mesh's triangles as faces, their diagonals flipped), written to a
+///     .cao file as the tracker's model_file;
+///   - kCalibrationErrors: the left camera's published mounting off by a Gaussian error of RMS
+///     0.2 degrees and 2 mm, its intrinsics (fx, fy, cx, cy) by RMS 0.5 % (the simulator's
+///     `calibration_error`, drawn from the run's seed).
+enum class ModelVariant { kSecondTarget, kModelErrors, kCalibrationErrors };
+const char* toString(ModelVariant v);
+/// The model errors of kModelErrors.
+egse::ModelPerturbation modelErrors();
+/// `options` changed to run `variant`; kModelErrors writes its model file into `directory`
+/// (which must exist), named after the scenario.
+Result<ApproachOptions> withVariant(ApproachOptions options, ModelVariant variant,
+                                    const std::filesystem::path& directory);
 
 /// One line of figures for a table: frames, lost, p95/max position and angle, CPU per frame.
 std::string summaryLine(const std::string& label, const ApproachResult& r);
