@@ -48,8 +48,9 @@ struct Case {
   Goal goal;
 };
 
-// CDFF_VERBOSE=2: every scan's registration and filter step, and every pose product's error
-// against the truth with its track state and the filter's angular velocity (rad/s).
+// CDFF_VERBOSE=2: every scan's registration ("measured": its error against the truth and its
+// reported sigma) and filter step, and every pose product's error against the truth with its
+// track state, the filter's angular velocity (rad/s) and that velocity's error (deg/s).
 void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::SimulatedRun& run,
                 Timestamp t0) {
   std::map<Timestamp, std::string> rows;
@@ -57,6 +58,9 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
     std::string& row = rows[m.stamp];
     if (m.channel == "/cdff/lidar_tracking/fitness")
       if (const double* v = m.as<double>()) row += fmt::format(" | scan fitness {:.2f}", *v);
+    if (m.channel == "/cdff/lidar_tracking/visibility")
+      if (const double* v = m.as<double>(); v && std::isfinite(*v))
+        row += fmt::format(" visibility {:.2f}", *v);
     if (m.channel == "/cdff/lidar_tracking/nis")
       if (const double* v = m.as<double>(); v && std::isfinite(*v))
         row += fmt::format(" NIS {:.1f}", *v);
@@ -64,14 +68,40 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
       if (const bool* v = m.as<bool>(); v && *v) row += " fused";
     if (m.channel == "/cdff/lidar_tracking/track_state")
       if (const TrackState* v = m.as<TrackState>()) row += fmt::format(" {}", toString(*v));
+    if (m.channel == "/cdff/lidar_tracking/measurement")
+      if (const PoseWithCovariance* v = m.as<PoseWithCovariance>())
+        if (const std::optional<Transform> truth = eval::truthAt(run.truth, m.stamp, {})) {
+          // The attitude error split about the line of sight and across it.
+          const Eigen::AngleAxisd error(v->pose.rotation * truth->rotation.inverse());
+          const Eigen::Vector3d rotation = error.axis() * error.angle();
+          const Eigen::Vector3d line_of_sight = truth->translation.normalized();
+          row += fmt::format(
+              " | measured {:.2f} deg (about the line of sight {:.2f}, across {:.2f}) {:.3f} m "
+              "off, sigma {:.2f} deg {:.3f} m",
+              error.angle() / kDeg, rotation.dot(line_of_sight) / kDeg,
+              rotation.cross(line_of_sight).norm() / kDeg,
+              (v->pose.translation - truth->translation).norm(),
+              std::sqrt(v->covariance.bottomRightCorner<3, 3>().trace()) / kDeg,
+              std::sqrt(v->covariance.topLeftCorner<3, 3>().trace()));
+        }
     if (m.channel == "/cdff/lidar_tracking/pose")
       if (const RigidBodyState* v = m.as<RigidBodyState>())
-        if (const std::optional<Transform> truth = eval::truthAt(run.truth, m.stamp, {}))
+        if (const std::optional<Transform> truth = eval::truthAt(run.truth, m.stamp, {})) {
           row += fmt::format(
               " | pose {:.2f} deg {:.3f} m off, w ({:.3f} {:.3f} {:.3f})",
               Eigen::AngleAxisd(v->pose.rotation * truth->rotation.inverse()).angle() / kDeg,
               (v->pose.translation - truth->translation).norm(), v->twist.angular.x(),
               v->twist.angular.y(), v->twist.angular.z());
+          // The true relative angular velocity (parent frame) by a central difference.
+          constexpr Timestamp kHalfStep = 25'000;
+          const std::optional<Transform> before = eval::truthAt(run.truth, m.stamp - kHalfStep, {});
+          const std::optional<Transform> after = eval::truthAt(run.truth, m.stamp + kHalfStep, {});
+          if (before && after) {
+            const Eigen::AngleAxisd turn(after->rotation * before->rotation.inverse());
+            const Eigen::Vector3d w_true = turn.axis() * turn.angle() / toSeconds(2 * kHalfStep);
+            row += fmt::format(" err {:.2f} deg/s", (v->twist.angular - w_true).norm() / kDeg);
+          }
+        }
   }
   for (const auto& [stamp, row] : rows)
     if (!row.empty()) std::fprintf(stderr, "  %6.2f s%s\n", toSeconds(stamp - t0), row.c_str());
