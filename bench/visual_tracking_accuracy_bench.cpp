@@ -177,32 +177,19 @@ void BM_Acquisition_MidRange(benchmark::State& state) {
 BENCHMARK(BM_Acquisition_CloseRange)->Iterations(1)->Unit(benchmark::kSecond);
 BENCHMARK(BM_Acquisition_MidRange)->Iterations(1)->Unit(benchmark::kSecond);
 
+// The tracker's model or the calibrations differ from the simulated target's
+// (docs/visual-tracking.md, "Another target, model errors and calibration errors").
 using visual_demo::ModelVariant;
-void BM_SecondTarget_CloseRange(benchmark::State& state) {
-  runDraws(state, "close_range_approach", ModelVariant::kSecondTarget);
-}
-void BM_SecondTarget_MidRange(benchmark::State& state) {
-  runDraws(state, "mid_range_approach", ModelVariant::kSecondTarget);
-}
-void BM_ModelErrors_CloseRange(benchmark::State& state) {
-  runDraws(state, "close_range_approach", ModelVariant::kModelErrors);
-}
-void BM_ModelErrors_MidRange(benchmark::State& state) {
-  runDraws(state, "mid_range_approach", ModelVariant::kModelErrors);
-}
-void BM_CalibrationErrors_CloseRange(benchmark::State& state) {
-  runDraws(state, "close_range_approach", ModelVariant::kCalibrationErrors);
-}
-void BM_CalibrationErrors_MidRange(benchmark::State& state) {
-  runDraws(state, "mid_range_approach", ModelVariant::kCalibrationErrors);
-}
-
-BENCHMARK(BM_SecondTarget_CloseRange)->Iterations(1)->Unit(benchmark::kSecond);
-BENCHMARK(BM_SecondTarget_MidRange)->Iterations(1)->Unit(benchmark::kSecond);
-BENCHMARK(BM_ModelErrors_CloseRange)->Iterations(1)->Unit(benchmark::kSecond);
-BENCHMARK(BM_ModelErrors_MidRange)->Iterations(1)->Unit(benchmark::kSecond);
-BENCHMARK(BM_CalibrationErrors_CloseRange)->Iterations(1)->Unit(benchmark::kSecond);
-BENCHMARK(BM_CalibrationErrors_MidRange)->Iterations(1)->Unit(benchmark::kSecond);
+#define CDFF_VARIANT_BENCHMARK(name, scenario, variant)                           \
+  BENCHMARK_CAPTURE(runDraws, name, std::string(scenario), ModelVariant::variant) \
+      ->Iterations(1)                                                             \
+      ->Unit(benchmark::kSecond)
+CDFF_VARIANT_BENCHMARK(SecondTarget_CloseRange, "close_range_approach", kSecondTarget);
+CDFF_VARIANT_BENCHMARK(SecondTarget_MidRange, "mid_range_approach", kSecondTarget);
+CDFF_VARIANT_BENCHMARK(ModelErrors_CloseRange, "close_range_approach", kModelErrors);
+CDFF_VARIANT_BENCHMARK(ModelErrors_MidRange, "mid_range_approach", kModelErrors);
+CDFF_VARIANT_BENCHMARK(CalibrationErrors_CloseRange, "close_range_approach", kCalibrationErrors);
+CDFF_VARIANT_BENCHMARK(CalibrationErrors_MidRange, "mid_range_approach", kCalibrationErrors);
 
 }  // namespace
 }  // namespace cdff
