@@ -135,14 +135,10 @@ void runDraws(benchmark::State& state, const Case& c) {
         angle.push_back(m.angle_error_deg);
       }
       // Wrong locks among the poses reported TRACKING, from the initial state on.
-      std::vector<eval::EstimateSample> tracking;
-      for (const auto& [pose, track_state] : lidar_tracking::posesWithTrackState(*r))
-        if (track_state == "TRACKING") tracking.push_back({pose, true, {}});
-      Result<eval::PoseEvaluation> reported = eval::evaluatePoses(tracking, d->run.truth);
+      Result<lidar_tracking::ReportedTracking> reported =
+          lidar_tracking::reportedTracking(*r, d->run.truth);
       if (!reported) return state.SkipWithError(reported.status().message().c_str());
-      std::size_t wrong_locks = 0;
-      for (const eval::MatchedError& m : reported->errors)
-        wrong_locks += m.angle_error_deg > 10.0 || 100.0 * m.position_error_m / m.range_m > 5.0;
+      const std::size_t wrong_locks = reported->wrong_locks;
       if (std::getenv("CDFF_VERBOSE")) {
         const Timestamp t0 = d->run.scans.front().stamp;
         for (const dfpc::Event& ev : r->events)
@@ -151,7 +147,8 @@ void runDraws(benchmark::State& state, const Case& c) {
         if (std::string(std::getenv("CDFF_VERBOSE")) == "2") printTrace(*r, d->run, t0);
         double last_wrong = -1;
         for (const eval::MatchedError& m : reported->errors)
-          if (m.angle_error_deg > 10.0 || 100.0 * m.position_error_m / m.range_m > 5.0) {
+          if (m.angle_error_deg > lidar_tracking::kWrongLockDeg ||
+              100.0 * m.position_error_m / m.range_m > lidar_tracking::kWrongLockPct) {
             const double t = toSeconds(m.stamp - t0);
             if (t > last_wrong + 0.5)
               std::fprintf(stderr, "  %.2f s: wrong lock %.1f deg, %.2f %% of range\n", t,

@@ -2,23 +2,7 @@
 # The `cdff` command: exit statuses, listings and usage errors.
 set -u
 cdff=$1
-failures=0
-check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
-  local name=$1 expected=$2 pattern=$3
-  shift 4
-  local output status
-  output=$("$@" 2>&1)
-  status=$?
-  if [ "$status" -ne "$expected" ]; then
-    echo "FAIL $name: exit status $status, expected $expected; output:"; echo "$output"
-    failures=$((failures + 1))
-  elif ! grep -qE -- "$pattern" <<<"$output"; then
-    echo "FAIL $name: output does not match /$pattern/:"; echo "$output"
-    failures=$((failures + 1))
-  else
-    echo "ok   $name"
-  fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/check.sh"
 check version 0 '^cdff [0-9]+\.[0-9]+\.[0-9]+' -- "$cdff" --version
 check help 0 'dfn' -- "$cdff" --help
 check no-subcommand 2 'subcommand' -- "$cdff"

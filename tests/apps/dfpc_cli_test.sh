@@ -4,23 +4,7 @@ set -u
 cdff=$1
 root=$2
 graphs=$root/tests/dfpc/graphs
-failures=0
-check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
-  local name=$1 expected=$2 pattern=$3
-  shift 4
-  local output status
-  output=$("$@" 2>&1)
-  status=$?
-  if [ "$status" -ne "$expected" ]; then
-    echo "FAIL $name: exit status $status, expected $expected; output:"; echo "$output"
-    failures=$((failures + 1))
-  elif ! grep -qE -- "$pattern" <<<"$output"; then
-    echo "FAIL $name: output does not match /$pattern/:"; echo "$output"
-    failures=$((failures + 1))
-  else
-    echo "ok   $name"
-  fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/check.sh"
 check dfpc-help 0 'check' -- "$cdff" dfpc --help
 check dfpc-no-subcommand 2 'subcommand' -- "$cdff" dfpc
 check dfpc-unknown-subcommand 2 "unknown subcommand 'chek'.*expected one of \\{check, graph\\}" -- "$cdff" dfpc chek

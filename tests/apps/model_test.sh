@@ -6,26 +6,10 @@
 set -u
 cdff=$1
 work=$2
-failures=0
 rm -rf "$work"
 mkdir -p "$work"
 
-check() {  # check NAME EXPECTED_STATUS PATTERN -- command...
-  local name=$1 expected=$2 pattern=$3
-  shift 4
-  local output status
-  output=$("$@" 2>&1)
-  status=$?
-  if [ "$status" -ne "$expected" ]; then
-    echo "FAIL $name: exit status $status, expected $expected; output:"; echo "$output" | head -30
-    failures=$((failures + 1))
-  elif ! grep -qE -- "$pattern" <<<"$output"; then
-    echo "FAIL $name: output does not match /$pattern/:"; echo "$output" | head -30
-    failures=$((failures + 1))
-  else
-    echo "ok   $name"
-  fi
-}
+source "$(dirname "${BASH_SOURCE[0]}")/check.sh"
 
 check info-parts 0 'antenna +792 triangles' -- "$cdff" model info mid_range_approach
 check info-second-target 0 "model 'hexagonal_satellite'.*" -- \

@@ -201,4 +201,23 @@ std::vector<std::pair<Transform, std::string>> posesWithTrackState(const Trackin
   return out;
 }
 
+Result<ReportedTracking> reportedTracking(const TrackingResult& r,
+                                          const std::vector<Transform>& truth) {
+  std::vector<eval::EstimateSample> tracking;
+  for (const auto& [pose, state] : posesWithTrackState(r))
+    if (state == "TRACKING") tracking.push_back({pose, true, {}, {}});
+  ReportedTracking out;
+  if (tracking.empty()) return out;
+  Result<eval::PoseEvaluation> e = eval::evaluatePoses(tracking, truth);
+  if (!e) return e.status().withContext("the poses reported TRACKING");
+  out.errors = std::move(e->errors);
+  for (const eval::MatchedError& m : out.errors) {
+    const double pct = 100.0 * m.position_error_m / m.range_m;
+    out.worst_deg = std::max(out.worst_deg, m.angle_error_deg);
+    out.worst_pct = std::max(out.worst_pct, pct);
+    out.wrong_locks += m.angle_error_deg > kWrongLockDeg || pct > kWrongLockPct;
+  }
+  return out;
+}
+
 }  // namespace cdff::lidar_tracking

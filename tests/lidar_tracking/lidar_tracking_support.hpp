@@ -83,4 +83,19 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
 /// first, so the n-th pose product goes with the n-th track_state product.
 std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r);
 
+/// A pose reported TRACKING is a wrong lock when it is more than 10 degrees or 5 % of the range
+/// off: far outside the tracking goals, the mark of a registration caught in another minimum.
+constexpr double kWrongLockDeg = 10.0;
+constexpr double kWrongLockPct = 5.0;
+
+/// The pose products reported TRACKING, from the initial state on, against the truth.
+struct ReportedTracking {
+  std::vector<eval::MatchedError> errors;  // every TRACKING pose's error
+  std::size_t wrong_locks = 0;             // of those, wrong locks
+  double worst_deg = 0;                    // the worst TRACKING pose's angle error
+  double worst_pct = 0;                    // and position error, % of the range
+};
+Result<ReportedTracking> reportedTracking(const TrackingResult& r,
+                                          const std::vector<Transform>& truth);
+
 }  // namespace cdff::lidar_tracking

@@ -190,11 +190,6 @@ struct DrawRun {
   double worst_tracking_pct = 0;
 };
 
-// A pose reported TRACKING is a wrong lock when it is more than 10 degrees or 5 % of the range
-// off: far outside the tracking goals, the mark of a registration caught in another minimum.
-constexpr double kWrongLockDeg = 10.0;
-constexpr double kWrongLockPct = 5.0;
-
 void runDraw(std::uint64_t number, DrawRun& out, const GraphEdit& edit = {}) {
   double duration = 30;
   if (const char* d = std::getenv("CDFF_TUMBLING_DURATION")) duration = std::atof(d);
@@ -207,22 +202,17 @@ void runDraw(std::uint64_t number, DrawRun& out, const GraphEdit& edit = {}) {
   ASSERT_OK(r.status());
   record(fmt::format("tumbling_draw_{}{}", number, edit ? "_edited" : ""), *r);
   // Every pose product reported TRACKING, from the initial state on, against the truth.
-  const std::vector<std::pair<Transform, std::string>> reported = posesWithTrackState(*r);
-  std::vector<eval::EstimateSample> tracking;
-  for (const auto& [pose, state] : reported)
-    if (state == "TRACKING") tracking.push_back({pose, true, {}});
-  ASSERT_GT(tracking.size(), 100u);
-  Result<eval::PoseEvaluation> whole = eval::evaluatePoses(tracking, run.truth);
-  ASSERT_OK(whole.status());
-  for (const eval::MatchedError& e : whole->errors) {
-    const double pct = 100.0 * e.position_error_m / e.range_m;
-    out.worst_tracking_deg = std::max(out.worst_tracking_deg, e.angle_error_deg);
-    out.worst_tracking_pct = std::max(out.worst_tracking_pct, pct);
-    if (e.angle_error_deg > kWrongLockDeg || pct > kWrongLockPct) ++out.wrong_tracking;
-    if (std::getenv("CDFF_TEST_VERBOSE") && toSeconds(e.stamp - initial.pose.stamp) < 5.0)
-      std::cout << "  " << toSeconds(e.stamp - initial.pose.stamp) << " s TRACKING "
-                << e.position_error_m << " m " << e.angle_error_deg << " deg\n";
-  }
+  Result<ReportedTracking> reported = reportedTracking(*r, run.truth);
+  ASSERT_OK(reported.status());
+  ASSERT_GT(reported->errors.size(), 100u);
+  out.wrong_tracking = reported->wrong_locks;
+  out.worst_tracking_deg = reported->worst_deg;
+  out.worst_tracking_pct = reported->worst_pct;
+  if (std::getenv("CDFF_TEST_VERBOSE"))
+    for (const eval::MatchedError& e : reported->errors)
+      if (toSeconds(e.stamp - initial.pose.stamp) < 5.0)
+        std::cout << "  " << toSeconds(e.stamp - initial.pose.stamp) << " s TRACKING "
+                  << e.position_error_m << " m " << e.angle_error_deg << " deg\n";
   std::cout << "draw " << number << ": worst reported TRACKING " << out.worst_tracking_deg
             << " deg, " << out.worst_tracking_pct << " % of range\n";
   out.result = std::move(r).value();
