@@ -251,6 +251,39 @@ TEST(AcquisitionConfirmation, AfterARejectionTheSearchStartsWhereTheAcquisitions
   EXPECT_TRUE(c.anchored(later).translation.isApprox(later.translation));
 }
 
+// A frame that acquired again does not confirm the awaited pose, even where the prediction
+// admits its estimate: the acquisition's wide search slides along a wrong alignment's valley (at
+// 17 m, farther and turned) as readily as it found it. It replaces the awaited pose instead; a
+// frame that tracked the same estimate confirms it.
+TEST(AcquisitionConfirmation, AFrameThatAcquiredAgainDoesNotConfirm) {
+  AcquisitionConfirmation c;
+  PosePrediction prediction;
+  prediction.pose.pose = pose(Eigen::Vector3d(0, 0, 2));
+  prediction.pose.covariance = Matrix6d::Identity() * 1e-2;
+  prediction.carried_covariance = Matrix6d::Identity() * 1e-2;
+  TrackingResult acquired;
+  acquired.status = TrackingStatus::kTracking;
+  acquired.reference_T_model = prediction.pose.pose;
+  acquired.covariance = Matrix6d::Identity() * 1e-8;
+  confirmAcquisition(c, acquired, true, prediction);
+  ASSERT_TRUE(c.awaiting());
+  // 1 mm from the prediction under a 0.1 m standard deviation: admitted, but acquired again.
+  TrackingResult again = acquired;
+  again.reference_T_model = pose(Eigen::Vector3d(0.001, 0, 2));
+  confirmAcquisition(c, again, true, prediction);
+  EXPECT_EQ(again.status, TrackingStatus::kDegraded);
+  EXPECT_NE(again.reason.find("acquired again, does not confirm it"), std::string::npos);
+  EXPECT_TRUE(c.awaiting());
+  ASSERT_TRUE(c.acquiredPose());
+  EXPECT_TRUE(c.acquiredPose()->translation.isApprox(again.reference_T_model.translation));
+  // The same estimate tracked (no acquisition) confirms it.
+  TrackingResult tracked = again;
+  tracked.status = TrackingStatus::kTracking;
+  confirmAcquisition(c, tracked, false, prediction);
+  EXPECT_EQ(tracked.status, TrackingStatus::kTracking);
+  EXPECT_FALSE(c.awaiting());
+}
+
 TEST(AcquisitionConfirmation, AnEdgeTrackingResultIsDegradedUntilConfirmed) {
   AcquisitionConfirmation c;
   PosePrediction prediction;

@@ -36,7 +36,11 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
   // would lead the next acquisitions onto it (at 17 m a model 16 deg off in attitude and 3 m
   // farther matches as many samples as the right one).
   if (!confirmation_.awaiting()) predicted.pose.pose = confirmation_.anchored(prediction.pose.pose);
-  if (confirmation_.awaiting() && tracker_.hasModel()) {
+  // Only the direct track of an awaited acquired pose can confirm it
+  // (acquisition_confirmation.hpp); when it is lost, whatever this frame finds instead is a new
+  // acquisition.
+  const bool awaited = confirmation_.awaiting() && tracker_.hasModel();
+  if (awaited) {
     Result<std::optional<TrackingResult>> direct = trackAwaitedDirectly(frame, prediction);
     if (!direct) return direct.status();
     if (*direct) {
@@ -82,7 +86,8 @@ Result<AcquiringTrackingResult> AcquiringEdgeTracker::track(const FrameMeasureme
   // lost frames have widened the prediction; one from a track (triggered as the track's
   // covariance grows: at close range with an honest covariance) is gated by the track's own
   // prediction and stands as a tracked frame.
-  confirmAcquisition(confirmation_, out.tracking, out.acquisition_ran && !on_track_, predicted);
+  confirmAcquisition(confirmation_, out.tracking, (out.acquisition_ran && !on_track_) || awaited,
+                     predicted);
   if (out.acquisition_ran && !coarse_note.empty()) out.tracking.reason += " (" + coarse_note + ")";
   settle(out);
   return out;
@@ -120,20 +125,16 @@ void AcquiringEdgeTracker::losePartialAlignment(TrackingResult& t,
 
 Result<std::optional<TrackingResult>> AcquiringEdgeTracker::trackAwaitedDirectly(
     const FrameMeasurements& frame, const PosePrediction& prediction) {
-  std::vector<Transform> starts = {prediction.pose.pose};
+  Transform start = prediction.pose.pose;
   if (const std::optional<Transform>& held = confirmation_.acquiredPose()) {
-    starts.push_back(*held);
-    starts.back().stamp = prediction.pose.pose.stamp;
+    start = *held;
+    start.stamp = prediction.pose.pose.stamp;
   }
-  std::optional<TrackingResult> best;
-  for (const Transform& start : starts) {
-    Result<TrackingResult> t = tracker_.track(frame.cameras, frame.depth, frame.depth_T_reference,
-                                              start, options_.tracking);
-    if (!t) return t.status();
-    if (t->status != TrackingStatus::kLost && (!best || t->inlier_ratio > best->inlier_ratio))
-      best = std::move(t).value();
-  }
-  return best;
+  Result<TrackingResult> t =
+      tracker_.track(frame.cameras, frame.depth, frame.depth_T_reference, start, options_.tracking);
+  if (!t) return t.status();
+  if (t->status == TrackingStatus::kLost) return std::optional<TrackingResult>();
+  return std::optional<TrackingResult>(std::move(t).value());
 }
 
 }  // namespace cdff::tracking

@@ -10,11 +10,11 @@
 // off a track (from the initial state or after a lost frame) that matches fewer than
 // degraded_inlier_ratio of its samples without a coarse placement is lost (a partial alignment);
 // one that is not lost awaits the next frame's confirmation (acquisition_confirmation.hpp), which
-// is first tracked directly from two starts; after a failed confirmation the search starts from
-// where the unconfirmed acquisition's did. An acquisition
-// from a track stands. The image pyramid is built once per frame for all of them. This class keeps
-// what persists between frames: the EdgeTracker (its model and cached contours), the confirmation's
-// state and whether the last frame was a track.
+// is first tracked directly from the acquired pose; after a failed confirmation the search starts
+// from where the unconfirmed acquisition's did. An acquisition from a track stands. The image
+// pyramid is built once per frame for all of them. This class keeps what persists between frames:
+// the EdgeTracker (its model and cached contours), the confirmation's state and whether the last
+// frame was a track.
 
 #include <optional>
 #include <span>
@@ -63,11 +63,12 @@ class AcquiringEdgeTracker {
 
  private:
   /// While an acquired pose awaits confirmation, the frame is first tracked directly from the
-  /// filter's prediction and from the acquired pose held still: the filter's velocity after one
-  /// acquired pose attributes part of the pose's offset from the initial state to motion, the held
-  /// pose none of it, and the truth lies within the search of one of them unless the target moves
-  /// fast. The result not LOST with the higher inlier ratio, if any, is the frame's (the
-  /// confirmation then checks it); none, and the frame acquires from the carried covariance.
+  /// acquired pose held still (the prediction's pose when none was given): whether the acquired
+  /// alignment holds, tracked again from itself, is what confirms it. Not from the filter's
+  /// prediction: after one acquired pose its velocity attributes part of the pose's offset from
+  /// the initial state to motion and moves the start along a wrong alignment's valley (at 17 m a
+  /// start so moved converged where the held one was lost). Not LOST, the result is the frame's
+  /// (the confirmation then checks it); LOST, the frame acquires from the carried covariance.
   Result<std::optional<TrackingResult>> trackAwaitedDirectly(const FrameMeasurements& frame,
                                                              const PosePrediction& prediction);
 

@@ -88,15 +88,25 @@ void confirmAcquisition(AcquisitionConfirmation& state, TrackingResult& result,
                         bool acquisition_ran, const PosePrediction& prediction) {
   const bool lost = result.status == TrackingStatus::kLost;
   if (state.awaiting()) {
+    // Only a track of the awaited alignment confirms it: a frame that acquired again searched as
+    // widely as the acquisition did, and from a wrong alignment in a valley of the edges' fit
+    // (at 17 m: farther and turned, as many samples matched) its search slides on along the
+    // valley, still admitted by the carried covariance. Such a frame is a new acquisition.
+    const bool confirming = !lost && !acquisition_ran;
     const AcquisitionConfirmation::Check check =
-        state.confirm(lost, result.reference_T_model, prediction.pose.pose,
-                      lost ? Matrix6d::Zero() : confirmationCovariance(result, prediction));
+        state.confirm(!confirming, result.reference_T_model, prediction.pose.pose,
+                      confirming ? confirmationCovariance(result, prediction) : Matrix6d::Zero());
     if (check.confirmed) return;
-    const std::string why = fmt::format(
-        "the next frame did not confirm the acquired pose ({}; squared Mahalanobis distance "
-        "{:.1f} from the prediction, gate {:.2f})",
-        lost ? result.reason : (acquisition_ran ? "acquired again" : "tracked"), check.distance,
-        kAcquisitionGate);
+    const std::string why =
+        lost ? fmt::format("the next frame did not confirm the acquired pose ({})", result.reason)
+        : acquisition_ran
+            ? std::string(
+                  "the next frame lost the acquired pose, tracked from itself; what it found "
+                  "instead, acquired again, does not confirm it")
+            : fmt::format(
+                  "the next frame did not confirm the acquired pose (tracked; squared Mahalanobis "
+                  "distance {:.1f} from the prediction, gate {:.2f})",
+                  check.distance, kAcquisitionGate);
     if (acquisition_ran && !lost) {
       // The replacing acquisition keeps the anchor of the one it replaces.
       state.acquired(prediction.pose.covariance, result.reference_T_model,

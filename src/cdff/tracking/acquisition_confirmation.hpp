@@ -6,17 +6,20 @@
 // both the prediction's gate and the inlier test. So an acquired pose is first gated by the
 // prediction's covariance (not admitted: lost), and an admitted one off a track (from the initial
 // state, or after a lost frame; the caller, AcquiringEdgeTracker, decides) is not yet a track: it
-// is reported degraded (track state ACQUIRING) until the next frame confirms it: that frame's
-// estimate, tracked directly or acquired again from the filter's prediction, is not lost and is
-// admitted by that prediction's pose covariance carried to the image's time plus the estimate's
-// own. A frame that acquires again and is not admitted replaces the awaited pose (one of the two
-// is wrong; the newer one is searched from the wider prediction); any other failed confirmation
-// is lost, and the following frames acquire again from a covariance as wide as the unconfirmed
-// acquisition's (the filter's state has been pulled to the wrong alignment and its covariance no
-// longer covers the truth), searched from the pose the unconfirmed acquisition was searched from
-// (anchored()). Whether the confirming frame acquired does not matter: the widened
-// covariance makes every frame after a failed confirmation acquire, so a confirmation only by a
-// frame that did not would never come.
+// is reported degraded (track state ACQUIRING) until the next frame confirms it: that frame
+// tracks the acquired alignment directly (from the acquired pose held still, whatever the
+// prediction's spread), and its estimate is not lost and is admitted by the prediction's pose
+// covariance carried to the image's time plus the estimate's own. A right alignment is a fixed
+// point of the tracker and holds; a wrong one that fits the edges about as well (at 17 m the
+// model farther and turned) lies in a valley along which the next frame's track slides beyond its
+// divergence bound. A frame that acquires again does not confirm, admitted or not: its wide search
+// slides along that valley and stays admitted; its pose replaces the awaited one (and awaits the
+// next frame). Any other failed confirmation is lost, and the following frames acquire again from
+// a covariance as wide as the unconfirmed acquisition's (the filter's state has been pulled to the
+// wrong alignment and its covariance no longer covers the truth), searched from the pose the
+// unconfirmed acquisition was searched from (anchored()). The direct track runs on every frame
+// that an acquired pose awaits, so the widened covariance, which makes those frames acquire when
+// the direct track is lost, does not keep a right alignment from being confirmed.
 
 #include <optional>
 
@@ -97,9 +100,11 @@ class AcquisitionConfirmation {
 Matrix6d confirmationCovariance(const TrackingResult& result, const PosePrediction& prediction);
 
 /// Applies the confirmation to one frame's edge-tracking result, after the acquisition's gate.
-/// When an acquired pose awaits, this frame checks it: confirmed, the result stands; not
-/// confirmed, a frame whose acquisition ran and is not lost awaits the next frame in its place
-/// (DEGRADED), any other is LOST with the prediction's pose and a no-information covariance.
+/// When an acquired pose awaits, this frame checks it: a tracked result (`acquisition_ran`
+/// false: AcquiringEdgeTracker passes only the direct track from the acquired pose so) that is
+/// not lost and admitted confirms it and stands; a result that acquired (`acquisition_ran`) and
+/// is not lost awaits the next frame in its place (DEGRADED), admitted or not; any other is LOST
+/// with the prediction's pose and a no-information covariance.
 /// When none awaits, an acquisition that ran and is not lost awaits the next frame (a TRACKING
 /// result is reported DEGRADED until then). `prediction.pose` is the prediction as searched
 /// (widened(), anchored()).
