@@ -54,13 +54,31 @@ std::filesystem::path sourceFile(const std::string& relative) {
 // the simulator's own mesh).
 Result<TrackingResult> trackDraw(const std::string& scenario, const std::string& extra_yaml,
                                  const std::vector<std::string>& overrides,
-                                 const std::filesystem::path& mesh_file) {
+                                 const std::filesystem::path& mesh_file,
+                                 const GraphEdit& edit = {}) {
   Result<DrawnRun> d =
       simulateDraw(firstCiDraw(), scenario, 0, 0.10, 10.0 * kDeg, extra_yaml, overrides);
   if (!d) return d.status();
   if (!mesh_file.empty()) d->run.mesh_file = mesh_file;
-  return track(d->run, d->run.messages, d->initial, kSettle);
+  return track(d->run, d->run.messages, d->initial, kSettle, edit);
 }
+
+// The graph told the sizes of the errors it runs with (`consider`'s parameters, as a user states
+// the calibration's and the model's accuracy with `cdff run --set`).
+GraphEdit stating(double extrinsic_angle_deg, double extrinsic_position_m, double model_scale) {
+  return [=](dfpc::GraphSpec& spec) {
+    for (dfpc::InstanceSpec& instance : spec.instances)
+      if (instance.name == "consider") {
+        instance.parameters["extrinsic_angle_sigma"] = extrinsic_angle_deg;
+        instance.parameters["extrinsic_position_sigma"] = extrinsic_position_m;
+        instance.parameters["model_scale_sigma"] = model_scale;
+      }
+  };
+}
+
+// With the errors' sizes stated, the pose NEES mean is within a factor of 2 of 6 (6 dof) or
+// below (the errors are drawn once per run: one draw of a systematic error can be small).
+constexpr double kNeesBound = 2 * 6.0;
 
 struct Goal {
   double position_pct = 0, position_m = 0, angle_deg = 0;  // p95 bounds; 0: not asserted
@@ -169,7 +187,9 @@ Result<TrackingResult> trackWithModelErrors(const Case& c) {
   const auto file = std::filesystem::temp_directory_path() /
                     ("cdff_wrong_model_" + std::to_string(::getpid()) + ".ply");
   CDFF_RETURN_IF_ERROR(egse::writePly(*wrong, file));
-  Result<TrackingResult> r = trackDraw(c.scenario, c.extra_yaml, {}, file);
+  // Scale 1 % too large: model_scale_sigma 0.01 (the part removed and the re-triangulation are
+  // not a scale error; what they cost shows in the NEES).
+  Result<TrackingResult> r = trackDraw(c.scenario, c.extra_yaml, {}, file, stating(0, 0, 0.01));
   std::filesystem::remove(file);
   return r;
 }
@@ -180,6 +200,7 @@ TEST_P(ModelErrors, AWrongModelKeepsTheTrackWithinTwiceTheGoals) {
   ASSERT_OK(r.status());
   print("model_errors_" + c.scenario, *r);
   expectWithin(*r, withErrors(c));
+  EXPECT_LE(r->evaluation.covariance.nees_mean, kNeesBound);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenarios, ModelErrors, ::testing::Values(cases()[0], cases()[1]),
@@ -210,10 +231,11 @@ TEST_P(CalibrationErrors, ALidarMountingOffKeepsTheTrackWithinTwiceTheGoals) {
       trackDraw(c.scenario, c.extra_yaml,
                 {"calibration_error.extrinsic_angle_deg=0.2",
                  "calibration_error.extrinsic_position=0.002", "calibration_error.sensors=[lidar]"},
-                {});
+                {}, stating(0.2, 0.002, 0));
   ASSERT_OK(r.status());
   print("calibration_errors_" + c.scenario, *r);
   expectWithin(*r, withErrors(c));
+  EXPECT_LE(r->evaluation.covariance.nees_mean, kNeesBound);
 }
 
 INSTANTIATE_TEST_SUITE_P(Scenarios, CalibrationErrors, ::testing::ValuesIn(cases()), caseName);
