@@ -12,6 +12,7 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
       return invalidParameter("parameter 'frame' is empty; expected the sensor's frame");
     extrinsic_.reset();
     model_rms_radius_.reset();
+    model_points_ = nullptr;
     return Status::ok();
   }
 
@@ -46,19 +47,21 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
   }
 
  private:
+  // The model node re-sends the same shared buffer every period: its extent is computed once.
   Status readModel(const PointCloud& model) {
+    if (model_rms_radius_ && model.points.data() == model_points_) return Status::ok();
     if (model.empty())
       return invalidInput("input 'model' has no points; expected the target's model point cloud");
     CDFF_RETURN_IF_ERROR(model.validate("input 'model'"));
     model_rms_radius_ = std::sqrt(model.xyzMatrix().cast<double>().colwise().squaredNorm().mean());
+    model_points_ = model.points.data();
     return Status::ok();
   }
 
   // The [dt, dtheta] covariance (parent frame) of the systematic errors at a target position.
   Matrix6d considerCovariance(const Eigen::Vector3d& target_position) const {
     const Eigen::Vector3d r = target_position - extrinsic_->translation;  // line of sight
-    Eigen::Matrix3d rx;
-    rx << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
+    const Eigen::Matrix3d rx = skew(r);
     const double sa2 = params_.extrinsic_angle_sigma * params_.extrinsic_angle_sigma;
     const double st2 = params_.extrinsic_position_sigma * params_.extrinsic_position_sigma;
     Matrix6d c = Matrix6d::Zero();
@@ -77,6 +80,7 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
 
   std::optional<Transform> extrinsic_;
   std::optional<double> model_rms_radius_;
+  const Point4f* model_points_ = nullptr;  // the buffer model_rms_radius_ was computed from
 };
 
 CDFF_REGISTER_DFI(ConsiderCovarianceFirstOrder);
