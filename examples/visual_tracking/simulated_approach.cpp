@@ -10,6 +10,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/orchestrator.hpp"
 #include "cdff/egse/model_io.hpp"
 #include "cdff/egse/scenario.hpp"
@@ -231,8 +232,19 @@ Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
   const std::string source = options.source_dir.empty() ? CDFF_SOURCE_DIR : options.source_dir;
   const std::string graph_file = source + (options.stereo ? "/dfpcs/visual_tracking_stereo.yaml"
                                                           : "/dfpcs/visual_tracking.yaml");
-  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph_file);
+  std::vector<dfpc::ParameterSetting> settings;
+  for (const std::string& text : options.graph_settings) {
+    Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text);
+    if (!s) return s.status().withContext("ApproachOptions::graph_settings");
+    settings.push_back(std::move(s).value());
+  }
+  std::vector<bool> applied;
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph_file, settings, applied);
   if (!spec) return spec.status();
+  for (std::size_t i = 0; i < settings.size(); ++i)
+    if (!applied[i])
+      return invalidInput("graph setting '{}' addresses no node of {}", settings[i].text,
+                          graph_file);
   for (dfpc::InstanceSpec& inst : spec->instances) {
     if (inst.name != "tracker") continue;
     if (inst.dfi != options.dfi) {

@@ -52,6 +52,10 @@ struct ApproachOptions {
   /// graph's model input; otherwise this .cao file as the tracker's `model_file` and nothing on
   /// the model input, as a user runs the graph with only the model file changed.
   std::string model_file;
+  /// Parameters of the graph's nodes, "NODE.PARAM=VALUE" as `cdff run --set` takes them (e.g.
+  /// "consider.range_scale_sigma=0.01", the model's stated accuracy); a setting that addresses no
+  /// node of the graph is an error.
+  std::vector<std::string> graph_settings;
 };
 
 struct ApproachResult {

@@ -1,6 +1,6 @@
 // End to end: dfpcs/visual_tracking.yaml with a model that is not the simulated target's own and
-// with calibrations that are not the simulator's own (issue 16). The graph is not edited: only
-// the tracker's model file changes (the second procedural target's committed export, or a
+// with calibrations that are not the simulator's own (issue 16). The graph file is not edited:
+// only the tracker's model file changes (the second procedural target's committed export, or a
 // perturbed copy of the first target), or the simulator publishes a perturbed camera calibration
 // (visual_demo::ModelVariant, simulated_approach.hpp).
 //
@@ -17,7 +17,10 @@
 // the position and angle p95 within the goals of the first target's tests (close range 10 mm and
 // 0.5 degree, mid range 1 % of the range and 1 degree) for the second target, within twice the
 // goals with model or calibration errors (issue 16: "within 2x of their goals"); and within 1.5x
-// the figures measured on 2026-12-04 (docs/visual-tracking.md), so that a regression fails.
+// the figures measured on 2026-12-04 (docs/visual-tracking.md), so that a regression fails. With
+// model or calibration errors the graph is told their sizes (its `consider` node's parameters, as
+// `cdff run --set` sets them) and the filtered pose's NEES mean must be within twice 6 (issue 16's
+// honest covariance); the second target's model is its own, and nothing is stated.
 // Where a goal is not met today, the case says why, asserts the regression bound alone for that
 // figure (and, where the track is lost today, a floor under the valid fraction instead of no
 // loss), and docs/visual-tracking.md ("Another target, model errors and calibration errors")
@@ -30,6 +33,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -61,6 +65,11 @@ struct Case {
   /// 0: no loss once tracked; else the track is lost today and the valid fraction (valid frames
   /// over frames) must stay above this floor, today's less about five frames.
   double min_valid = 0;
+  /// The errors' sizes stated to the graph (the consider node's parameters, as a user sets them
+  /// with `cdff run --set`); none for the second target, whose model is its own.
+  std::vector<std::string> stated;
+  /// Bound on the filtered pose's NEES mean over the valid frames; 0: not asserted.
+  double max_nees = 0;
 };
 
 void PrintTo(const Case& c, std::ostream* os) {
@@ -75,6 +84,23 @@ const Bounds kCloseRangeGoal{.position_m = 0.010, .angle_deg = 0.5};
 const Bounds kMidRangeGoal{.position_pct = 1.0, .angle_deg = 1.0};
 const Bounds kTwiceCloseRangeGoal = scaled(kCloseRangeGoal, 2);
 const Bounds kTwiceMidRangeGoal = scaled(kMidRangeGoal, 2);
+
+// The errors' sizes the graph is told (its `consider` node). The model is 1 % too large: one
+// camera sees it as the target 1 % farther, a range scale error (the part removed and the
+// re-triangulation are not a scale error; what they cost shows in the NEES).
+const std::vector<std::string> kModelStated = {"consider.range_scale_sigma=0.01"};
+// The calibration errors the simulator draws: the mounting 0.2 degrees and 2 mm, the intrinsics
+// 0.5 % (the focal length's scales the range: range_scale_sigma; the principal point's, 0.5 % of
+// 812 px over fx = 1364 px, turns the line of sight by 0.17 degree, within the 0.2 degree per axis
+// stated for the mounting, whose 0.2 degrees are an RMS magnitude, 0.12 per axis).
+const std::vector<std::string> kCalibrationStated = {"consider.extrinsic_angle_sigma=0.2",
+                                                     "consider.extrinsic_position_sigma=0.002",
+                                                     "consider.range_scale_sigma=0.005"};
+
+// With the errors' sizes stated, the pose NEES mean is within a factor of 2 of 6 (6 dof) or below
+// (issue 16's honest covariance; a calibration error is drawn once per run, and a draw can be
+// small).
+constexpr double kNeesBound = 2 * 6.0;
 
 // A scratch directory for the perturbed model files, removed with the test.
 class ScratchDirectory {
@@ -141,6 +167,7 @@ TEST_P(ModelAndCalibrationErrors, TheTrackStaysWithinTheBounds) {
       withVariant(drawOptions(draws.front(), c.scenario, std::nullopt, 0.05, 5 * kDeg, 0.3, 0.1),
                   c.variant, scratch.path());
   ASSERT_OK(o.status());
+  o->graph_settings = c.stated;
   Result<ApproachResult> r = runApproach(*o);
   ASSERT_OK(r.status());
   const AcquisitionOutcome a = acquisitionOutcome(*r);
@@ -169,6 +196,9 @@ TEST_P(ModelAndCalibrationErrors, TheTrackStaysWithinTheBounds) {
     EXPECT_EQ(a.lost_after_track, 0u);
   }
   EXPECT_EQ(r->dfn_errors, 0u);
+  if (c.max_nees > 0) {
+    EXPECT_LE(mean(a.nees), c.max_nees);
+  }
   for (const Bounds& b : {c.bound, scaled(c.today, 1.5)}) {
     if (b.position_m > 0) {
       EXPECT_LE(mm, 1e3 * b.position_m);
@@ -199,28 +229,44 @@ INSTANTIATE_TEST_SUITE_P(Variants, ModelAndCalibrationErrors,
                                                 ModelVariant::kSecondTarget,
                                                 kCloseRangeGoal,
                                                 {.position_m = 0.00150, .angle_deg = 0.088},
-                                                0.62},
+                                                0.62,
+                                                {},
+                                                0},
                                            Case{"close_range_approach",
                                                 ModelVariant::kModelErrors,
                                                 {.angle_deg = kTwiceCloseRangeGoal.angle_deg},
-                                                {.position_m = 0.0263, .angle_deg = 0.219}},
+                                                {.position_m = 0.0263, .angle_deg = 0.219},
+                                                0,
+                                                kModelStated,
+                                                kNeesBound},
                                            Case{"close_range_approach",
                                                 ModelVariant::kCalibrationErrors,
                                                 kTwiceCloseRangeGoal,
-                                                {.position_m = 0.00952, .angle_deg = 0.239}},
+                                                {.position_m = 0.00952, .angle_deg = 0.239},
+                                                0,
+                                                kCalibrationStated,
+                                                kNeesBound},
                                            Case{"mid_range_approach",
                                                 ModelVariant::kSecondTarget,
                                                 {},
                                                 {.position_pct = 1.166, .angle_deg = 3.0},
-                                                0.9},
+                                                0.9,
+                                                {},
+                                                0},
                                            Case{"mid_range_approach",
                                                 ModelVariant::kModelErrors,
                                                 kTwiceMidRangeGoal,
-                                                {.position_pct = 1.319, .angle_deg = 0.328}},
+                                                {.position_pct = 1.319, .angle_deg = 0.328},
+                                                0,
+                                                kModelStated,
+                                                kNeesBound},
                                            Case{"mid_range_approach",
                                                 ModelVariant::kCalibrationErrors,
                                                 kTwiceMidRangeGoal,
-                                                {.position_pct = 0.743, .angle_deg = 0.247}}),
+                                                {.position_pct = 0.743, .angle_deg = 0.247},
+                                                0,
+                                                kCalibrationStated,
+                                                kNeesBound}),
                          caseName);
 
 }  // namespace
