@@ -5,7 +5,8 @@
 // runs the first N tuning draws instead, the ones to tune on; CDFF_VERBOSE=1 prints the track
 // state changes and wrong locks, CDFF_VERBOSE=2 also every scan's registration and filter step
 // and every pose's error; CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." changes the graph's parameters
-// as `cdff run --set` does) and reports, besides
+// as `cdff run --set` does, CDFF_LIDAR_GRAPH=FILE runs an edited copy of the graph instead) and
+// reports, besides
 // the time per draw, the accuracy counters quoted in docs/lidar-tracking.md:
 //   draws_within_goal  fraction of draws whose p95 errors and tracked fraction meet the goal
 //   wrong_lock_draws   draws with a pose reported TRACKING > 10 deg or 5 % of the range off

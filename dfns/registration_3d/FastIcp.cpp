@@ -2,6 +2,7 @@
 // confirmation (src/cdff/registration/fast_icp.hpp). This DFI maps the parameters onto the
 // library's options and the ports onto its calls, and turns what the library reports into
 // warnings.
+#include <algorithm>
 #include <limits>
 #include <memory>
 #include <span>
@@ -26,6 +27,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   }
 
   Status onProcess() override {
+    floorKernelAtSensorNoise();
     const PointCloud& model = *in.model;
     Result<registration::ModelPreparation> prepared = registration_.prepare(model);
     if (!prepared) return prepared.status();
@@ -105,6 +107,20 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     return o;
   }
 
+  /// With kernel_floor_at_sensor_noise, the robust kernel's adaptive scale never below the
+  /// sensor's range noise (1 sigma, from `sensor`; see the parameter). Reconfigured only when the
+  /// noise changes (a description comes with every scan).
+  void floorKernelAtSensorNoise() {
+    if (!params_.kernel_floor_at_sensor_noise) return;
+    const LidarInfo* sensor = in.sensor.get();
+    const double noise = sensor ? sensor->range_noise : 0.0;
+    if (noise == kernel_floor_noise_) return;
+    kernel_floor_noise_ = noise;
+    registration::FastIcpOptions o = options();
+    o.icp.min_kernel_scale = std::max(o.icp.min_kernel_scale, noise);
+    registration_.configure(o);
+  }
+
   /// The sensor's distinct laser elevations, lowest first (none without `sensor`); sorted again
   /// only when the elevations change (a description comes with every scan).
   std::span<const double> lasers() {
@@ -121,6 +137,7 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
   std::vector<Eigen::Vector3f> points_;  // the scan points used; kept so as not to allocate
   std::vector<double> lasers_of_;        // the elevations lasers_ was sorted from
   std::vector<double> lasers_;
+  double kernel_floor_noise_ = 0;  // the range noise the kernel's floor was last set from
 };
 
 CDFF_REGISTER_DFI(Registration3DFastIcp);

@@ -122,9 +122,14 @@ Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_
       settings.push_back(std::move(s).value());
     }
   }
+  // CDFF_LIDAR_GRAPH: another graph file (an edited copy), for experiments on the tuning draws
+  // with rules that settings cannot change (active_when, diverged_when, connections).
+  const char* graph_file = std::getenv("CDFF_LIDAR_GRAPH");
   std::vector<bool> applied;
-  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(
-      std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml", settings, applied);
+  Result<dfpc::GraphSpec> spec =
+      dfpc::loadGraphFile(graph_file ? std::string(graph_file)
+                                     : std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml",
+                          settings, applied);
   if (!spec) return spec.status();
   for (std::size_t i = 0; i < settings.size(); ++i)
     if (!applied[i])
