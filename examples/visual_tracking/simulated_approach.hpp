@@ -157,6 +157,10 @@ egse::ModelPerturbation modelErrors();
 /// (which must exist), named after the scenario.
 Result<ApproachOptions> withVariant(ApproachOptions options, ModelVariant variant,
                                     const std::filesystem::path& directory);
+/// The variant's errors as a user states them to the graph (its `consider` node's parameters,
+/// ApproachOptions::graph_settings): the model 1 % too large as a range scale of 1 %; the
+/// calibration's 0.2 degrees, 2 mm and 0.5 %; nothing for the second target (its own model).
+std::vector<std::string> statedErrors(ModelVariant variant);
 
 /// One line of figures for a table: frames, lost, p95/max position and angle, CPU per frame.
 std::string summaryLine(const std::string& label, const ApproachResult& r);

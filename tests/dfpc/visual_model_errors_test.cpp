@@ -85,17 +85,9 @@ const Bounds kMidRangeGoal{.position_pct = 1.0, .angle_deg = 1.0};
 const Bounds kTwiceCloseRangeGoal = scaled(kCloseRangeGoal, 2);
 const Bounds kTwiceMidRangeGoal = scaled(kMidRangeGoal, 2);
 
-// The errors' sizes the graph is told (its `consider` node). The model is 1 % too large: one
-// camera sees it as the target 1 % farther, a range scale error (the part removed and the
-// re-triangulation are not a scale error; what they cost shows in the NEES).
-const std::vector<std::string> kModelStated = {"consider.range_scale_sigma=0.01"};
-// The calibration errors the simulator draws: the mounting 0.2 degrees and 2 mm, the intrinsics
-// 0.5 % (the focal length's scales the range: range_scale_sigma; the principal point's, 0.5 % of
-// 812 px over fx = 1364 px, turns the line of sight by 0.17 degree, within the 0.2 degree per axis
-// stated for the mounting, whose 0.2 degrees are an RMS magnitude, 0.12 per axis).
-const std::vector<std::string> kCalibrationStated = {"consider.extrinsic_angle_sigma=0.2",
-                                                     "consider.extrinsic_position_sigma=0.002",
-                                                     "consider.range_scale_sigma=0.005"};
+// The errors' sizes the graph is told (its `consider` node; visual_demo::statedErrors).
+const std::vector<std::string> kModelStated = statedErrors(ModelVariant::kModelErrors);
+const std::vector<std::string> kCalibrationStated = statedErrors(ModelVariant::kCalibrationErrors);
 
 // With the errors' sizes stated, the pose NEES mean is within a factor of 2 of 6 (6 dof) or below
 // (issue 16's honest covariance; a calibration error is drawn once per run, and a draw can be
