@@ -232,19 +232,8 @@ Result<std::unique_ptr<dfpc::Dfpc>> makeDfpc(const ApproachOptions& options) {
   const std::string source = options.source_dir.empty() ? CDFF_SOURCE_DIR : options.source_dir;
   const std::string graph_file = source + (options.stereo ? "/dfpcs/visual_tracking_stereo.yaml"
                                                           : "/dfpcs/visual_tracking.yaml");
-  std::vector<dfpc::ParameterSetting> settings;
-  for (const std::string& text : options.graph_settings) {
-    Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text);
-    if (!s) return s.status().withContext("ApproachOptions::graph_settings");
-    settings.push_back(std::move(s).value());
-  }
-  std::vector<bool> applied;
-  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph_file, settings, applied);
-  if (!spec) return spec.status();
-  for (std::size_t i = 0; i < settings.size(); ++i)
-    if (!applied[i])
-      return invalidInput("graph setting '{}' addresses no node of {}", settings[i].text,
-                          graph_file);
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph_file, options.graph_settings);
+  if (!spec) return spec.status().withContext("ApproachOptions::graph_settings");
   for (dfpc::InstanceSpec& inst : spec->instances) {
     if (inst.name != "tracker") continue;
     if (inst.dfi != options.dfi) {

@@ -181,6 +181,12 @@ Result<GraphSpec> loadGraphFile(const std::string& path,
                                 const std::vector<ParameterSetting>& settings,
                                 std::vector<bool>& applied);
 
+/// The one graph of `path` with every "[DFPC/]NODE.PARAM=VALUE" setting applied (as `cdff run
+/// --set`); a malformed setting, or one that addresses no node of this graph, is an error naming
+/// it and the file.
+Result<GraphSpec> loadGraphFile(const std::string& path,
+                                const std::vector<std::string>& setting_texts);
+
 /// Every problem of a graph, each message starting with its location: unknown DFN or DFI, unknown
 /// port, type mismatch, unconnected required input or output, a cycle without a delay, malformed
 /// or ill-typed conditions, recoveries naming unknown instances, a switch_dfi without fallback...

@@ -479,4 +479,22 @@ Result<GraphSpec> loadGraphFile(const std::string& path,
   return read(*document);
 }
 
+Result<GraphSpec> loadGraphFile(const std::string& path,
+                                const std::vector<std::string>& setting_texts) {
+  std::vector<ParameterSetting> settings;
+  for (const std::string& text : setting_texts) {
+    Result<ParameterSetting> s = parseParameterSetting(text);
+    if (!s) return s.status();
+    settings.push_back(std::move(s).value());
+  }
+  std::vector<bool> applied;
+  Result<GraphSpec> spec = loadGraphFile(path, settings, applied);
+  if (!spec) return spec.status();
+  for (std::size_t i = 0; i < settings.size(); ++i)
+    if (!applied[i])
+      return invalidInput("setting '{}' addresses no node of the graph in {}", settings[i].text,
+                          path);
+  return spec;
+}
+
 }  // namespace cdff::dfpc
