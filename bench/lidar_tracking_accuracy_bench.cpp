@@ -1,13 +1,16 @@
 // The LIDAR tracking DFPC's accuracy over the evaluation draws (data/evaluation/draws.yaml): each
 // draw simulates the scenario with its own seed (scan noise, dropped scans) and starts the DFPC
 // from its own Gaussian initial error of RMS 10 % of the range and 10 degrees. One benchmark per
-// scenario runs every evaluation draw once (CDFF_DRAWS=N runs the first N; CDFF_DRAW_SET=tuning
-// runs the first N tuning draws instead, the ones to tune on; CDFF_VERBOSE=1 prints the track
-// state changes and wrong locks, CDFF_VERBOSE=2 also every scan's registration and filter step
-// and every pose's error; CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." changes the graph's parameters
-// as `cdff run --set` does, CDFF_LIDAR_GRAPH=FILE runs an edited copy of the graph instead) and
-// reports, besides
-// the time per draw, the accuracy counters quoted in docs/lidar-tracking.md:
+// scenario runs every evaluation draw once. Environment: CDFF_DRAWS=N runs the first N;
+// CDFF_DRAW_SET=tuning the first N tuning draws instead, the ones to tune on;
+// CDFF_DRAW_NUMBERS=A,B,... only those of them, CDFF_FROM_DRAW=K those from K on
+// (bench::drawsFromEnvironment); CDFF_VERBOSE=1 prints the track state changes and wrong locks,
+// CDFF_VERBOSE=2 also every scan's registration and filter step and every pose's error;
+// CDFF_SCENARIO_SET="KEY=VALUE;..." changes the scenario as `cdff sim --set` does (e.g.
+// servicer.mockup.enabled=false); CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." changes the graph's
+// parameters as `cdff run --set` does,
+// CDFF_LIDAR_GRAPH=FILE runs an edited copy of the graph instead. It reports, besides the time
+// per draw, the accuracy counters quoted in docs/lidar-tracking.md:
 //   draws_within_goal  fraction of draws whose p95 errors and tracked fraction meet the goal
 //   wrong_lock_draws   draws with a pose reported TRACKING > 10 deg or 5 % of the range off
 //                      (the p95s cover every pose product after the first second, whatever its
@@ -24,6 +27,8 @@
 #include <cstdlib>
 #include <map>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -60,6 +65,12 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
     if (m.channel == "/cdff/lidar_tracking/fitness")
       if (const double* v = m.as<double>()) row += fmt::format(" | scan fitness {:.2f}", *v);
     if (m.channel == "/cdff/lidar_tracking/visibility")
+      if (const double* v = m.as<double>(); v && std::isfinite(*v))
+        row += fmt::format(" visibility {:.2f}", *v);
+    if (m.channel == "/cdff/lidar_tracking/acquisition_fitness")
+      if (const double* v = m.as<double>(); v && std::isfinite(*v))
+        row += fmt::format(" | acquisition fitness {:.2f}", *v);
+    if (m.channel == "/cdff/lidar_tracking/acquisition_visibility")
       if (const double* v = m.as<double>(); v && std::isfinite(*v))
         row += fmt::format(" visibility {:.2f}", *v);
     if (m.channel == "/cdff/lidar_tracking/nis")
@@ -110,21 +121,22 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
 
 void runDraws(benchmark::State& state, const Case& c) {
   const eval::DrawSets& sets = lidar_tracking::drawSets();
-  std::uint64_t n = 0;
-  if (const char* e = std::getenv("CDFF_DRAWS")) n = std::strtoull(e, nullptr, 10);
-  const char* set = std::getenv("CDFF_DRAW_SET");
-  const bool tuning = set && std::string(set) == "tuning";
-  if (set && !tuning && std::string(set) != "evaluation")
-    return state.SkipWithError("CDFF_DRAW_SET is neither 'evaluation' nor 'tuning'");
-  const std::vector<eval::Draw> draws =
-      tuning ? sets.tuningDraws(n == 0 ? 50 : n) : sets.evaluationDraws(n);
-  if (draws.empty()) return state.SkipWithError("no evaluation draws");
+  Result<std::vector<eval::Draw>> selected = bench::drawsFromEnvironment(sets, 50);
+  if (!selected) return state.SkipWithError(selected.status().message().c_str());
+  const std::vector<eval::Draw>& draws = *selected;
+  std::vector<std::string> scenario_settings;
+  if (const char* e = std::getenv("CDFF_SCENARIO_SET"))
+    for (std::string_view rest = e; !rest.empty();) {
+      const std::size_t end = std::min(rest.find(';'), rest.size());
+      if (end > 0) scenario_settings.emplace_back(rest.substr(0, end));
+      rest.remove_prefix(std::min(end + 1, rest.size()));
+    }
   std::vector<double> pct, metres, angle;
   double within = 0, wrong = 0, worst_pct = 0, worst_m = 0, worst_deg = 0;
   for (auto _ : state) {
     for (const eval::Draw& draw : draws) {
       Result<lidar_tracking::DrawnRun> d = lidar_tracking::simulateDraw(
-          draw, c.scenario, c.duration, 0.10, 10.0 * kDeg, c.extra_yaml);
+          draw, c.scenario, c.duration, 0.10, 10.0 * kDeg, c.extra_yaml, scenario_settings);
       if (!d) return state.SkipWithError(d.status().message().c_str());
       Result<lidar_tracking::TrackingResult> r =
           lidar_tracking::track(d->run, d->run.messages, d->initial, 1.0);

@@ -10,9 +10,10 @@
 namespace cdff::registration {
 
 void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
-                                std::vector<float>& ranges) {
+                                std::span<const double> lasers, std::vector<float>& ranges) {
   struct Return {
     float elevation, azimuth, range;
+    std::size_t laser = 0;
   };
   std::vector<Return> returns;
   returns.reserve(points.size());
@@ -26,9 +27,17 @@ void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
   if (returns.size() < 3) return;
   std::sort(returns.begin(), returns.end(),
             [](const Return& a, const Return& b) { return a.elevation < b.elevation; });
+  // With the sensor's lasers, a return belongs to the laser nearest its elevation: a thinned
+  // scan's voxel centroid that averages two lasers' returns (a voxel as tall as the lasers'
+  // spacing at close range) or a de-skewed return lies between two lasers, and would otherwise
+  // start a ring of its own. Without them, returns within kSameRing of each other are one ring.
+  for (Return& r : returns) r.laser = nearestLaser(lasers, r.elevation);
   for (std::size_t i = 0; i < returns.size();) {
     std::size_t j = i + 1;
-    while (j < returns.size() && returns[j].elevation - returns[j - 1].elevation < kSameRing) ++j;
+    while (j < returns.size() &&
+           (lasers.empty() ? returns[j].elevation - returns[j - 1].elevation < kSameRing
+                           : returns[j].laser == returns[i].laser))
+      ++j;
     Ring ring;
     ring.elevation = returns[(i + j) / 2].elevation;
     std::vector<std::pair<float, float>> along;
@@ -44,19 +53,21 @@ void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
   }
 }
 
+std::size_t RingVisibility::nearestLaser(std::span<const double> lasers, float elevation) {
+  if (lasers.empty()) return 0;
+  const auto it = std::lower_bound(lasers.begin(), lasers.end(), static_cast<double>(elevation));
+  auto k = static_cast<std::size_t>(it - lasers.begin());
+  if (k == lasers.size() || (k > 0 && elevation - lasers[k - 1] < lasers[k] - elevation)) --k;
+  return k;
+}
+
 void RingVisibility::addEmptyNeighbours(std::span<const double> lasers) {
   if (lasers.empty()) return;
   // Each observed ring is the sensor's laser nearest to its elevation. The neighbour's ring is
   // the observed ring's elevation plus the sensor's step between the two lasers, so that an
   // offset all lasers share (a calibration error of their elevations) carries over to it.
-  auto nearest = [&](float elevation) {
-    const auto it = std::lower_bound(lasers.begin(), lasers.end(), static_cast<double>(elevation));
-    auto k = static_cast<std::size_t>(it - lasers.begin());
-    if (k == lasers.size() || (k > 0 && elevation - lasers[k - 1] < lasers[k] - elevation)) --k;
-    return k;
-  };
   const float lo = rings_.front().elevation, hi = rings_.back().elevation;
-  const std::size_t low = nearest(lo), high = nearest(hi);
+  const std::size_t low = nearestLaser(lasers, lo), high = nearestLaser(lasers, hi);
   if (low > 0)
     rings_.insert(rings_.begin(),
                   Ring{lo + static_cast<float>(lasers[low - 1] - lasers[low]), {}, {}, 0, 0});
@@ -69,7 +80,7 @@ bool RingVisibility::setScan(std::span<const Eigen::Vector3f> points,
   rings_.clear();
   viewpoint_ = viewpoint;
   std::vector<float> ranges;
-  groupRings(points, ranges);
+  groupRings(points, lasers, ranges);
   if (rings_.empty()) return false;
   // The azimuth step of the returns along a ring (the firing step, or the voxel grid's at close
   // range): the bin of predicted surface, and the gap a return may be away.

@@ -7,8 +7,9 @@
 // The lasers are cones about the source frame's z axis through the viewpoint (a VLP-16 in its
 // own frame); the rings are those the scan's returns lie on, plus, when the sensor's laser
 // elevations are given (its LidarInfo), the sensor's lasers just below the lowest and just above
-// the highest of them, which saw nothing of the target. Without the elevations only the rings
-// with returns count.
+// the highest of them, which saw nothing of the target. With the elevations a return belongs to
+// its nearest laser (a thinned scan's centroids and de-skewed returns lie between lasers);
+// without them only the rings with returns count, returns within kSameRing being one ring.
 
 #include <cmath>
 #include <cstddef>
@@ -54,8 +55,12 @@ class RingVisibility {
     std::size_t bins = 0;
   };
 
-  /// The rings the returns lie on, lowest first; the ranges of all returns into `ranges`.
-  void groupRings(std::span<const Eigen::Vector3f> points, std::vector<float>& ranges);
+  /// The rings the returns lie on, lowest first (one per laser of `lasers` with returns, when
+  /// given); the ranges of all returns into `ranges`.
+  void groupRings(std::span<const Eigen::Vector3f> points, std::span<const double> lasers,
+                  std::vector<float>& ranges);
+  /// The index of the laser of `lasers` (sorted, not empty) nearest `elevation`; 0 when empty.
+  static std::size_t nearestLaser(std::span<const double> lasers, float elevation);
   /// The rings of the lasers next to the lowest and the highest observed ring, where the sensor
   /// has them (`lasers` sorted).
   void addEmptyNeighbours(std::span<const double> lasers);
