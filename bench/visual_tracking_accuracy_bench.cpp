@@ -23,8 +23,9 @@
 //                     the covariance is honest)
 // The same over the whole approach (CDFF_DURATION shortens it) with a tracker's model or
 // calibrations that are not the simulator's own (visual_demo::ModelVariant: the second target,
-// model errors, calibration errors; issue 16): BM_SecondTarget_*, BM_ModelErrors_*,
-// BM_CalibrationErrors_*. Their goals are those of the first target's accuracy tests (close range
+// model errors, calibration errors; issue 16): runDraws/SecondTarget_*, runDraws/ModelErrors_*,
+// runDraws/CalibrationErrors_*; with the stereo graph BM_Acquisition_*_Stereo and
+// runDraws/Stereo_*. Their goals are those of the first target's accuracy tests (close range
 // p95 10 mm and 0.5 deg, mid range 1 % of the range and 1 deg), twice those with model or
 // calibration errors; the errors are stated to the graph (visual_demo::statedErrors), so
 // nees_mean is that of a user who states them.
@@ -44,6 +45,7 @@
 
 #include <unistd.h>
 
+#include "bench_support.hpp"
 #include "simulated_approach.hpp"
 
 namespace cdff {
@@ -55,11 +57,6 @@ double p95(std::vector<double> v) {
   return v.empty() ? 0.0 : eval::ErrorStatistics::of(v).p95;
 }
 
-std::uint64_t envCount(const char* name) {
-  const char* e = std::getenv(name);
-  return e ? std::strtoull(e, nullptr, 10) : 0;
-}
-
 double mean(const std::vector<double>& v) {
   double sum = 0;
   for (double x : v) sum += x;
@@ -67,35 +64,16 @@ double mean(const std::vector<double>& v) {
 }
 
 // `variant`: none, the first target with its own model and calibrations over the first 10 s (the
-// acquisition); else that variant over the whole approach.
+// acquisition); else that variant over the whole approach. `stereo`: the stereo graph on the
+// left/right pairs.
 void runDraws(benchmark::State& state, const std::string& scenario,
-              std::optional<visual_demo::ModelVariant> variant = std::nullopt) {
+              std::optional<visual_demo::ModelVariant> variant = std::nullopt,
+              bool stereo = false) {
   Result<eval::DrawSets> sets = visual_demo::drawSets();
   if (!sets) return state.SkipWithError(sets.status().message().c_str());
-  const std::uint64_t n = envCount("CDFF_DRAWS");
-  const char* set = std::getenv("CDFF_DRAW_SET");
-  const std::string which = set ? set : "evaluation";
-  if (which != "evaluation" && which != "tuning")
-    return state.SkipWithError("CDFF_DRAW_SET is neither 'evaluation' nor 'tuning'");
-  std::vector<eval::Draw> draws =
-      which == "tuning" ? sets->tuningDraws(n > 0 ? n : 10) : sets->evaluationDraws(n);
-  if (const char* from = std::getenv("CDFF_FROM_DRAW")) {
-    const std::uint64_t first = std::strtoull(from, nullptr, 10);
-    std::erase_if(draws, [&](const eval::Draw& d) { return d.number < first; });
-  }
-  if (const char* list = std::getenv("CDFF_DRAW_NUMBERS")) {
-    std::vector<std::uint64_t> keep;
-    for (const char* c = list; *c;) {
-      char* end = nullptr;
-      keep.push_back(std::strtoull(c, &end, 10));
-      if (end == c) return state.SkipWithError("CDFF_DRAW_NUMBERS is not a comma-separated list");
-      c = *end ? end + 1 : end;
-    }
-    std::erase_if(draws, [&](const eval::Draw& d) {
-      return std::find(keep.begin(), keep.end(), d.number) == keep.end();
-    });
-  }
-  if (draws.empty()) return state.SkipWithError("no draws");
+  Result<std::vector<eval::Draw>> selected = bench::drawsFromEnvironment(*sets, 10);
+  if (!selected) return state.SkipWithError(selected.status().message().c_str());
+  const std::vector<eval::Draw>& draws = *selected;
   const char* d = std::getenv("CDFF_DURATION");
   std::optional<double> duration;
   if (d)
@@ -113,6 +91,7 @@ void runDraws(benchmark::State& state, const std::string& scenario,
     for (const eval::Draw& draw : draws) {
       Result<visual_demo::ApproachOptions> o =
           visual_demo::drawOptions(draw, scenario, duration, 0.05, 5 * kDeg, 0.3, 0.1);
+      o->stereo = stereo;
       if (variant) o = visual_demo::withVariant(std::move(o).value(), *variant, scratch);
       if (!o) return state.SkipWithError(o.status().message().c_str());
       // The variant's errors stated to the graph, as a user states them (its `consider` node).
@@ -140,15 +119,16 @@ void runDraws(benchmark::State& state, const std::string& scenario,
       valid += static_cast<double>(a.valid_frames);
       frames += static_cast<double>(a.frames);
       std::fprintf(stderr,
-                   "%s%s%s draw %llu: %zu frames, %zu valid, time to track %.1f s%s, %zu wrong, "
+                   "%s%s%s%s draw %llu: %zu frames, %zu valid, time to track %.1f s%s, %zu wrong, "
                    "%zu lost after, p95 %.3f %% / %.2f mm / %.3f deg, NEES mean %.2f, slowest "
                    "frame %.1f ms CPU\n",
-                   variant ? visual_demo::toString(*variant) : "", variant ? " " : "",
-                   scenario.c_str(), static_cast<unsigned long long>(draw.number), a.frames,
-                   a.valid_frames, a.time_to_track_s,
-                   a.first_acquisition_confirmed ? " (first acquisition)" : "", a.wrong_frames,
-                   a.lost_after_track, p95(a.position_error_pct), 1e3 * p95(a.position_error_m),
-                   p95(a.angle_error_deg), mean(a.nees), 1e3 * r->cpu_per_frame_s.max);
+                   stereo ? "stereo " : "", variant ? visual_demo::toString(*variant) : "",
+                   variant ? " " : "", scenario.c_str(),
+                   static_cast<unsigned long long>(draw.number), a.frames, a.valid_frames,
+                   a.time_to_track_s, a.first_acquisition_confirmed ? " (first acquisition)" : "",
+                   a.wrong_frames, a.lost_after_track, p95(a.position_error_pct),
+                   1e3 * p95(a.position_error_m), p95(a.angle_error_deg), mean(a.nees),
+                   1e3 * r->cpu_per_frame_s.max);
       slowest_frame = std::max(slowest_frame, r->cpu_per_frame_s.max);
     }
   }
@@ -177,8 +157,17 @@ void BM_Acquisition_MidRange(benchmark::State& state) {
   runDraws(state, "mid_range_approach");
 }
 
+void BM_Acquisition_CloseRange_Stereo(benchmark::State& state) {
+  runDraws(state, "close_range_approach", std::nullopt, true);
+}
+void BM_Acquisition_MidRange_Stereo(benchmark::State& state) {
+  runDraws(state, "mid_range_approach", std::nullopt, true);
+}
+
 BENCHMARK(BM_Acquisition_CloseRange)->Iterations(1)->Unit(benchmark::kSecond);
 BENCHMARK(BM_Acquisition_MidRange)->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_Acquisition_CloseRange_Stereo)->Iterations(1)->Unit(benchmark::kSecond);
+BENCHMARK(BM_Acquisition_MidRange_Stereo)->Iterations(1)->Unit(benchmark::kSecond);
 
 // The tracker's model or the calibrations differ from the simulated target's
 // (docs/visual-tracking.md, "Another target, model errors and calibration errors").
@@ -193,6 +182,17 @@ CDFF_VARIANT_BENCHMARK(ModelErrors_CloseRange, "close_range_approach", kModelErr
 CDFF_VARIANT_BENCHMARK(ModelErrors_MidRange, "mid_range_approach", kModelErrors);
 CDFF_VARIANT_BENCHMARK(CalibrationErrors_CloseRange, "close_range_approach", kCalibrationErrors);
 CDFF_VARIANT_BENCHMARK(CalibrationErrors_MidRange, "mid_range_approach", kCalibrationErrors);
+// The stereo graph with another target or model errors (the calibration-error variant perturbs
+// the left camera's published calibration only, not the pair's).
+#define CDFF_STEREO_VARIANT_BENCHMARK(name, scenario, variant)                          \
+  BENCHMARK_CAPTURE(runDraws, name, std::string(scenario), ModelVariant::variant, true) \
+      ->Iterations(1)                                                                   \
+      ->Unit(benchmark::kSecond)
+CDFF_STEREO_VARIANT_BENCHMARK(Stereo_SecondTarget_CloseRange, "close_range_approach",
+                              kSecondTarget);
+CDFF_STEREO_VARIANT_BENCHMARK(Stereo_SecondTarget_MidRange, "mid_range_approach", kSecondTarget);
+CDFF_STEREO_VARIANT_BENCHMARK(Stereo_ModelErrors_CloseRange, "close_range_approach", kModelErrors);
+CDFF_STEREO_VARIANT_BENCHMARK(Stereo_ModelErrors_MidRange, "mid_range_approach", kModelErrors);
 
 }  // namespace
 }  // namespace cdff

@@ -1,11 +1,11 @@
-// The visual tracking DFPC's acquisition over the CI draws (the first evaluation draws of
-// data/evaluation/draws.yaml): each draw simulates the scenario with its own seed and starts the
-// DFPC from its own Gaussian initial error of RMS 5 % of the range and 5 degrees with an unknown
-// twist (sigmas 0.3 m/s and 0.1 rad/s: the filter is told so), stamped at the first image, which is
-// not tracked (as `cdff initial-state --at` and `cdff run` do it). The camera runs at 2 Hz, over
-// the first 10 s of each approach (the acquisition, its confirmation and any recovery). All 50
-// evaluation draws run in bench/visual_tracking_accuracy_bench.cpp (figures in
-// docs/visual-tracking.md).
+// The visual tracking DFPCs' acquisition (mono and stereo graphs) over the CI draws (the first
+// evaluation draws of data/evaluation/draws.yaml): each draw simulates the scenario with its own
+// seed and starts the DFPC from its own Gaussian initial error of RMS 5 % of the range and 5
+// degrees with an unknown twist (sigmas 0.3 m/s and 0.1 rad/s: the filter is told so), stamped at
+// the first image, which is not tracked (as `cdff initial-state --at` and `cdff run` do it). The
+// camera runs at 2 Hz, over the first 10 s of each approach (the acquisition, its confirmation and
+// any recovery). All 50 evaluation draws run in bench/visual_tracking_accuracy_bench.cpp (figures
+// in docs/visual-tracking.md).
 //
 // Asserted per draw: tracked (some frame valid: TRACKING or DEGRADED, after the confirmation), no
 // valid frame off by more than 5 % of the range or 10 degrees (a wrong acquisition reported as a
@@ -42,15 +42,17 @@ struct Figures {
   std::vector<double> pct, deg;
 };
 
-Figures runDraws(const std::string& scenario) {
+Figures runDraws(const std::string& scenario, bool stereo = false) {
   Figures f;
   Result<eval::DrawSets> sets = drawSets();
   EXPECT_OK(sets.status());
   if (!sets) return f;
   for (const eval::Draw& draw : sets->ciDraws()) {
-    SCOPED_TRACE(::testing::Message() << scenario << ", draw " << draw.number);
-    Result<ApproachResult> r =
-        runApproach(drawOptions(draw, scenario, 10.0, 0.05, 5 * kDeg, 0.3, 0.1));
+    SCOPED_TRACE(::testing::Message()
+                 << scenario << (stereo ? " (stereo)" : "") << ", draw " << draw.number);
+    ApproachOptions options = drawOptions(draw, scenario, 10.0, 0.05, 5 * kDeg, 0.3, 0.1);
+    options.stereo = stereo;
+    Result<ApproachResult> r = runApproach(options);
     EXPECT_OK(r.status());
     if (!r) continue;
     const AcquisitionOutcome a = acquisitionOutcome(*r);
@@ -118,6 +120,31 @@ TEST(VisualAcquisitionDraws, MidRange) {
   b.position_p95_pct = 0.62;
   b.angle_p95_deg = 0.6;
   expectWithin(runDraws("mid_range_approach"), b);
+}
+
+// The stereo graph (dfpcs/visual_tracking_stereo.yaml) on the same draws. Today (2026-12-05): all
+// 8 close-range draws at the first acquisition, p95 0.023 % of the range (0.7 mm) and 0.053 deg;
+// at mid range 7 of 8 at the first acquisition (900003 at 1.0 s), p95 0.304 % and 0.380 deg. Over
+// the 50 evaluation draws the stereo mid range reports one wrong acquisition (900024, not a CI
+// draw; docs/visual-tracking.md).
+TEST(VisualAcquisitionDraws, CloseRangeStereo) {
+  Bounds b;
+  b.tracked_within_2s = 1.0;
+  b.first_confirmed = 7.0 / 8;
+  b.worst_time_to_track_s = 2.0;
+  b.position_p95_pct = 0.035;
+  b.angle_p95_deg = 0.08;
+  expectWithin(runDraws("close_range_approach", true), b);
+}
+
+TEST(VisualAcquisitionDraws, MidRangeStereo) {
+  Bounds b;
+  b.tracked_within_2s = 1.0;
+  b.first_confirmed = 6.0 / 8;
+  b.worst_time_to_track_s = 2.0;
+  b.position_p95_pct = 0.46;
+  b.angle_p95_deg = 0.57;
+  expectWithin(runDraws("mid_range_approach", true), b);
 }
 
 }  // namespace
