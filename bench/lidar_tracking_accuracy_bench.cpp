@@ -7,10 +7,11 @@
 // (bench::drawsFromEnvironment); CDFF_VERBOSE=1 prints the track state changes and wrong locks,
 // CDFF_VERBOSE=2 also every scan's registration and filter step and every pose's error;
 // CDFF_SCENARIO_SET="KEY=VALUE;..." changes the scenario as `cdff sim --set` does (e.g.
-// servicer.mockup.enabled=false); CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." changes the graph's
-// parameters as `cdff run --set` does,
-// CDFF_LIDAR_GRAPH=FILE runs an edited copy of the graph instead. It reports, besides the time
-// per draw, the accuracy counters quoted in docs/lidar-tracking.md:
+// target.procedural.kind=hexagonal, the second target); CDFF_GRAPH_SET="NODE.PARAM=VALUE;..."
+// changes the graph's parameters as `cdff run --set` does, CDFF_LIDAR_GRAPH=FILE runs an edited
+// copy of the graph instead, CDFF_MODEL_FILE=FILE tracks with that model instead of the
+// simulator's own mesh (`cdff model perturb`). It reports, besides the time per draw, the
+// accuracy counters quoted in docs/lidar-tracking.md:
 //   draws_within_goal  fraction of draws whose p95 errors and tracked fraction meet the goal
 //   wrong_lock_draws   draws with a pose reported TRACKING > 10 deg or 5 % of the range off
 //                      (the p95s cover every pose product after the first second, whatever its
@@ -138,6 +139,9 @@ void runDraws(benchmark::State& state, const Case& c) {
       Result<lidar_tracking::DrawnRun> d = lidar_tracking::simulateDraw(
           draw, c.scenario, c.duration, 0.10, 10.0 * kDeg, c.extra_yaml, scenario_settings);
       if (!d) return state.SkipWithError(d.status().message().c_str());
+      // CDFF_MODEL_FILE: the tracker's model instead of the simulator's own mesh (a model with
+      // errors, `cdff model perturb`), as a user runs the graph with another model file.
+      if (const char* model = std::getenv("CDFF_MODEL_FILE")) d->run.mesh_file = model;
       Result<lidar_tracking::TrackingResult> r =
           lidar_tracking::track(d->run, d->run.messages, d->initial, 1.0);
       if (!r) return state.SkipWithError(r.status().message().c_str());
