@@ -28,7 +28,6 @@
 #include <cstdlib>
 #include <map>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
@@ -125,13 +124,8 @@ void runDraws(benchmark::State& state, const Case& c) {
   Result<std::vector<eval::Draw>> selected = bench::drawsFromEnvironment(sets, 50);
   if (!selected) return state.SkipWithError(selected.status().message().c_str());
   const std::vector<eval::Draw>& draws = *selected;
-  std::vector<std::string> scenario_settings;
-  if (const char* e = std::getenv("CDFF_SCENARIO_SET"))
-    for (std::string_view rest = e; !rest.empty();) {
-      const std::size_t end = std::min(rest.find(';'), rest.size());
-      if (end > 0) scenario_settings.emplace_back(rest.substr(0, end));
-      rest.remove_prefix(std::min(end + 1, rest.size()));
-    }
+  const std::vector<std::string> scenario_settings =
+      lidar_tracking::settingsFromEnvironment("CDFF_SCENARIO_SET");
   std::vector<double> pct, metres, angle;
   double within = 0, wrong = 0, worst_pct = 0, worst_m = 0, worst_deg = 0;
   for (auto _ : state) {

@@ -108,16 +108,21 @@ Result<DrawnRun> simulateDraw(const eval::Draw& draw, const std::string& scenari
   return DrawnRun{draw, std::move(run).value(), std::move(initial).value()};
 }
 
-Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
-                                              const GraphEdit& edit) {
-  // CDFF_GRAPH_SET: `;`-separated NODE.PARAM=VALUE settings (as `cdff run --set`), for the
-  // benchmark's runs on the tuning draws.
+std::vector<std::string> settingsFromEnvironment(const char* name) {
   std::vector<std::string> settings;
-  if (const char* env = std::getenv("CDFF_GRAPH_SET")) {
+  if (const char* env = std::getenv(name)) {
     std::stringstream list(env);
     for (std::string text; std::getline(list, text, ';');)
       if (!text.empty()) settings.push_back(text);
   }
+  return settings;
+}
+
+Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
+                                              const GraphEdit& edit) {
+  // CDFF_GRAPH_SET: NODE.PARAM=VALUE settings (as `cdff run --set`), for the benchmark's runs on
+  // the tuning draws.
+  const std::vector<std::string> settings = settingsFromEnvironment("CDFF_GRAPH_SET");
   // CDFF_LIDAR_GRAPH: another graph file (an edited copy), for experiments on the tuning draws
   // with rules that settings cannot change (active_when, diverged_when, connections).
   const char* graph_file = std::getenv("CDFF_LIDAR_GRAPH");

@@ -60,6 +60,10 @@ Result<DrawnRun> simulateDraw(const eval::Draw& draw, const std::string& scenari
 /// A change to the graph's specification before it is created (e.g. a parameter of an instance).
 using GraphEdit = std::function<void(dfpc::GraphSpec&)>;
 
+/// The `;`-separated settings in the environment variable `name` (empty when unset), e.g.
+/// CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." or CDFF_SCENARIO_SET="KEY=VALUE;...".
+std::vector<std::string> settingsFromEnvironment(const char* name);
+
 /// The graph, loaded from dfpcs/lidar_tracking.yaml, with its model read from `mesh_file`.
 Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
                                               const GraphEdit& edit = {});

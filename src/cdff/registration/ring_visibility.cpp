@@ -31,7 +31,8 @@ void RingVisibility::groupRings(std::span<const Eigen::Vector3f> points,
   // scan's voxel centroid that averages two lasers' returns (a voxel as tall as the lasers'
   // spacing at close range) or a de-skewed return lies between two lasers, and would otherwise
   // start a ring of its own. Without them, returns within kSameRing of each other are one ring.
-  for (Return& r : returns) r.laser = nearestLaser(lasers, r.elevation);
+  if (!lasers.empty())
+    for (Return& r : returns) r.laser = nearestLaser(lasers, r.elevation);
   for (std::size_t i = 0; i < returns.size();) {
     std::size_t j = i + 1;
     while (j < returns.size() &&

@@ -59,7 +59,7 @@ class RingVisibility {
   /// given); the ranges of all returns into `ranges`.
   void groupRings(std::span<const Eigen::Vector3f> points, std::span<const double> lasers,
                   std::vector<float>& ranges);
-  /// The index of the laser of `lasers` (sorted, not empty) nearest `elevation`; 0 when empty.
+  /// The index of the laser of `lasers` (sorted) nearest `elevation`; 0 when there is none.
   static std::size_t nearestLaser(std::span<const double> lasers, float elevation);
   /// The rings of the lasers next to the lowest and the highest observed ring, where the sensor
   /// has them (`lasers` sorted).
