@@ -89,11 +89,14 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
           const Eigen::Vector3d line_of_sight = truth->translation.normalized();
           row += fmt::format(
               " | measured {:.2f} deg (about the line of sight {:.2f}, across {:.2f}) {:.3f} m "
-              "off, sigma {:.2f} deg {:.3f} m",
+              "off, sigma {:.2f} deg (about {:.2f}) {:.3f} m",
               error.angle() / kDeg, rotation.dot(line_of_sight) / kDeg,
               rotation.cross(line_of_sight).norm() / kDeg,
               (v->pose.translation - truth->translation).norm(),
               std::sqrt(v->covariance.bottomRightCorner<3, 3>().trace()) / kDeg,
+              std::sqrt(line_of_sight.dot(v->covariance.bottomRightCorner<3, 3>() *
+                                          line_of_sight)) /
+                  kDeg,
               std::sqrt(v->covariance.topLeftCorner<3, 3>().trace()));
         }
     if (m.channel == "/cdff/lidar_tracking/pose")
