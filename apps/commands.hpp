@@ -15,5 +15,6 @@ void addRunCommand(CLI::App& root, int& exit_code);
 void addEvalCommand(CLI::App& root, int& exit_code);
 void addInitialStateCommand(CLI::App& root, int& exit_code);
 void addModelCommands(CLI::App& root, int& exit_code);
+void addTrainCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

@@ -26,6 +26,7 @@
 #include "FeaturesMatching2D.gen.hpp"
 #include "ImageUndistortion.gen.hpp"
 #include "StereoRectification.gen.hpp"
+#include "cdff/egse/scenario.hpp"
 #include "cdff/types/opencv.hpp"
 #include "commands.hpp"
 
@@ -41,19 +42,6 @@ std::unique_ptr<T> create(const std::string& dfn, const std::string& dfi) {
   return node ? std::move(node).value() : nullptr;
 }
 
-// The seed's Prosilica GC1600H (1624 x 1234, 4.4 um pixels) behind a 6 mm lens, with the barrel
-// distortion typical of such a lens.
-CameraModel prosilicaCamera() {
-  CameraModel c;
-  c.width = 1624;
-  c.height = 1234;
-  c.fx = c.fy = 6e-3 / 4.4e-6;
-  c.cx = 811.5;
-  c.cy = 616.5;
-  c.distortion_model = DistortionModel::kRadialTangential;
-  c.distortion = {-0.12, 0.05, 0.0005, -0.0003, 0.0};
-  return c;
-}
 
 cv::Mat texturedScene(int width, int height, std::uint32_t seed) {
   std::mt19937 rng(seed);
@@ -103,7 +91,7 @@ struct Step {
 
 Status cameraChain(json& report, std::vector<const dfn::Node*>& nodes,
                    std::vector<std::unique_ptr<dfn::Node>>& keep) {
-  const CameraModel camera = prosilicaCamera();
+  const CameraModel camera = egse::prosilicaGc1600h();
   const cv::Mat scene = texturedScene(camera.width, camera.height, 2026);
   // Second viewpoint: a small rotation, zoom and shift of the (planar) scene.
   const cv::Mat h_true =
@@ -183,7 +171,7 @@ Status stereoChain(json& report, std::vector<const dfn::Node*>& nodes,
                    std::vector<std::unique_ptr<dfn::Node>>& keep) {
   // A 20 cm baseline rig whose right camera is also slightly rotated: rectification must
   // remove the rotation. Scene: random points 3 to 8 m away, drawn as small discs.
-  const CameraModel camera = prosilicaCamera();
+  const CameraModel camera = egse::prosilicaGc1600h();
   Transform right_T_left = Transform::identity("left_optical", "right_optical");
   right_T_left.rotation = expSO3(Eigen::Vector3d(0.01, -0.02, 0.005));
   right_T_left.translation = Eigen::Vector3d(-0.2, 0.002, 0.001);

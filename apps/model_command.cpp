@@ -14,6 +14,7 @@
 #include "cdff/egse/model_perturbation.hpp"
 #include "cdff/egse/simulator.hpp"
 #include "commands.hpp"
+#include "model_source.hpp"
 
 namespace cdff::app {
 
@@ -32,23 +33,8 @@ struct ModelOptions {
   std::size_t points = 200000;
 };
 
-bool isMeshFile(const std::filesystem::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".obj" || ext == ".ply" || ext == ".stl" || ext == ".gltf" || ext == ".glb";
-}
-
 Result<egse::TargetModel> loadSource(const ModelOptions& o) {
-  if (isMeshFile(o.source)) {
-    if (!o.overrides.empty())
-      return invalidParameter("--set applies to a scenario, not to the mesh file '{}'", o.source);
-    return egse::loadModel(o.source);
-  }
-  Result<std::filesystem::path> path = egse::resolveScenario(o.source);
-  if (!path) return path.status();
-  Result<egse::Scenario> scenario = egse::loadScenario(*path, o.overrides);
-  if (!scenario) return scenario.status();
-  return egse::makeScenarioTarget(*scenario);
+  return loadModelSource(o.source, o.overrides);
 }
 
 // Comma-separated finite numbers; `what` names the option in the error.

@@ -180,7 +180,7 @@ class StereoMatchingOnAPlane : public ::testing::TestWithParam<Matcher> {
     EXPECT_EQ(depth.image.format, PixelFormat::kFloat32);
     EXPECT_EQ(depth.image.frame_id, "left_rectified");
     EXPECT_EQ(depth.image.stamp, pair.left.stamp);
-    const double offset = c.cx - (pair.right.camera->cx + 0.5) / (1 << level) + 0.5;
+    const double offset = c.cx - pair.right.camera->cx / (1 << level);  // cv::pyrDown: x / 2
     // The search's reach: disparities up to f B / min_depth (1.5 m by default) at this level.
     const int search = static_cast<int>(std::ceil(c.fx * kBaseline / 1.5 + offset)) + 2;
     const Errors e = measure(*dfn.out.disparity, depth, plane, offset, search + GetParam().block,
@@ -237,7 +237,7 @@ TEST_P(StereoMatchingOnAPlane, MatchesOnAPyramidLevelWithItsCameraModel) {
   const Errors e = run(*dfn, renderPair(plane), plane, 1);
   const CameraModel& c = *dfn->out.depth->image.camera;
   EXPECT_DOUBLE_EQ(c.fx, kFocal / 2);
-  EXPECT_DOUBLE_EQ(c.cx, (kWidth / 2.0 - 0.5 + 0.5) / 2 - 0.5);
+  EXPECT_DOUBLE_EQ(c.cx, (kWidth / 2.0 - 0.5) / 2);  // cv::pyrDown keeps pixel 2j
   EXPECT_GE(e.valid_fraction, GetParam().min_valid);
   // Disparities in half-resolution pixels: the same sub-pixel accuracy, twice the depth error.
   EXPECT_LE(e.disparity_p95, GetParam().disparity_p95);

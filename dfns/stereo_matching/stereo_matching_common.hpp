@@ -29,18 +29,9 @@ struct Search {
   double min_depth = 0, max_depth = 0;  // m (max 0: infinity)
 };
 
-/// The camera of an image halved `level` times by cv::pyrDown (pixel centres kept: x' = (x +
-/// 0.5) / 2 - 0.5 per level).
-inline CameraModel halved(CameraModel camera, int level) {
-  for (int i = 0; i < level; ++i) {
-    camera.width = (camera.width + 1) / 2;
-    camera.height = (camera.height + 1) / 2;
-    camera.fx /= 2;
-    camera.fy /= 2;
-    camera.cx = (camera.cx + 0.5) / 2 - 0.5;
-    camera.cy = (camera.cy + 0.5) / 2 - 0.5;
-  }
-  return camera;
+/// The camera of an image halved `level` times by cv::pyrDown.
+inline CameraModel halved(const CameraModel& camera, int level) {
+  return cameraAfterPyrDown(camera, level);
 }
 
 inline bool differ(double a, double b) {

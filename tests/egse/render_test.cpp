@@ -13,6 +13,7 @@
 #include "cdff/egse/procedural.hpp"
 #include "cdff/egse/raycaster.hpp"
 #include "cdff/egse/render.hpp"
+#include "cdff/egse/scenario.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::egse {
@@ -20,15 +21,10 @@ namespace {
 
 // The seed's Prosilica GC1600H behind a 6 mm lens (4.4 um pixels), optionally distorted.
 CameraModel prosilica(bool distorted) {
-  CameraModel c;
-  c.width = 1624;
-  c.height = 1234;
-  c.fx = c.fy = 6e-3 / 4.4e-6;
-  c.cx = 811.5;
-  c.cy = 616.5;
-  if (distorted) {
-    c.distortion_model = DistortionModel::kRadialTangential;
-    c.distortion = {-0.12, 0.05, 0.0005, -0.0003, 0.0};
+  CameraModel c = prosilicaGc1600h();
+  if (!distorted) {
+    c.distortion_model = DistortionModel::kNone;
+    c.distortion.clear();
   }
   return c;
 }

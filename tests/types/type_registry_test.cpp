@@ -102,6 +102,35 @@ LidarInfo lidarInfo() {
   return l;
 }
 
+Detections detections() {
+  Detections d;
+  d.stamp = kStamp;
+  d.frame_id = "camera_optical";
+  Detection best;
+  best.pose = Transform::identity("camera_optical", "target_body", kStamp);
+  best.pose.translation = Eigen::Vector3d(0.12, -0.05, 4.75);
+  best.pose.rotation = Eigen::Quaterniond(0.8, -0.1, 0.3, 0.2).normalized();
+  best.similarity = 0.9375;
+  best.depth_agreement = 0.875;
+  best.template_id = "range_3/1234";
+  best.x = 212;
+  best.y = 148;
+  best.width = 96;
+  best.height = 80;
+  Detection second = best;
+  second.pose.translation = Eigen::Vector3d(-0.4, 0.25, 6.5);
+  second.pose.rotation = Eigen::Quaterniond(0.2, 0.7, -0.1, 0.6).normalized();
+  second.similarity = 0.8125;
+  second.depth_agreement = std::numeric_limits<double>::quiet_NaN();  // no depth checked
+  second.template_id = "range_4/17";
+  second.x = 0;
+  second.y = 301;
+  second.width = 64;
+  second.height = 72;
+  d.detections = {best, second};
+  return d;
+}
+
 /// One sample value of every registered type, keyed by the type's name.
 std::map<std::string, Value> samples() {
   const testing::IoSamples s = testing::makeIoSamples(3, kStamp);
@@ -129,6 +158,7 @@ std::map<std::string, Value> samples() {
                                Value::of(s.wrench),
                                Value::of(s.joints),
                                Value::of(lidarInfo()),
+                               Value::of(detections()),
                                Value::of(s.record),
                                Value::of(TrackState::kDegraded),
                                Value::of(-2.5e-3),

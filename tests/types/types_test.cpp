@@ -254,6 +254,43 @@ TEST(LidarInfo, ValidateNamesTheFieldAndTheValue) {
   rejected(bad, "range_noise is inf m");
 }
 
+TEST(Detections, ValidateNamesTheDetectionTheFieldAndTheValue) {
+  Detections d;
+  d.frame_id = "camera_optical";
+  EXPECT_OK(d.validate());  // no detection: nothing found
+  Detection det;
+  det.pose = Transform::identity("camera_optical", "target_body");
+  det.pose.translation = Eigen::Vector3d(0.1, 0.2, 5.0);
+  det.similarity = 0.9;
+  det.template_id = "range_3/1234";
+  det.width = 64;
+  det.height = 48;
+  d.detections = {det, det};
+  EXPECT_OK(d.validate());
+  auto rejected = [](const Detections& bad, const std::string& fragment) {
+    const Status s = bad.validate();
+    EXPECT_EQ(s.code(), StatusCode::kInvalidInput) << fragment;
+    EXPECT_NE(s.message().find(fragment), std::string::npos) << s.message();
+  };
+  Detections bad = d;
+  bad.detections[1].similarity = std::nan("");
+  rejected(bad, "detection 1 similarity is nan; expected a finite value in [0, 1]");
+  bad = d;
+  bad.detections[0].similarity = 1.5;
+  rejected(bad, "detection 0 similarity is 1.5");
+  bad = d;
+  bad.detections[1].pose.rotation = Eigen::Quaterniond(1.0, 0.5, 0.0, 0.0);  // norm 1.118
+  rejected(bad,
+           "detection 1 pose: transform camera_optical_T_target_body rotation quaternion "
+           "has norm 1.11803399; expected a unit quaternion");
+  bad = d;
+  bad.detections[0].pose.translation.z() = INFINITY;
+  rejected(bad, "detection 0 pose");
+  bad = d;
+  bad.detections[1].width = -3;
+  rejected(bad, "detection 1 box is -3x48 pixels");
+}
+
 TEST(Time, SecondsConversionRoundsToTheNearestMicrosecond) {
   EXPECT_EQ(fromSeconds(1.0000004), 1'000'000);
   EXPECT_EQ(fromSeconds(-0.0000006), -1);

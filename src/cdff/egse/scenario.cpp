@@ -64,6 +64,8 @@ Eigen::Matrix3d mountRotationOptical() {
   return R;
 }
 
+}  // namespace
+
 CameraModel prosilicaGc1600h() {
   CameraModel m;
   m.width = 1624;
@@ -75,8 +77,6 @@ CameraModel prosilicaGc1600h() {
   m.distortion = {-0.12, 0.05, 0.0005, -0.0003, 0.0};
   return m;
 }
-
-}  // namespace
 
 // ------------------------------------------------------------------------------ sensors
 

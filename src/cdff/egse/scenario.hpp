@@ -156,6 +156,9 @@ struct Scenario {
 /// servicer's front face: stereo Prosilica GC1600H with 6 mm lenses (0.2 m baseline), a VLP-16,
 /// a ToF camera, an Xsens MTi and a radar (off unless a scenario enables it).
 std::vector<SensorConfig> defaultSensors();
+/// The seed's Prosilica GC1600H (1624 x 1234, 4.4 um pixels) behind a 6 mm lens, with the barrel
+/// distortion of such a lens: the default stereo cameras.
+CameraModel prosilicaGc1600h();
 
 /// Reads a scenario file, applying `overrides` ("dotted.key=value").
 Result<Scenario> loadScenario(const std::filesystem::path& file,

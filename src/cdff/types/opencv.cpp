@@ -91,6 +91,18 @@ Result<Image> fromMat(const cv::Mat& mat, Timestamp stamp, std::string frame_id)
   return image;
 }
 
+CameraModel cameraAfterPyrDown(CameraModel camera, int levels) {
+  for (int l = 0; l < levels; ++l) {
+    camera.width = (camera.width + 1) / 2;
+    camera.height = (camera.height + 1) / 2;
+    camera.fx /= 2;
+    camera.fy /= 2;
+    camera.cx /= 2;
+    camera.cy /= 2;
+  }
+  return camera;
+}
+
 cv::Mat cameraMatrix(const CameraModel& camera) {
   cv::Mat k = (cv::Mat_<double>(3, 3) << camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
   return k;

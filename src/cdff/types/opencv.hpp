@@ -26,6 +26,11 @@ Result<Image> fromMat(const cv::Mat& mat, Timestamp stamp = 0, std::string frame
 cv::Mat cameraMatrix(const CameraModel& camera);
 cv::Mat distortionCoefficients(const CameraModel& camera);
 
+/// The camera of an image halved `levels` times by cv::pyrDown: (w + 1) / 2 pixels, output pixel
+/// j the Gaussian-weighted input centred on pixel 2j, so x' = x / 2 (distortion kept as it is,
+/// meaningful only without).
+CameraModel cameraAfterPyrDown(CameraModel camera, int levels);
+
 /// Descriptor views (no copy) and wrap (no copy; keeps the Mat alive).
 cv::Mat toMat(const DescriptorMatrix& descriptors);
 Result<DescriptorMatrix> descriptorsFromMat(const cv::Mat& mat);

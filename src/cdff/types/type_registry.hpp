@@ -71,6 +71,7 @@ enum class ProductForm { kInline, kPly, kMessage };
   X(::cdff::Wrench, "Wrench", "cdff.Wrench", Json, Inline)                                       \
   X(::cdff::JointState, "JointState", "cdff.JointState", Json, Inline)                           \
   X(::cdff::LidarInfo, "LidarInfo", "cdff.LidarInfo", Json, Inline)                              \
+  X(::cdff::Detections, "Detections", "cdff.Detections", Json, Inline)                           \
   X(::nlohmann::json, "Json", "cdff.Record", Json, Inline)                                       \
   X(::cdff::TrackState, "TrackState", "cdff.TrackState", Json, Inline)                           \
   X(double, "Double", "cdff.Double", Json, Inline)                                               \

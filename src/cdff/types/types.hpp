@@ -2,6 +2,7 @@
 // All CDFF core data types (without the OpenCV and PCL conversions).
 #include "cdff/types/buffer.hpp"
 #include "cdff/types/contours.hpp"
+#include "cdff/types/detection.hpp"
 #include "cdff/types/features.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"

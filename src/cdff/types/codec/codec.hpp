@@ -12,8 +12,8 @@
 // covariance and child frame, ...) travels in extra fields numbered from 1000, declared in the
 // embedded descriptor, which Foxglove ignores. Features, matches, correspondences and stereo
 // pairs use CDFF protobuf schemas (package `cdff`); IMU samples, wrenches, joint states, models,
-// contours, LIDAR descriptions, track states, scalars and free-form records use JSON with a JSON
-// Schema.
+// contours, LIDAR descriptions, object detections, track states, scalars and free-form records
+// use JSON with a JSON Schema.
 
 #include <cstdint>
 #include <memory>
@@ -88,6 +88,7 @@ nlohmann::json toJson(const ImuSample& v);
 nlohmann::json toJson(const Wrench& v);
 nlohmann::json toJson(const JointState& v);
 nlohmann::json toJson(const LidarInfo& v);
+nlohmann::json toJson(const Detections& v);
 nlohmann::json toJson(const nlohmann::json& v);
 nlohmann::json toJson(TrackState v);
 nlohmann::json toJson(double v);
@@ -103,6 +104,7 @@ Status fromJson(const nlohmann::json& j, ImuSample& out);
 Status fromJson(const nlohmann::json& j, Wrench& out);
 Status fromJson(const nlohmann::json& j, JointState& out);
 Status fromJson(const nlohmann::json& j, LidarInfo& out);
+Status fromJson(const nlohmann::json& j, Detections& out);
 Status fromJson(const nlohmann::json& j, nlohmann::json& out);
 Status fromJson(const nlohmann::json& j, TrackState& out);
 Status fromJson(const nlohmann::json& j, double& out);

@@ -293,6 +293,30 @@ std::string lidarInfoSchema() {
                   kTimeSchema));
 }
 
+// A Transform as products.json writes it (codec::toJson).
+constexpr std::string_view kTransformSchema =
+    R"({"type":"object","properties":{"stamp_us":{"type":"integer"},)"
+    R"("parent_frame":{"type":"string"},"child_frame":{"type":"string"},)"
+    R"("translation":{"type":"array","items":{"type":["number","null"]},)"
+    R"("minItems":3,"maxItems":3},"rotation_wxyz":{"type":"array",)"
+    R"("items":{"type":["number","null"]},"minItems":4,"maxItems":4}}})";
+
+std::string detectionsSchema() {
+  return jsonSchema(
+      "cdff.Detections",
+      "The detections of known objects in one image, best first: each with its pose "
+      "camera_T_object (parent frame_id, the image's optical frame), similarity (0..1), the "
+      "depth agreement (0..1, null when no depth was checked), the "
+      "matched template's id and box [x, y, width, height] (pixels of the input image)",
+      fmt::format(R"("timestamp":{},"frame_id":{{"type":"string"}},)"
+                  R"("detections":{{"type":"array","items":{{"type":"object","properties":{{)"
+                  R"("pose":{},"similarity":{{"type":["number","null"]}},)"
+                  R"("depth_agreement":{{"type":["number","null"]}},)"
+                  R"("template_id":{{"type":"string"}},"box":{{"type":"array","items":)"
+                  R"({{"type":"integer"}},"minItems":4,"maxItems":4}}}}}}}})",
+                  kTimeSchema, kTransformSchema));
+}
+
 std::string recordSchema() {
   return jsonSchema("cdff.Record",
                     "A free-form JSON record (events, DFN timings, reports); see "
@@ -319,6 +343,7 @@ const std::map<std::string, std::string, std::less<>>& jsonSchemas() {
       {"cdff.Wrench", wrenchSchema()},
       {"cdff.JointState", jointSchema()},
       {"cdff.LidarInfo", lidarInfoSchema()},
+      {"cdff.Detections", detectionsSchema()},
       {"cdff.Record", recordSchema()},
       {"cdff.PolygonModel",
        objectSchema("cdff.PolygonModel",

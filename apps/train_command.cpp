@@ -1,0 +1,256 @@
+// cdff train MODEL -o TEMPLATES: LINEMOD templates of a target model for the detection
+// (TemplateDetection/Linemod). MODEL is a mesh file or a scenario (its target); the camera is a
+// scenario's camera (its intrinsics without distortion: the detection matches rectified
+// images). At the end the templates are checked on views they were not trained on: random
+// attitudes, ranges and sun directions, rendered with their depth.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "TemplateDetection.gen.hpp"
+#include "cdff/dfn/registry.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/types/opencv.hpp"
+#include "commands.hpp"
+#include "linemod_training.hpp"
+#include "model_source.hpp"
+
+namespace cdff::app {
+
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+
+struct TrainOptions {
+  std::string source;
+  std::vector<std::string> overrides;
+  std::string output;
+  std::string camera_scenario;  // "": the source when it is a scenario, else mid_range_approach
+  std::string sensor = "camera_left";
+  double view_step = 15, in_plane_step = 15;  // deg
+  std::vector<double> ranges;
+  int pyramid_level = -1;
+  int threads = 0;
+  int check_views = 50;
+};
+
+Result<CameraModel> trainingCamera(const TrainOptions& o) {
+  const std::string name = !o.camera_scenario.empty() ? o.camera_scenario
+                           : isMeshFile(o.source)     ? std::string("mid_range_approach")
+                                                      : o.source;
+  Result<std::filesystem::path> path = egse::resolveScenario(name);
+  if (!path) return path.status();
+  Result<egse::Scenario> scenario =
+      egse::loadScenario(*path, isMeshFile(o.source) ? std::vector<std::string>{} : o.overrides);
+  if (!scenario) return scenario.status();
+  const egse::SensorConfig* sensor = scenario->sensor(o.sensor);
+  if (!sensor || sensor->type != egse::SensorType::kCamera)
+    return notFound("scenario '{}' has no camera '{}'; expected --sensor naming one of its cameras",
+                    name, o.sensor);
+  CameraModel camera = sensor->camera.model;
+  camera.distortion_model = DistortionModel::kNone;
+  camera.distortion.clear();
+  return camera;
+}
+
+/// A bar on a terminal; otherwise one line per tenth (logs stay short).
+void progressBar(int done, int total) {
+  static const bool terminal = isatty(fileno(stderr)) != 0;
+  if (!terminal) {
+    if (done == total || (10 * done / total) != (10 * (done - 1) / total))
+      fmt::print(stderr, "{}/{} views\n", done, total);
+    return;
+  }
+  static auto last = std::chrono::steady_clock::now();
+  const auto now = std::chrono::steady_clock::now();
+  if (done != total && now - last < std::chrono::milliseconds(200)) return;
+  last = now;
+  const int width = 40;
+  const int filled = static_cast<int>(static_cast<long long>(width) * done / total);
+  fmt::print(stderr, "\r[{}{}] {:3d}% {}/{} views", std::string(filled, '#'),
+             std::string(width - filled, '.'), 100 * done / total, done, total);
+  if (done == total) fmt::print(stderr, "\n");
+}
+
+struct CheckFigures {
+  int views = 0, detected = 0, correct = 0;
+  std::vector<double> angle_errors, range_errors;
+  double seconds = 0;
+};
+
+/// Detects on views the templates were not trained on (random attitude, range log-uniform
+/// over the trained ones, centre within the middle half of the image, sun anywhere behind the
+/// camera's plane) with their rendered depth.
+Result<CheckFigures> check(const egse::TargetModel& model,
+                           const linemod_templates::TemplateSet& set, const std::string& file,
+                           int views) {
+  Result<std::unique_ptr<dfn::TemplateDetection>> dfn =
+      dfn::Registry::instance().createAs<dfn::TemplateDetection>("TemplateDetection", "Linemod");
+  if (!dfn) return dfn.status();
+  CDFF_RETURN_IF_ERROR((*dfn)->configure(YAML::Load(fmt::format("{{template_file: '{}'}}", file))));
+  std::mt19937 rng(20261205);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0, 1);
+  CheckFigures f;
+  const CameraModel camera = set.matchingCamera();
+  for (int i = 0; i < views; ++i) {
+    Eigen::Vector3d sun(g(rng), g(rng), -std::abs(g(rng)) - 0.3);
+    Result<linemod_templates::ViewRenderer> renderer = linemod_templates::ViewRenderer::create(
+        model, set.camera, set.pyramid_level, egse::RendererBackend::kCpu, sun.normalized());
+    if (!renderer) return renderer.status();
+    const double range =
+        set.ranges.front() * std::pow(set.ranges.back() / set.ranges.front(), u(rng));
+    const Eigen::Vector3d centre((u(rng) - 0.5) * 0.5 * camera.width / camera.fx * range,
+                                 (u(rng) - 0.5) * 0.5 * camera.height / camera.fy * range, range);
+    Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+    truth.linear() =
+        Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+    truth.translation() = centre - truth.linear() * model.boundingCentre();
+    Result<linemod_templates::RenderedView> view = renderer->render(truth);
+    if (!view) return view.status();
+    Result<Image> image = fromMat(view->image.clone(), 0, "camera");
+    if (!image) return image.status();
+    image->camera = camera;
+    cv::Mat metres;
+    view->depth.convertTo(metres, CV_32F, 1e-3);
+    DepthMap depth;
+    Result<Image> depth_image = fromMat(metres, 0, "camera");
+    if (!depth_image) return depth_image.status();
+    depth.image = *depth_image;
+    depth.image.camera = camera;
+    (*dfn)->in.image.set(*image);
+    (*dfn)->in.depth.set(depth);
+    const auto t0 = std::chrono::steady_clock::now();
+    CDFF_RETURN_IF_ERROR((*dfn)->process());
+    f.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    ++f.views;
+    if (!*(*dfn)->out.detected) continue;
+    ++f.detected;
+    const Eigen::Isometry3d pose = (*dfn)->out.detections->detections.front().pose.isometry();
+    const double angle =
+        Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg;
+    const double range_error = ((pose * model.boundingCentre()) - centre).norm() / centre.norm();
+    f.angle_errors.push_back(angle);
+    f.range_errors.push_back(range_error);
+    f.correct += angle <= 15 && range_error <= 0.1;
+  }
+  return f;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+int runTrain(const TrainOptions& o) {
+  Result<egse::TargetModel> model = loadModelSource(o.source, o.overrides);
+  if (!model) {
+    fmt::print(stderr, "error: cdff train {}: {}\n", o.source, model.status().message());
+    return 1;
+  }
+  Result<CameraModel> camera = trainingCamera(o);
+  if (!camera) {
+    fmt::print(stderr, "error: cdff train: {}\n", camera.status().message());
+    return 1;
+  }
+  linemod_templates::TrainingOptions options =
+      linemod_templates::defaultTrainingOptions(*model, *camera);
+  options.view_step = o.view_step * kDeg;
+  options.in_plane_step = o.in_plane_step * kDeg;
+  if (!o.ranges.empty()) options.ranges = o.ranges;
+  if (o.pyramid_level >= 0) options.pyramid_level = o.pyramid_level;
+  options.threads = o.threads;
+  fmt::print("model '{}' (radius {:.2f} m), camera {}x{} fx {:.1f}, matching at pyramid level {}\n",
+             model->name, model->boundingRadius(), camera->width, camera->height, camera->fx,
+             options.pyramid_level);
+  fmt::print("ranges (m):");
+  for (double r : options.ranges) fmt::print(" {:.2f}", r);
+  fmt::print("; view step {} deg, in-plane step {} deg\n", o.view_step, o.in_plane_step);
+  std::fflush(stdout);
+  const auto t0 = std::chrono::steady_clock::now();
+  int skipped = 0;
+  Result<linemod_templates::TemplateSet> set =
+      linemod_templates::trainTemplates(*model, *camera, options, progressBar, &skipped);
+  if (!set) {
+    fmt::print(stderr, "error: cdff train: {}\n", set.status().message());
+    return 1;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (Status s = linemod_templates::writeTemplateSet(*set, o.output); !s) {
+    fmt::print(stderr, "error: cdff train: {}\n", s.message());
+    return 1;
+  }
+  fmt::print(
+      "wrote {}: {} templates ({} views gave none: too few edge features), mesh hash {}, "
+      "trained in {:.1f} s\n",
+      o.output, set->templates.size(), skipped, set->mesh_hash, seconds);
+  if (o.check_views <= 0) return 0;
+  Result<CheckFigures> f = check(*model, *set, o.output, o.check_views);
+  if (!f) {
+    fmt::print(stderr, "error: cdff train: checking the templates: {}\n", f.status().message());
+    return 1;
+  }
+  fmt::print(
+      "check on {} untrained views with depth: detected {} ({:.0f} %), correct (15 deg, 10 % of "
+      "the range) {} ({:.0f} %); median errors {:.1f} deg, {:.1f} % of the range; {:.1f} ms per "
+      "view\n",
+      f->views, f->detected, 100.0 * f->detected / f->views, f->correct,
+      100.0 * f->correct / f->views, median(f->angle_errors), 100 * median(f->range_errors),
+      1e3 * f->seconds / f->views);
+  return 0;
+}
+
+}  // namespace
+
+void addTrainCommand(CLI::App& root, int& exit_code) {
+  auto o = std::make_shared<TrainOptions>();
+  CLI::App* train = root.add_subcommand(
+      "train", "Train the detection's LINEMOD templates from a target model (TemplateDetection)");
+  train
+      ->add_option("MODEL", o->source,
+                   "A mesh file (OBJ, PLY, STL, glTF) or a scenario (library name or YAML file: "
+                   "its target)")
+      ->required();
+  train->add_option("-o,--output", o->output, "The template file to write (.yml.gz)")->required();
+  train->add_option("--set", o->overrides, "Override a scenario key (as cdff sim --set)");
+  train->add_option("--camera", o->camera_scenario,
+                    "The scenario whose camera the templates are for (default: MODEL when it is a "
+                    "scenario, else mid_range_approach)");
+  train->add_option("--sensor", o->sensor, "The camera's name in that scenario")
+      ->default_str("camera_left");
+  train->add_option("--view-step", o->view_step, "Degrees between neighbouring view directions")
+      ->check(CLI::Range(1.0, 90.0))
+      ->default_str("15");
+  train->add_option("--in-plane-step", o->in_plane_step, "Degrees between in-plane rotations")
+      ->check(CLI::Range(1.0, 180.0))
+      ->default_str("15");
+  train
+      ->add_option("--ranges", o->ranges,
+                   "Training ranges in metres (default: from the camera and the model's size)")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber);
+  train
+      ->add_option("--pyramid-level", o->pyramid_level,
+                   "Times the camera's images are halved before matching (default: until at "
+                   "most 640 px wide)")
+      ->check(CLI::Range(0, 6));
+  train->add_option("--threads", o->threads, "Rendering threads (default: every core)")
+      ->check(CLI::NonNegativeNumber);
+  train
+      ->add_option("--check", o->check_views,
+                   "Untrained views to check the templates on at the end (0: none)")
+      ->check(CLI::NonNegativeNumber)
+      ->default_str("50");
+  train->callback([o, &exit_code] { exit_code = runTrain(*o); });
+}
+
+}  // namespace cdff::app
