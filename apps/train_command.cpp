@@ -81,6 +81,7 @@ void progressBar(int done, int total) {
 
 struct CheckFigures {
   int views = 0, detected = 0, correct = 0;
+  int correct_among_output = 0;  // a correct one among every detection output (max_detections)
   std::vector<double> angle_errors, range_errors;
   double seconds = 0;
 };
@@ -133,13 +134,21 @@ Result<CheckFigures> check(const egse::TargetModel& model,
     ++f.views;
     if (!*(*dfn)->out.detected) continue;
     ++f.detected;
-    const Eigen::Isometry3d pose = (*dfn)->out.detections->detections.front().pose.isometry();
-    const double angle =
-        Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg;
-    const double range_error = ((pose * model.boundingCentre()) - centre).norm() / centre.norm();
-    f.angle_errors.push_back(angle);
-    f.range_errors.push_back(range_error);
-    f.correct += angle <= 15 && range_error <= 0.1;
+    bool any = false;
+    for (const Detection& d : (*dfn)->out.detections->detections) {
+      const Eigen::Isometry3d pose = d.pose.isometry();
+      const double angle =
+          Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg;
+      const double range_error = ((pose * model.boundingCentre()) - centre).norm() / centre.norm();
+      const bool correct = angle <= 15 && range_error <= 0.1;
+      if (&d == &(*dfn)->out.detections->detections.front()) {
+        f.angle_errors.push_back(angle);
+        f.range_errors.push_back(range_error);
+        f.correct += correct;
+      }
+      any = any || correct;
+    }
+    f.correct_among_output += any;
   }
   return f;
 }
@@ -201,11 +210,12 @@ int runTrain(const TrainOptions& o) {
   }
   fmt::print(
       "check on {} untrained views with depth: detected {} ({:.0f} %), correct (15 deg, 10 % of "
-      "the range) {} ({:.0f} %); median errors {:.1f} deg, {:.1f} % of the range; {:.1f} ms per "
-      "view\n",
+      "the range) {} ({:.0f} %), a correct one among the (up to 5) detections {} ({:.0f} %); "
+      "median errors {:.1f} deg, {:.1f} % of the range; {:.1f} ms per view\n",
       f->views, f->detected, 100.0 * f->detected / f->views, f->correct,
-      100.0 * f->correct / f->views, median(f->angle_errors), 100 * median(f->range_errors),
-      1e3 * f->seconds / f->views);
+      100.0 * f->correct / f->views, f->correct_among_output,
+      100.0 * f->correct_among_output / f->views, median(f->angle_errors),
+      100 * median(f->range_errors), 1e3 * f->seconds / f->views);
   return 0;
 }
 
