@@ -42,7 +42,6 @@ std::unique_ptr<T> create(const std::string& dfn, const std::string& dfi) {
   return node ? std::move(node).value() : nullptr;
 }
 
-
 cv::Mat texturedScene(int width, int height, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_int_distribution<int> x(0, width - 1), y(0, height - 1), grey(10, 245);

@@ -101,11 +101,11 @@ Result<CheckFigures> check(const egse::TargetModel& model,
   std::uniform_real_distribution<double> u(0, 1);
   CheckFigures f;
   const CameraModel camera = set.matchingCamera();
+  Result<linemod_templates::ViewRenderer> renderer = linemod_templates::ViewRenderer::create(
+      model, set.camera, set.pyramid_level, egse::RendererBackend::kCpu, -Eigen::Vector3d::UnitZ());
+  if (!renderer) return renderer.status();
   for (int i = 0; i < views; ++i) {
-    Eigen::Vector3d sun(g(rng), g(rng), -std::abs(g(rng)) - 0.3);
-    Result<linemod_templates::ViewRenderer> renderer = linemod_templates::ViewRenderer::create(
-        model, set.camera, set.pyramid_level, egse::RendererBackend::kCpu, sun.normalized());
-    if (!renderer) return renderer.status();
+    renderer->setSunDirection(Eigen::Vector3d(g(rng), g(rng), -std::abs(g(rng)) - 0.3));
     const double range =
         set.ranges.front() * std::pow(set.ranges.back() / set.ranges.front(), u(rng));
     const Eigen::Vector3d centre((u(rng) - 0.5) * 0.5 * camera.width / camera.fx * range,

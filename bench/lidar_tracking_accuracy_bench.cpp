@@ -94,8 +94,8 @@ void printTrace(const lidar_tracking::TrackingResult& r, const lidar_tracking::S
               rotation.cross(line_of_sight).norm() / kDeg,
               (v->pose.translation - truth->translation).norm(),
               std::sqrt(v->covariance.bottomRightCorner<3, 3>().trace()) / kDeg,
-              std::sqrt(line_of_sight.dot(v->covariance.bottomRightCorner<3, 3>() *
-                                          line_of_sight)) /
+              std::sqrt(
+                  line_of_sight.dot(v->covariance.bottomRightCorner<3, 3>() * line_of_sight)) /
                   kDeg,
               std::sqrt(v->covariance.topLeftCorner<3, 3>().trace()));
         }

@@ -9,10 +9,7 @@ namespace cdff::dfn {
 class StereoMatchingBm final : public StereoMatchingBmBase {
  protected:
   Status onConfigure() override {
-    CDFF_RETURN_IF_ERROR(stereo_matching::checkDepthRange(params_.min_depth, params_.max_depth));
-    if (params_.block_size % 2 == 0)
-      return invalidParameter("parameter 'block_size' is {}; expected an odd number of pixels",
-                              params_.block_size);
+    CDFF_RETURN_IF_ERROR(stereo_matching::checkParameters(params_));
     matcher_ = cv::StereoBM::create(16, params_.block_size);
     return Status::ok();
   }
@@ -30,12 +27,8 @@ class StereoMatchingBm final : public StereoMatchingBmBase {
       left = left_grey_;
       right = right_grey_;
     }
-    matcher_->setMinDisparity(search->min_disparity);
-    matcher_->setNumDisparities(search->num_disparities);
+    stereo_matching::setSearchAndFilters(*matcher_, *search, params_);
     matcher_->setUniquenessRatio(params_.uniqueness_ratio);
-    matcher_->setSpeckleWindowSize(params_.speckle_window_size);
-    matcher_->setSpeckleRange(params_.speckle_range);
-    matcher_->setDisp12MaxDiff(params_.left_right_max_difference);
     matcher_->setPreFilterCap(params_.pre_filter_cap);
     matcher_->setTextureThreshold(params_.texture_threshold);
     cv::Mat fixed_point;

@@ -8,10 +8,7 @@ namespace cdff::dfn {
 class StereoMatchingSgbm final : public StereoMatchingSgbmBase {
  protected:
   Status onConfigure() override {
-    CDFF_RETURN_IF_ERROR(stereo_matching::checkDepthRange(params_.min_depth, params_.max_depth));
-    if (params_.block_size % 2 == 0)
-      return invalidParameter("parameter 'block_size' is {}; expected an odd number of pixels",
-                              params_.block_size);
+    CDFF_RETURN_IF_ERROR(stereo_matching::checkParameters(params_));
     if (params_.smoothness_large > 0 && params_.smoothness_large <= params_.smoothness_small)
       return invalidParameter(
           "parameter 'smoothness_large' ({}) is not above 'smoothness_small' ({}); expected "
@@ -29,14 +26,10 @@ class StereoMatchingSgbm final : public StereoMatchingSgbmBase {
     const cv::Mat left = stereo_matching::pyramidLevel(pair.left, params_.pyramid_level);
     const cv::Mat right = stereo_matching::pyramidLevel(pair.right, params_.pyramid_level);
     const int area = channels(pair.left.format) * params_.block_size * params_.block_size;
-    matcher_->setMinDisparity(search->min_disparity);
-    matcher_->setNumDisparities(search->num_disparities);
+    stereo_matching::setSearchAndFilters(*matcher_, *search, params_);
     matcher_->setP1(params_.smoothness_small > 0 ? params_.smoothness_small : 8 * area);
     matcher_->setP2(params_.smoothness_large > 0 ? params_.smoothness_large : 32 * area);
     matcher_->setUniquenessRatio(params_.uniqueness_ratio);
-    matcher_->setSpeckleWindowSize(params_.speckle_window_size);
-    matcher_->setSpeckleRange(params_.speckle_range);
-    matcher_->setDisp12MaxDiff(params_.left_right_max_difference);
     matcher_->setPreFilterCap(params_.pre_filter_cap);
     matcher_->setMode(params_.mode == "hh"          ? cv::StereoSGBM::MODE_HH
                       : params_.mode == "sgbm_3way" ? cv::StereoSGBM::MODE_SGBM_3WAY

@@ -7,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "cdff/types/image.hpp"
@@ -38,14 +39,29 @@ inline bool differ(double a, double b) {
   return std::abs(a - b) > 1e-6 * std::max({1.0, std::abs(a), std::abs(b)});
 }
 
-/// The parameters' depth range: max_depth beyond min_depth, or 0 (infinity).
-inline Status checkDepthRange(double min_depth, double max_depth) {
-  if (max_depth > 0 && !(max_depth > min_depth))
+/// What both DFIs check at configure (their generated parameters share these names): the depth
+/// range, max_depth beyond min_depth or 0 (infinity), and an odd block.
+template <typename Params>
+Status checkParameters(const Params& p) {
+  if (p.max_depth > 0 && !(p.max_depth > p.min_depth))
     return invalidParameter(
         "parameter 'max_depth' ({} m) is not beyond 'min_depth' ({} m); expected max_depth > "
         "min_depth, or 0 for infinity",
-        max_depth, min_depth);
+        p.max_depth, p.min_depth);
+  if (p.block_size % 2 == 0)
+    return invalidParameter("parameter 'block_size' is {}; expected an odd number of pixels",
+                            p.block_size);
   return Status::ok();
+}
+
+/// Sets what every cv::StereoMatcher has: the disparity search and the post-filters.
+template <typename Params>
+void setSearchAndFilters(cv::StereoMatcher& matcher, const Search& search, const Params& p) {
+  matcher.setMinDisparity(search.min_disparity);
+  matcher.setNumDisparities(search.num_disparities);
+  matcher.setSpeckleWindowSize(p.speckle_window_size);
+  matcher.setSpeckleRange(p.speckle_range);
+  matcher.setDisp12MaxDiff(p.left_right_max_difference);
 }
 
 /// Checks the pair (formats, sizes, rectified geometry) and derives the disparity search for
@@ -120,13 +136,7 @@ inline Result<Search> prepare(const StereoImagePair& pair, double min_depth, dou
 
 /// The image halved `level` times (cv::pyrDown), shared when level is 0.
 inline cv::Mat pyramidLevel(const Image& image, int level) {
-  cv::Mat m = toMat(image);
-  for (int i = 0; i < level; ++i) {
-    cv::Mat down;
-    cv::pyrDown(m, down);
-    m = down;
-  }
-  return m;
+  return pyrDownTimes(toMat(image), level);
 }
 
 /// Publishes OpenCV's CV_16S disparity (1/16 px; below min_disparity: no match) as the

@@ -90,7 +90,7 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
     if (!level) return level.status();
     cv::Mat grey = toMat(image);
     if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
-    grey = linemod_templates::pyramidDown(grey, set_->pyramid_level - *level);
+    grey = pyrDownTimes(grey, set_->pyramid_level - *level);
     const cv::Size size = grey.size();
 
     cv::Mat depth;  // metres, 32FC1, matching grid, NaN where none

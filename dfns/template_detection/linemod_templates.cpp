@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "cdff/egse/rng.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace cdff::linemod_templates {
@@ -73,10 +74,20 @@ CameraModel TemplateSet::matchingCamera() const {
   return cameraAfterPyrDown(camera, pyramid_level);
 }
 
+void TemplateSet::index() {
+  first_of_class.clear();
+  for (std::size_t i = 0; i < templates.size(); ++i)
+    first_of_class.try_emplace(templates[i].class_id, i);
+}
+
 const TemplateView* TemplateSet::find(const std::string& class_id, int template_id) const {
-  for (const TemplateView& t : templates)
-    if (t.template_id == template_id && t.class_id == class_id) return &t;
-  return nullptr;
+  const auto first = first_of_class.find(class_id);
+  if (first == first_of_class.end() || template_id < 0) return nullptr;
+  const std::size_t i = first->second + static_cast<std::size_t>(template_id);
+  if (i >= templates.size() || templates[i].class_id != class_id ||
+      templates[i].template_id != template_id)
+    return nullptr;
+  return &templates[i];
 }
 
 Eigen::Isometry3d TemplateSet::poseOfMatch(const TemplateView& view, int x, int y,
@@ -98,19 +109,18 @@ Eigen::Isometry3d TemplateSet::poseOfMatch(const TemplateView& view, int x, int 
 }
 
 std::string meshHash(const TriangleMesh& mesh) {
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  auto mix = [&h](std::int64_t v) {
-    for (int b = 0; b < 8; ++b) {
-      h ^= static_cast<std::uint64_t>(v >> (8 * b)) & 0xffu;
-      h *= 0x100000001b3ULL;
-    }
-  };
+  // The rounded coordinates as little-endian 64-bit integers, hashed by the simulator's FNV-1a.
+  std::string bytes;
+  bytes.reserve(mesh.triangles.size() * 9 * 8);
   for (const std::array<std::uint32_t, 3>& triangle : mesh.triangles)
     for (std::uint32_t index : triangle) {
       const Eigen::Vector3f& p = mesh.vertices[index];
-      for (int a = 0; a < 3; ++a) mix(std::llround(static_cast<double>(p[a]) * 1e4));
+      for (int a = 0; a < 3; ++a) {
+        const auto v = static_cast<std::uint64_t>(std::llround(static_cast<double>(p[a]) * 1e4));
+        for (int b = 0; b < 8; ++b) bytes.push_back(static_cast<char>((v >> (8 * b)) & 0xffu));
+      }
     }
-  return hex64(h);
+  return hex64(egse::hashName(bytes));
 }
 
 cv::Ptr<cv::linemod::Detector> createDetector(const DetectorSettings& s, bool with_normals) {
@@ -268,10 +278,15 @@ Result<TemplateSet> readTemplateSet(const std::filesystem::path& path) {
     if (set.detector->numTemplates() != static_cast<int>(set.templates.size()))
       return corrupt(fmt::format("holds {} LINEMOD templates but {} template poses",
                                  set.detector->numTemplates(), set.templates.size()));
-    for (const TemplateView& t : set.templates)
+    set.index();
+    for (const TemplateView& t : set.templates) {
       if (t.template_id < 0 || t.template_id >= set.detector->numTemplates(t.class_id))
         return corrupt(fmt::format("has a pose for template {} of class '{}', which it lacks",
                                    t.template_id, t.class_id));
+      if (set.find(t.class_id, t.template_id) != &t)
+        return corrupt(fmt::format("lists template {} of class '{}' out of (class, id) order",
+                                   t.template_id, t.class_id));
+    }
     return set;
   } catch (const cv::Exception& e) {
     return corrupt(fmt::format("cannot be read ({})", e.what()));
@@ -308,16 +323,6 @@ cv::Mat padTo(const cv::Mat& image, cv::Size size) {
   cv::copyMakeBorder(image, padded, 0, size.height - image.rows, 0, size.width - image.cols,
                      cv::BORDER_CONSTANT, cv::Scalar::all(0));
   return padded;
-}
-
-cv::Mat pyramidDown(const cv::Mat& image, int level) {
-  cv::Mat out = image;
-  for (int l = 0; l < level; ++l) {
-    cv::Mat next;
-    cv::pyrDown(out, next);
-    out = next;
-  }
-  return out;
 }
 
 cv::Mat depthMillimetres(const cv::Mat& depth_m, cv::Size size) {

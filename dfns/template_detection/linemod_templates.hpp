@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -84,6 +85,10 @@ struct TemplateSet {
 
   /// The camera of the images matched: `camera` halved pyramid_level times.
   CameraModel matchingCamera() const;
+  /// Where each class's templates start in `templates` (they are in (class, template id) order
+  /// with ids 0, 1, ...): set by index() once `templates` is complete.
+  std::map<std::string, std::size_t, std::less<>> first_of_class;
+  void index();
   /// The template of a match, or null.
   const TemplateView* find(const std::string& class_id, int template_id) const;
   /// The object's pose for a match at (x, y) of the matching image, with the centre's depth
@@ -117,8 +122,6 @@ cv::Mat asColour(const cv::Mat& image);
 cv::Size matchableSize(cv::Size size, const std::vector<int>& spreading);
 /// `image` zero-padded at the right and bottom to `size`.
 cv::Mat padTo(const cv::Mat& image, cv::Size size);
-/// `image` halved `level` times by cv::pyrDown.
-cv::Mat pyramidDown(const cv::Mat& image, int level);
 /// 16UC1 millimetres from a 32FC1 metres depth (NaN, inf, <= 0 and beyond 65 m become 0, the
 /// LINEMOD "no depth"), resized to `size` by nearest neighbour.
 cv::Mat depthMillimetres(const cv::Mat& depth_m, cv::Size size);

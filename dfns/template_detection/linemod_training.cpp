@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "cdff/egse/camera_sensor.hpp"
+#include "cdff/types/opencv.hpp"
 
 namespace cdff::linemod_templates {
 
@@ -190,10 +191,7 @@ Result<ViewRenderer> ViewRenderer::create(const egse::TargetModel& model, const 
   Result<int> handle = v.renderer_->addModel(model);
   if (!handle) return handle.status().withContext(fmt::format("model '{}'", model.name));
   v.model_ = *handle;
-  TemplateSet geometry;
-  geometry.camera = camera;
-  geometry.pyramid_level = pyramid_level;
-  v.matching_ = geometry.matchingCamera();
+  v.matching_ = cameraAfterPyrDown(camera, pyramid_level);
   v.canvas_.width = 2 * v.matching_.width;
   v.canvas_.height = 2 * v.matching_.height;
   v.canvas_.fx = 2 * v.matching_.fx;
@@ -314,6 +312,7 @@ Result<TemplateSet> trainTemplates(const egse::TargetModel& model, const CameraM
     t.template_id = set.detector->addSyntheticTemplate(item.pyramid, t.class_id);
     set.templates.push_back(std::move(t));
   }
+  set.index();
   CDFF_RETURN_IF_ERROR(addModelPoints(model, options.model_points, set));
   if (skipped) *skipped = skipped_views;
   if (set.templates.empty())

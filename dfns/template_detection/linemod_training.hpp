@@ -8,9 +8,9 @@
 //    (LINEMOD's design resolution; the cost of matching grows with the pixels);
 //  - the ranges run from where the bounding sphere's diameter is 2.5 times the image's
 //    shorter side (closer, less than about half of a long target can be in view, too little
-//    for a template to be specific) to where it spans 96 matching pixels (LINEMOD's 63 features need an outline of
-//    a few hundred pixels), in steps of 1.25x: LINEMOD's spreading tolerates about +-12 %
-//    of scale, so every range in between is within reach of one class;
+//    for a template to be specific) to where it spans 96 matching pixels (LINEMOD's 63 features
+//    need an outline of a few hundred pixels), in steps of 1.25x: LINEMOD's spreading tolerates
+//    about +-12 % of scale, so every range in between is within reach of one class;
 //  - view and in-plane steps of 15 degrees: the nearest template is then within about 8
 //    degrees of view and 7.5 degrees of in-plane rotation, inside the detection's 15 degrees.
 // Views are rendered at twice the matching resolution and halved by cv::pyrDown, the filter the
@@ -69,6 +69,10 @@ class ViewRenderer {
                                      int pyramid_level, egse::RendererBackend backend,
                                      const Eigen::Vector3d& sun_direction);
   Result<RenderedView> render(const Eigen::Isometry3d& camera_T_object);
+  /// Towards the sun, camera frame, for the next renders.
+  void setSunDirection(const Eigen::Vector3d& sun_direction) {
+    sun_direction_ = sun_direction.normalized();
+  }
   const CameraModel& matchingCamera() const { return matching_; }
 
  private:

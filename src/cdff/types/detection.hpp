@@ -16,11 +16,11 @@ namespace cdff {
 struct Detection {
   /// camera_T_object: parent = the image's optical frame, child = the object's frame.
   Transform pose;
-  double similarity = 0;    // 0..1, the fraction of the template's features that matched
+  double similarity = 0;  // 0..1, the fraction of the template's features that matched
   /// 0..1, the fraction of the model's visible points whose depth a measured depth confirms;
   /// NaN when no depth was checked.
   double depth_agreement = std::numeric_limits<double>::quiet_NaN();
-  std::string template_id;  // which template matched (e.g. "range_3/1234")
+  std::string template_id;                  // which template matched (e.g. "range_3/1234")
   int x = 0, y = 0, width = 0, height = 0;  // the matched template's box, pixels of the input image
 };
 

@@ -1,13 +1,19 @@
 #include "cdff/types/opencv.hpp"
 
+#include <opencv2/imgproc.hpp>
+
 namespace cdff {
 
 int cvType(PixelFormat format) {
   switch (format) {
-    case PixelFormat::kGray8: return CV_8UC1;
-    case PixelFormat::kBgr8: return CV_8UC3;
-    case PixelFormat::kGray16: return CV_16UC1;
-    case PixelFormat::kFloat32: return CV_32FC1;
+    case PixelFormat::kGray8:
+      return CV_8UC1;
+    case PixelFormat::kBgr8:
+      return CV_8UC3;
+    case PixelFormat::kGray16:
+      return CV_16UC1;
+    case PixelFormat::kFloat32:
+      return CV_32FC1;
   }
   return -1;
 }
@@ -65,14 +71,23 @@ cv::Mat toMat(const Image& image) {
 Result<Image> fromMat(const cv::Mat& mat, Timestamp stamp, std::string frame_id) {
   PixelFormat format;
   switch (mat.type()) {
-    case CV_8UC1: format = PixelFormat::kGray8; break;
-    case CV_8UC3: format = PixelFormat::kBgr8; break;
-    case CV_16UC1: format = PixelFormat::kGray16; break;
-    case CV_32FC1: format = PixelFormat::kFloat32; break;
+    case CV_8UC1:
+      format = PixelFormat::kGray8;
+      break;
+    case CV_8UC3:
+      format = PixelFormat::kBgr8;
+      break;
+    case CV_16UC1:
+      format = PixelFormat::kGray16;
+      break;
+    case CV_32FC1:
+      format = PixelFormat::kFloat32;
+      break;
     default:
-      return invalidInput("cv::Mat has type {} ({} channels, depth {}); expected 8UC1, 8UC3, "
-                          "16UC1 or 32FC1",
-                          mat.type(), mat.channels(), mat.depth());
+      return invalidInput(
+          "cv::Mat has type {} ({} channels, depth {}); expected 8UC1, 8UC3, "
+          "16UC1 or 32FC1",
+          mat.type(), mat.channels(), mat.depth());
   }
   if (mat.empty() || mat.dims != 2)
     return invalidInput("cv::Mat is empty or not 2-D ({}x{}, {} dims); expected a 2-D image",
@@ -101,6 +116,16 @@ CameraModel cameraAfterPyrDown(CameraModel camera, int levels) {
     camera.cy /= 2;
   }
   return camera;
+}
+
+cv::Mat pyrDownTimes(const cv::Mat& image, int levels) {
+  cv::Mat out = image;
+  for (int l = 0; l < levels; ++l) {
+    cv::Mat next;
+    cv::pyrDown(out, next);
+    out = next;
+  }
+  return out;
 }
 
 cv::Mat cameraMatrix(const CameraModel& camera) {

@@ -30,6 +30,8 @@ cv::Mat distortionCoefficients(const CameraModel& camera);
 /// j the Gaussian-weighted input centred on pixel 2j, so x' = x / 2 (distortion kept as it is,
 /// meaningful only without).
 CameraModel cameraAfterPyrDown(CameraModel camera, int levels);
+/// `image` halved `levels` times by cv::pyrDown (the same Mat when levels is 0).
+cv::Mat pyrDownTimes(const cv::Mat& image, int levels);
 
 /// Descriptor views (no copy) and wrap (no copy; keeps the Mat alive).
 cv::Mat toMat(const DescriptorMatrix& descriptors);
