@@ -3,6 +3,7 @@
 // scenario's camera (its intrinsics without distortion: the detection matches rectified
 // images). At the end the templates are checked on views they were not trained on: random
 // attitudes, ranges and sun directions, rendered with their depth.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,9 +15,12 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "PoseRefinement.gen.hpp"
 #include "TemplateDetection.gen.hpp"
 #include "cdff/dfn/registry.hpp"
+#include "cdff/egse/range_sensors.hpp"
 #include "cdff/egse/scenario.hpp"
+#include "cdff/types/mesh.hpp"
 #include "cdff/types/opencv.hpp"
 #include "commands.hpp"
 #include "linemod_training.hpp"
@@ -27,6 +31,8 @@ namespace cdff::app {
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180;
+/// Detections output by the check's TemplateDetection, all of them refined.
+constexpr int kCheckedDetections = 10;
 
 struct TrainOptions {
   std::string source;
@@ -39,6 +45,7 @@ struct TrainOptions {
   int pyramid_level = -1;
   int threads = 0;
   int check_views = 50;
+  std::uint64_t check_seed = 20261205;
 };
 
 Result<CameraModel> trainingCamera(const TrainOptions& o) {
@@ -82,21 +89,75 @@ void progressBar(int done, int total) {
 struct CheckFigures {
   int views = 0, detected = 0, correct = 0;
   int correct_among_output = 0;  // a correct one among every detection output (max_detections)
+  int refined_correct = 0;       // within 2 deg and 1 % of the range after the refinement
   std::vector<double> angle_errors, range_errors;
-  double seconds = 0;
+  double seconds = 0, refinement_seconds = 0;
 };
+
+/// The errors of camera_T_object `pose`: angle (deg) and distance of the bounding centres as a
+/// fraction of the range.
+std::pair<double, double> errorsOf(const Eigen::Isometry3d& pose, const Eigen::Isometry3d& truth,
+                                   const egse::TargetModel& model) {
+  const Eigen::Vector3d centre = truth * model.boundingCentre();
+  return {Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg,
+          ((pose * model.boundingCentre()) - centre).norm() / centre.norm()};
+}
+
+/// Counts the detections of one view into `f`: the best one's errors and correctness, and
+/// whether any output one is correct.
+void countDetections(const Detections& detections, const Eigen::Isometry3d& truth,
+                     const egse::TargetModel& model, CheckFigures& f) {
+  bool any = false;
+  for (const Detection& d : detections.detections) {
+    const auto [angle, range_error] = errorsOf(d.pose.isometry(), truth, model);
+    const bool correct = angle <= 15 && range_error <= 0.1;
+    if (&d == &detections.detections.front()) {
+      f.angle_errors.push_back(angle);
+      f.range_errors.push_back(range_error);
+      f.correct += correct;
+    }
+    any = any || correct;
+  }
+  f.correct_among_output += any;
+}
+
+/// The refinement of the checked detections: PoseRefinement/DepthIcp on the rendered depth, set
+/// as for a ToF camera (a depth wherever the target is; the noise of egse::TofSpec's defaults).
+struct Refinement {
+  std::unique_ptr<dfn::PoseRefinement> dfn;
+  PointCloud model;
+};
+
+Result<Refinement> makeRefinement(const egse::TargetModel& model) {
+  Result<std::unique_ptr<dfn::PoseRefinement>> dfn =
+      dfn::Registry::instance().createAs<dfn::PoseRefinement>("PoseRefinement", "DepthIcp");
+  if (!dfn) return dfn.status();
+  const egse::TofSpec tof;
+  CDFF_RETURN_IF_ERROR((*dfn)->configure(YAML::Load(
+      fmt::format("{{missing_depth_cost: 9, depth_noise_constant: {}, depth_noise_quadratic: {}, "
+                  "candidates: {}}}",
+                  tof.noise_constant, tof.noise_quadratic, kCheckedDetections))));
+  // A point every 2 cm: finer than the matching resolution's pixels at the trained ranges.
+  const auto points = static_cast<std::size_t>(model.surfaceArea() / (0.02 * 0.02));
+  Result<PointCloud> cloud = sampleSurface(model.mesh, points, 7);
+  if (!cloud) return cloud.status();
+  return Refinement{std::move(dfn).value(), std::move(cloud).value()};
+}
 
 /// Detects on views the templates were not trained on (random attitude, range log-uniform
 /// over the trained ones, centre within the middle half of the image, sun anywhere behind the
 /// camera's plane) with their rendered depth.
 Result<CheckFigures> check(const egse::TargetModel& model,
                            const linemod_templates::TemplateSet& set, const std::string& file,
-                           int views) {
+                           int views, std::uint64_t seed) {
   Result<std::unique_ptr<dfn::TemplateDetection>> dfn =
       dfn::Registry::instance().createAs<dfn::TemplateDetection>("TemplateDetection", "Linemod");
   if (!dfn) return dfn.status();
-  CDFF_RETURN_IF_ERROR((*dfn)->configure(YAML::Load(fmt::format("{{template_file: '{}'}}", file))));
-  std::mt19937 rng(20261205);
+  CDFF_RETURN_IF_ERROR((*dfn)->configure(YAML::Load(
+      fmt::format("{{template_file: '{}', max_detections: {}}}", file, kCheckedDetections))));
+  Result<Refinement> refinement = makeRefinement(model);
+  if (!refinement) return refinement.status();
+  std::mt19937 rng(static_cast<std::mt19937::result_type>(seed));
   std::normal_distribution<double> g;
   std::uniform_real_distribution<double> u(0, 1);
   CheckFigures f;
@@ -134,21 +195,18 @@ Result<CheckFigures> check(const egse::TargetModel& model,
     ++f.views;
     if (!*(*dfn)->out.detected) continue;
     ++f.detected;
-    bool any = false;
-    for (const Detection& d : (*dfn)->out.detections->detections) {
-      const Eigen::Isometry3d pose = d.pose.isometry();
-      const double angle =
-          Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg;
-      const double range_error = ((pose * model.boundingCentre()) - centre).norm() / centre.norm();
-      const bool correct = angle <= 15 && range_error <= 0.1;
-      if (&d == &(*dfn)->out.detections->detections.front()) {
-        f.angle_errors.push_back(angle);
-        f.range_errors.push_back(range_error);
-        f.correct += correct;
-      }
-      any = any || correct;
-    }
-    f.correct_among_output += any;
+    countDetections(*(*dfn)->out.detections, truth, model, f);
+    refinement->dfn->in.detections.set(*(*dfn)->out.detections);
+    refinement->dfn->in.depth.set(depth);
+    refinement->dfn->in.model.set(refinement->model);
+    const auto t1 = std::chrono::steady_clock::now();
+    CDFF_RETURN_IF_ERROR(refinement->dfn->process());
+    f.refinement_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    if (!refinement->dfn->out.pose.hasValue()) continue;
+    const auto [angle, range_error] =
+        errorsOf(refinement->dfn->out.pose->pose.isometry(), truth, model);
+    f.refined_correct += angle <= 2 && range_error <= 0.01;
   }
   return f;
 }
@@ -203,19 +261,23 @@ int runTrain(const TrainOptions& o) {
       "trained in {:.1f} s\n",
       o.output, set->templates.size(), skipped, set->mesh_hash, seconds);
   if (o.check_views <= 0) return 0;
-  Result<CheckFigures> f = check(*model, *set, o.output, o.check_views);
+  Result<CheckFigures> f = check(*model, *set, o.output, o.check_views, o.check_seed);
   if (!f) {
     fmt::print(stderr, "error: cdff train: checking the templates: {}\n", f.status().message());
     return 1;
   }
   fmt::print(
       "check on {} untrained views with depth: detected {} ({:.0f} %), correct (15 deg, 10 % of "
-      "the range) {} ({:.0f} %), a correct one among the (up to 5) detections {} ({:.0f} %); "
-      "median errors {:.1f} deg, {:.1f} % of the range; {:.1f} ms per view\n",
+      "the range) {} ({:.0f} %), a correct one among the (up to {}) detections {} ({:.0f} %); "
+      "median errors {:.1f} deg, {:.1f} % of the range; {:.1f} ms per view\n"
+      "after PoseRefinement/DepthIcp on the depth: within 2 deg and 1 % of the range {} ({:.0f} "
+      "%), {:.1f} ms per detected view\n",
       f->views, f->detected, 100.0 * f->detected / f->views, f->correct,
-      100.0 * f->correct / f->views, f->correct_among_output,
+      100.0 * f->correct / f->views, kCheckedDetections, f->correct_among_output,
       100.0 * f->correct_among_output / f->views, median(f->angle_errors),
-      100 * median(f->range_errors), 1e3 * f->seconds / f->views);
+      100 * median(f->range_errors), 1e3 * f->seconds / f->views, f->refined_correct,
+      100.0 * f->refined_correct / f->views,
+      1e3 * f->refinement_seconds / std::max(1, f->detected));
   return 0;
 }
 
@@ -260,6 +322,10 @@ void addTrainCommand(CLI::App& root, int& exit_code) {
                    "Untrained views to check the templates on at the end (0: none)")
       ->check(CLI::NonNegativeNumber)
       ->default_str("50");
+  train
+      ->add_option("--check-seed", o->check_seed,
+                   "Seed of the checked views (their attitudes, ranges and sun directions)")
+      ->default_str("20261205");
   train->callback([o, &exit_code] { exit_code = runTrain(*o); });
 }
 

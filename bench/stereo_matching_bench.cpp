@@ -3,7 +3,8 @@
 // - speed: one pair at close range (target at about 2.9 m), per DFI and level;
 // - accuracy: the first pair of close_range_approach (about 2.9 m) and mid_range_approach
 //   (about 17 m) against the simulator's truth depth of the left camera (`truth.camera_depth`):
-//   the fraction of the target's pixels with a depth, and the depth error's median and p95 as a
+//   the fraction of the target's pixels with a depth, the fraction of the other pixels given a
+//   depth under 100 m (where nothing is), and the depth error's median and p95 as a
 //   percentage of the range, for both DFIs in the same run.
 // The simulated cameras are parallel with the same intrinsics, so the rectification does not
 // rotate them (checked: a rotated rectification is refused) and a rectified pixel's 3D point is
@@ -93,14 +94,18 @@ const SimulatedPair* pairOf(const std::string& scenario, benchmark::State& state
   return &cache.emplace(scenario, std::move(p).value()).first->second;
 }
 
-std::string settings(int level) {
+std::string settings(const char* dfi, int level) {
+  // CDFF_SGBM_MIN_TEXTURE: Sgbm's min_texture to try (default: the DFI's).
+  const char* texture = std::getenv("CDFF_SGBM_MIN_TEXTURE");
+  if (texture && std::string(dfi) == "Sgbm")
+    return fmt::format("{{pyramid_level: {}, min_texture: {}}}", level, texture);
   return fmt::format("{{pyramid_level: {}}}", level);
 }
 
 void BM_StereoMatching_Speed(benchmark::State& state, const char* dfi, int level) {
   const SimulatedPair* p = pairOf("close_range_approach", state);
   if (!p) return;
-  auto dfn = createConfigured<dfn::StereoMatching>("StereoMatching", dfi, settings(level));
+  auto dfn = createConfigured<dfn::StereoMatching>("StereoMatching", dfi, settings(dfi, level));
   if (!dfn) return state.SkipWithError("cannot create or configure the DFI");
   dfn->in.rectified.set(p->rectified);
   for (auto _ : state) {
@@ -148,7 +153,7 @@ void BM_StereoMatching_Accuracy(benchmark::State& state, const char* scenario, c
                                 int level) {
   const SimulatedPair* p = pairOf(scenario, state);
   if (!p) return;
-  auto dfn = createConfigured<dfn::StereoMatching>("StereoMatching", dfi, settings(level));
+  auto dfn = createConfigured<dfn::StereoMatching>("StereoMatching", dfi, settings(dfi, level));
   if (!dfn) return state.SkipWithError("cannot create or configure the DFI");
   dfn->in.rectified.set(p->rectified);
   for (auto _ : state) {
@@ -171,14 +176,18 @@ void BM_StereoMatching_Accuracy(benchmark::State& state, const char* scenario, c
   cv::projectPoints(rays, zero, zero, cameraMatrix(original), distortionCoefficients(original),
                     pixels);
   std::vector<double> errors_pct;
-  std::size_t target = 0;
+  std::size_t target = 0, background = 0, background_with_depth = 0;
   for (int y = 0; y < depth.height; ++y)
     for (int x = 0; x < depth.width; ++x) {
       const cv::Point2d& q = pixels[static_cast<std::size_t>(y) * depth.width + x];
       const int u = static_cast<int>(std::lround(q.x)), v = static_cast<int>(std::lround(q.y));
       if (u < 0 || v < 0 || u >= truth.width || v >= truth.height) continue;
       const double z_true = truth.at<float>(u, v);
-      if (!(z_true > 0) || !std::isfinite(z_true)) continue;
+      if (!(z_true > 0) || !std::isfinite(z_true)) {
+        ++background;
+        background_with_depth += depth.at<float>(x, y) < 100.0f;  // nothing is there
+        continue;
+      }
       ++target;
       const float z = depth.at<float>(x, y);
       if (!std::isnan(z)) errors_pct.push_back(100.0 * std::abs(z - z_true) / z_true);
@@ -193,6 +202,8 @@ void BM_StereoMatching_Accuracy(benchmark::State& state, const char* scenario, c
   };
   state.counters["target_px"] = static_cast<double>(target);
   state.counters["target_with_depth"] = static_cast<double>(errors_pct.size()) / target;
+  state.counters["background_depth_under_100m"] =
+      static_cast<double>(background_with_depth) / std::max<std::size_t>(background, 1);
   state.counters["depth_error_median_pct"] = quantile(0.5);
   state.counters["depth_error_p95_pct"] = quantile(0.95);
   state.counters["within_1pct"] =

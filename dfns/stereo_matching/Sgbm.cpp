@@ -37,6 +37,7 @@ class StereoMatchingSgbm final : public StereoMatchingSgbmBase {
                                                     : cv::StereoSGBM::MODE_SGBM);
     cv::Mat fixed_point;
     matcher_->compute(left, right, fixed_point);
+    stereo_matching::dropUntextured(fixed_point, left, params_.block_size, params_.min_texture);
     Result<double> published = stereo_matching::publish(fixed_point, *search, pair.left, out);
     return published.status();
   }

@@ -139,6 +139,27 @@ inline cv::Mat pyramidLevel(const Image& image, int level) {
   return pyrDownTimes(toMat(image), level);
 }
 
+/// Marks as unmatched (below every searched disparity) the pixels of `fixed_point` whose
+/// `block` x `block` neighbourhood in `left` (8-bit, the matched level) has a grey-level standard
+/// deviation below `min_texture`.
+inline void dropUntextured(cv::Mat& fixed_point, const cv::Mat& left, int block,
+                           double min_texture) {
+  if (min_texture <= 0) return;
+  cv::Mat grey, mean, mean_sq;
+  left.convertTo(grey, CV_32F);
+  if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
+  cv::boxFilter(grey, mean, CV_32F, cv::Size(block, block));
+  cv::boxFilter(grey.mul(grey), mean_sq, CV_32F, cv::Size(block, block));
+  const float threshold = static_cast<float>(min_texture * min_texture);
+  for (int y = 0; y < fixed_point.rows; ++y) {
+    std::int16_t* d = fixed_point.ptr<std::int16_t>(y);
+    const float* m = mean.ptr<float>(y);
+    const float* m2 = mean_sq.ptr<float>(y);
+    for (int x = 0; x < fixed_point.cols; ++x)
+      if (m2[x] - m[x] * m[x] < threshold) d[x] = std::numeric_limits<std::int16_t>::min();
+  }
+}
+
 /// Publishes OpenCV's CV_16S disparity (1/16 px; below min_disparity: no match) as the
 /// disparity and depth images, matches outside [lowest, highest] and the depth range dropped;
 /// returns the fraction of pixels with a depth.

@@ -7,6 +7,7 @@
 
 #include "TemplateDetection.gen.hpp"
 #include "cdff/egse/model_io.hpp"
+#include "cdff/types/depth_metres.hpp"
 #include "cdff/types/opencv.hpp"
 #include "linemod_templates.hpp"
 
@@ -179,8 +180,9 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
   /// The depth map as metres on the matching grid; it must share the image's field of view.
   Result<cv::Mat> depthOnMatchingGrid(const DepthMap& map, const CameraModel& image_camera,
                                       cv::Size size) const {
-    CDFF_RETURN_IF_ERROR(map.validate());
     const Image& d = map.image;
+    CDFF_RETURN_IF_ERROR(
+        d.validate("input 'depth'", {PixelFormat::kFloat32, PixelFormat::kGray16}));
     if (!d.camera)
       return invalidInput(
           "input 'depth' has no camera model; expected the image's camera at any resolution");
@@ -193,22 +195,11 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
           "expected a depth map in the image's camera (e.g. StereoMatching's of the rectified "
           "left image)",
           describe(*d.camera), describe(image_camera));
-    cv::Mat metres;
-    if (d.format == PixelFormat::kFloat32)
-      metres = toMat(d).clone();
-    else if (d.format == PixelFormat::kGray16)
-      toMat(d).convertTo(metres, CV_32F, map.meters_per_unit);
-    else
-      return invalidInput("input 'depth' has format {}; expected 32FC1 metres or 16UC1 units",
-                          toString(d.format));
-    for (int r = 0; r < metres.rows; ++r) {
-      float* row = metres.ptr<float>(r);
-      for (int c = 0; c < metres.cols; ++c)
-        if (!(row[c] > 0) || !std::isfinite(row[c]))
-          row[c] = std::numeric_limits<float>::quiet_NaN();
-    }
+    Result<cv::Mat> metres = depthMetres(map);
+    if (!metres)
+      return Status(metres.status().code(), "input 'depth': " + metres.status().message());
     cv::Mat resized;
-    cv::resize(metres, resized, size, 0, 0, cv::INTER_NEAREST);
+    cv::resize(*metres, resized, size, 0, 0, cv::INTER_NEAREST);
     return resized;
   }
 

@@ -13,6 +13,9 @@ source "$(dirname "${BASH_SOURCE[0]}")/check.sh"
 check train-scenario 0 'check on 5 untrained views with depth: detected [0-9]+' -- \
   "$cdff" train mid_range_approach -o "$work/target.yml.gz" --view-step 60 --in-plane-step 90 \
   --ranges 8 --check 5
+check train-refined 0 'after PoseRefinement/DepthIcp on the depth: within 2 deg and 1 % of the range [0-9]+' -- \
+  "$cdff" train mid_range_approach -o "$work/target.yml.gz" --view-step 60 --in-plane-step 90 \
+  --ranges 8 --check 3 --check-seed 7
 if [ ! -s "$work/target.yml.gz" ]; then
   echo "FAIL train-file: $work/target.yml.gz missing"; failures=$((failures + 1))
 fi

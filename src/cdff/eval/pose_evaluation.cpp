@@ -97,6 +97,13 @@ CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std
 
 }  // namespace
 
+double poseNees(const Transform& estimate, const Transform& truth, const Matrix6d& covariance) {
+  MatchedError m;
+  return normalisedErrors(estimate, truth, covariance, m)
+             ? m.nees
+             : std::numeric_limits<double>::quiet_NaN();
+}
+
 ErrorStatistics ErrorStatistics::of(std::vector<double> errors) {
   ErrorStatistics s;
   s.count = errors.size();

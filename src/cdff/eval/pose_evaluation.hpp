@@ -105,6 +105,11 @@ struct PoseEvaluation {
   std::vector<MatchedError> errors;  // per matched estimate, in time order (for plots)
 };
 
+/// The 6-dof NEES e^T C^-1 e of `estimate` against `truth` (same frames) under `covariance`
+/// ([dt, dtheta] in the parent frame), e = [t_true - t_est, log(R_true R_est^T)]; NaN when the
+/// covariance is not finite and positive definite.
+double poseNees(const Transform& estimate, const Transform& truth, const Matrix6d& covariance);
+
 /// Truth interpolated at `stamp`, or nullopt when no truth sample is close enough (see
 /// PoseEvaluationOptions). `truth` is sorted by stamp.
 std::optional<Transform> truthAt(const std::vector<Transform>& truth, Timestamp stamp,

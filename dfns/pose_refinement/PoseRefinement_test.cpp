@@ -1,0 +1,296 @@
+// PoseRefinement/DepthIcp on depth maps of the procedural target ray-cast at known poses, with
+// the depth noise the DFI is told (independent per pixel, as a ToF camera's), seen by the
+// stereo camera's left image at half resolution.
+//
+// Tolerances: the detection's goal after refinement is 1 % of the range and 2 degrees; the
+// starts are what TemplateDetection gives (within 15 degrees and 10 % of the range) or such a
+// pose half-turned about one of the model's principal axes (the near-symmetry that template
+// matching cannot resolve).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "PoseRefinement.gen.hpp"
+#include "cdff/egse/procedural.hpp"
+#include "cdff/egse/range_sensors.hpp"
+#include "cdff/egse/raycaster.hpp"
+#include "cdff/egse/rng.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/types/mesh.hpp"
+#include "cdff/types/opencv.hpp"
+#include "depth_fit.hpp"
+#include "support/dfn_testing.hpp"
+
+namespace cdff {
+namespace {
+
+using dfn::PoseRefinement;
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+constexpr double kNoiseConstant = 0.005, kNoiseQuadratic = 0.0017;  // the DFI's defaults
+
+CameraModel undistorted(CameraModel m) {
+  m.distortion_model = DistortionModel::kNone;
+  m.distortion.clear();
+  return m;
+}
+
+struct Suite {
+  egse::TargetModel target;
+  std::unique_ptr<egse::RayCaster> caster;
+  PointCloud model;
+  egse::TofSpec spec;
+};
+
+const Suite& suite() {
+  static const Suite* s = [] {
+    auto* out = new Suite;
+    out->target = egse::makeTargetSatellite().value();
+    out->caster = egse::RayCaster::create(out->target).value();
+    const auto points = static_cast<std::size_t>(out->target.surfaceArea() / (0.02 * 0.02));
+    out->model = sampleSurface(out->target.mesh, points, 7).value();
+    out->model.frame_id = "target";
+    // The stereo camera's rectified left image at half resolution, where StereoMatching gives
+    // the detection's depth.
+    out->spec.model = cameraAfterPyrDown(undistorted(egse::prosilicaGc1600h()), 1);
+    out->spec.max_range = 40;
+    out->spec.min_amplitude = 0;
+    out->spec.noise_constant = kNoiseConstant;
+    out->spec.noise_quadratic = kNoiseQuadratic;
+    return out;
+  }();
+  return *s;
+}
+
+/// The truth: the target's bounding centre at `range` on a ray through the middle half of the
+/// image, at a random attitude.
+Eigen::Isometry3d drawTruth(std::mt19937& rng, double range) {
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+  truth.linear() =
+      Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+  const Eigen::Vector3d centre = Eigen::Vector3d(u(rng), u(rng), 1).normalized() * range;
+  truth.translation() = centre - truth.linear() * suite().target.boundingCentre();
+  return truth;
+}
+
+DepthMap depthOf(const Eigen::Isometry3d& truth, std::uint64_t seed) {
+  const Suite& s = suite();
+  egse::TofSensor sensor = egse::TofSensor::create(s.spec, "tof").value();
+  egse::Rng rng(seed);
+  DepthMap d = sensor.capture(*s.caster, s.target, truth, 0.0, rng).value();
+  d.image.frame_id = "camera";
+  d.image.stamp = 1000;
+  return d;
+}
+
+/// `truth` moved by `angle` about a random axis through the bounding centre and by `shift` of
+/// the range along a random direction.
+Eigen::Isometry3d perturbed(const Eigen::Isometry3d& truth, double angle, double shift,
+                            std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+  const Eigen::Vector3d direction = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+  const Eigen::Vector3d centre = truth * suite().target.boundingCentre();
+  Eigen::Isometry3d p = truth;
+  p.linear() = Eigen::AngleAxisd(angle, axis).toRotationMatrix() * truth.linear();
+  p.translation() =
+      centre - p.linear() * suite().target.boundingCentre() + direction * shift * centre.norm();
+  return p;
+}
+
+Detections detectionsAt(const std::vector<Eigen::Isometry3d>& poses) {
+  Detections d;
+  d.stamp = 1000;
+  d.frame_id = "camera";
+  for (const Eigen::Isometry3d& p : poses) {
+    Detection one;
+    one.pose = Transform::fromIsometry(p, "camera", "target", 1000);
+    one.similarity = 0.8;
+    d.detections.push_back(one);
+  }
+  return d;
+}
+
+/// The DFI set for a depth camera that measures wherever the target is (a missing depth is
+/// evidence), with `extra` settings.
+std::unique_ptr<PoseRefinement> make(const std::string& extra = "") {
+  return testing::makeDfn<PoseRefinement>("PoseRefinement", "DepthIcp",
+                                          "{missing_depth_cost: 9" + extra + "}");
+}
+
+struct Errors {
+  double angle_deg, position_fraction;
+};
+
+Errors errorsOf(const Eigen::Isometry3d& pose, const Eigen::Isometry3d& truth) {
+  const Eigen::Vector3d c = suite().target.boundingCentre();
+  return {Eigen::AngleAxisd(pose.linear().transpose() * truth.linear()).angle() / kDeg,
+          ((pose * c) - (truth * c)).norm() / (truth * c).norm()};
+}
+
+/// Refines `starts` on the depth of `truth`; returns the errors of the output.
+Errors refine(PoseRefinement& dfn, const Eigen::Isometry3d& truth,
+              const std::vector<Eigen::Isometry3d>& starts, std::uint64_t seed) {
+  dfn.in.detections.set(detectionsAt(starts));
+  dfn.in.depth.set(depthOf(truth, seed));
+  dfn.in.model.set(suite().model);
+  const Status s = dfn.process();
+  EXPECT_TRUE(s.isOk()) << s.toString();
+  EXPECT_TRUE(*dfn.out.refined) << "fitness " << *dfn.out.fitness << ", confirmed "
+                                << *dfn.out.confirmed << ", misfit " << *dfn.out.misfit;
+  if (!dfn.out.pose.hasValue()) return {1e9, 1e9};
+  return errorsOf(dfn.out.pose->pose.isometry(), truth);
+}
+
+/// Of `draws` draws at ranges log-uniform over [4, 10] m (where the depth's noise, 3 to 18 cm,
+/// still shows the target's asymmetric parts: the adapter ring, the antenna), how many end
+/// within the goal (1 % of the range, 2 degrees) from a start that is the truth moved by up to
+/// `angle` and `shift` of the range, after a half turn about one principal axis when
+/// `half_turns`.
+struct Outcome {
+  int within_goal = 0;
+  double mean_nees = 0;  // of the pose covariance, over the draws within the goal
+};
+
+double nees(const PoseWithCovariance& estimate, const Eigen::Isometry3d& truth) {
+  return eval::poseNees(estimate.pose, Transform::fromIsometry(truth, "", "", 0),
+                        estimate.covariance);
+}
+
+Outcome withinGoal(int draws, std::uint32_t seed, double angle, double shift, bool half_turns) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  registration::ModelIndex index;
+  EXPECT_TRUE(index.update(suite().model).isOk());
+  const pose_refinement::ModelShape shape = pose_refinement::modelShape(index, 1000);
+  auto dfn = make();
+  Outcome out;
+  for (int draw = 0; draw < draws; ++draw) {
+    const double range = 4.0 * std::pow(10.0 / 4.0, u(rng));
+    const Eigen::Isometry3d truth = drawTruth(rng, range);
+    const std::size_t turn = half_turns ? 1 + static_cast<std::size_t>(draw % 3) : 0;
+    const Eigen::Isometry3d start = perturbed(pose_refinement::startsOf(truth, shape, true)[turn],
+                                              angle * u(rng), shift * u(rng), rng);
+    const Errors e = refine(*dfn, truth, {start}, seed * 100 + draw);
+    const bool ok = e.angle_deg < 2.0 && e.position_fraction < 0.01;
+    out.within_goal += ok;
+    if (ok) out.mean_nees += nees(*dfn->out.pose, truth);
+    if (!ok)
+      std::cout << fmt::format("draw {} at {:.1f} m: {:.2f} deg, {:.2f} % of the range\n", draw,
+                               range, e.angle_deg, 100 * e.position_fraction);
+  }
+  if (out.within_goal > 0) out.mean_nees /= out.within_goal;
+  return out;
+}
+
+TEST(PoseRefinementDepthIcp, RefinesCoarseDetectionsToTheGoal) {
+  // Starts as far off as a correct detection may be: 15 degrees and 10 % of the range.
+  const Outcome o = withinGoal(16, 21, 15 * kDeg, 0.10, false);
+  EXPECT_GE(o.within_goal, 15);
+  // An honest covariance: the mean NEES (6 degrees of freedom) within a factor 2 of 6.
+  EXPECT_GE(o.mean_nees, 3.0);
+  EXPECT_LE(o.mean_nees, 12.0);
+}
+
+TEST(PoseRefinementDepthIcp, TellsAHalfTurnedDetectionFromTheRightOne) {
+  EXPECT_GE(withinGoal(12, 22, 8 * kDeg, 0.03, true).within_goal, 11);
+}
+
+TEST(PoseRefinementDepthIcp, ChoosesTheRightCandidateAmongWrongOnes) {
+  std::mt19937 rng(13);
+  auto dfn = make(", half_turn_starts: false");
+  const Eigen::Isometry3d truth = drawTruth(rng, 8.0);
+  const std::vector<Eigen::Isometry3d> starts = {perturbed(truth, 60 * kDeg, 0.05, rng),
+                                                 perturbed(truth, 90 * kDeg, 0.05, rng),
+                                                 perturbed(truth, 10 * kDeg, 0.03, rng)};
+  const Errors e = refine(*dfn, truth, starts, 300);
+  EXPECT_EQ(*dfn->out.candidate, 2);
+  EXPECT_LT(e.angle_deg, 2.0);
+  EXPECT_LT(e.position_fraction, 0.01);
+}
+
+TEST(PoseRefinementDepthIcp, NoDetectionGivesNoPose) {
+  std::mt19937 rng(14);
+  auto dfn = make();
+  dfn->in.detections.set(detectionsAt({}));
+  dfn->in.depth.set(depthOf(drawTruth(rng, 8.0), 400));
+  dfn->in.model.set(suite().model);
+  ASSERT_TRUE(dfn->process().isOk());
+  EXPECT_FALSE(*dfn->out.refined);
+  EXPECT_EQ(*dfn->out.candidate, -1);
+  EXPECT_FALSE(dfn->out.pose.hasValue());
+  EXPECT_TRUE(std::isnan(*dfn->out.fitness));
+}
+
+TEST(PoseRefinementDepthIcp, ADetectionWhereTheDepthShowsNoTargetIsNotRefined) {
+  std::mt19937 rng(15);
+  auto dfn = make();
+  const Eigen::Isometry3d truth = drawTruth(rng, 8.0);
+  Eigen::Isometry3d elsewhere = truth;
+  elsewhere.translation() += Eigen::Vector3d(0, 0, 12.0);  // behind the target, nothing there
+  dfn->in.detections.set(detectionsAt({elsewhere}));
+  dfn->in.depth.set(depthOf(truth, 500));
+  dfn->in.model.set(suite().model);
+  ASSERT_TRUE(dfn->process().isOk());
+  EXPECT_FALSE(*dfn->out.refined) << "fitness " << *dfn->out.fitness << ", confirmed "
+                                  << *dfn->out.confirmed;
+}
+
+TEST(PoseRefinementDepthIcp, RejectsBadInput) {
+  std::mt19937 rng(16);
+  const Eigen::Isometry3d truth = drawTruth(rng, 8.0);
+  const DepthMap depth = depthOf(truth, 600);
+  auto ready = [&] {
+    auto dfn = make();
+    dfn->in.detections.set(detectionsAt({truth}));
+    dfn->in.depth.set(depth);
+    dfn->in.model.set(suite().model);
+    return dfn;
+  };
+  {
+    auto dfn = ready();
+    DepthMap d = depth;
+    d.image.camera.reset();
+    dfn->in.depth.set(d);
+    testing::expectRejected(*dfn, "input 'depth' has no camera model");
+  }
+  {
+    auto dfn = ready();
+    DepthMap d = depth;
+    d.image.frame_id = "camera_right";
+    dfn->in.depth.set(d);
+    testing::expectRejected(*dfn, "in frame 'camera_right'");
+  }
+  {
+    auto dfn = ready();
+    DepthMap d = depth;
+    d.image.camera->distortion_model = DistortionModel::kRadialTangential;
+    d.image.camera->distortion = {0.1, 0, 0, 0, 0};
+    dfn->in.depth.set(d);
+    testing::expectRejected(*dfn, "lens distortion");
+  }
+  {
+    auto dfn = ready();
+    PointCloud bare = suite().model;
+    bare.normals = {};
+    dfn->in.model.set(bare);
+    testing::expectRejected(*dfn, "input 'model'");
+  }
+  {
+    auto dfn = ready();
+    Detections d = detectionsAt({truth});
+    d.detections[0].pose.translation.x() = std::nan("");
+    dfn->in.detections.set(d);
+    testing::expectRejected(*dfn, "input 'detections'");
+  }
+}
+
+}  // namespace
+}  // namespace cdff
