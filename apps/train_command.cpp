@@ -16,6 +16,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "PoseRefinement.gen.hpp"
+#include "StereoRectification.gen.hpp"
 #include "TemplateDetection.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/egse/range_sensors.hpp"
@@ -40,6 +41,8 @@ struct TrainOptions {
   std::string output;
   std::string camera_scenario;  // "": the source when it is a scenario, else mid_range_approach
   std::string sensor = "camera_left";
+  std::string
+      rectified_with;  // "": the camera itself; else the stereo partner it is rectified with
   double view_step = 15, in_plane_step = 15;  // deg
   std::vector<double> ranges;
   int pyramid_level = -1;
@@ -47,6 +50,41 @@ struct TrainOptions {
   int check_views = 50;
   std::uint64_t check_seed = 20261205;
 };
+
+/// The camera `name` of `scenario`, an error naming the scenario when it has none.
+Result<const egse::SensorConfig*> cameraOf(const egse::Scenario& scenario,
+                                           const std::string& scenario_name,
+                                           const std::string& name, const char* option) {
+  const egse::SensorConfig* sensor = scenario.sensor(name);
+  if (!sensor || sensor->type != egse::SensorType::kCamera)
+    return notFound("scenario '{}' has no camera '{}'; expected {} naming one of its cameras",
+                    scenario_name, name, option);
+  return sensor;
+}
+
+/// The left camera of the pair (`left`, `right`) as StereoRectification/OpenCV (its defaults)
+/// rectifies it: the camera the detection's images have in a stereo graph.
+Result<CameraModel> rectifiedCamera(const egse::SensorConfig& left,
+                                    const egse::SensorConfig& right) {
+  Result<std::unique_ptr<dfn::StereoRectification>> dfn =
+      dfn::Registry::instance().createAs<dfn::StereoRectification>("StereoRectification", "OpenCV");
+  if (!dfn) return dfn.status();
+  CDFF_RETURN_IF_ERROR((*dfn)->configure(YAML::Load("{}")));
+  StereoImagePair pair;
+  for (auto [image, sensor] : {std::pair{&pair.left, &left}, std::pair{&pair.right, &right}}) {
+    const CameraModel& m = sensor->camera.model;
+    Result<Image> black = fromMat(cv::Mat::zeros(m.height, m.width, CV_8UC1), 0, sensor->frame());
+    if (!black) return black.status();
+    *image = *black;
+    image->camera = m;
+  }
+  pair.right_T_left = Transform::fromIsometry(
+      right.servicerTframe().inverse() * left.servicerTframe(), right.frame(), left.frame(), 0);
+  (*dfn)->in.stereo.set(pair);
+  CDFF_RETURN_IF_ERROR((*dfn)->process().withContext(
+      fmt::format("rectifying the pair ({}, {})", left.name, right.name)));
+  return *(*dfn)->out.rectified->left.camera;
+}
 
 Result<CameraModel> trainingCamera(const TrainOptions& o) {
   const std::string name = !o.camera_scenario.empty() ? o.camera_scenario
@@ -57,11 +95,15 @@ Result<CameraModel> trainingCamera(const TrainOptions& o) {
   Result<egse::Scenario> scenario =
       egse::loadScenario(*path, isMeshFile(o.source) ? std::vector<std::string>{} : o.overrides);
   if (!scenario) return scenario.status();
-  const egse::SensorConfig* sensor = scenario->sensor(o.sensor);
-  if (!sensor || sensor->type != egse::SensorType::kCamera)
-    return notFound("scenario '{}' has no camera '{}'; expected --sensor naming one of its cameras",
-                    name, o.sensor);
-  CameraModel camera = sensor->camera.model;
+  Result<const egse::SensorConfig*> sensor = cameraOf(*scenario, name, o.sensor, "--sensor");
+  if (!sensor) return sensor.status();
+  if (!o.rectified_with.empty()) {
+    Result<const egse::SensorConfig*> partner =
+        cameraOf(*scenario, name, o.rectified_with, "--rectified-with");
+    if (!partner) return partner.status();
+    return rectifiedCamera(**sensor, **partner);
+  }
+  CameraModel camera = (*sensor)->camera.model;
   camera.distortion_model = DistortionModel::kNone;
   camera.distortion.clear();
   return camera;
@@ -235,9 +277,12 @@ int runTrain(const TrainOptions& o) {
   if (!o.ranges.empty()) options.ranges = o.ranges;
   if (o.pyramid_level >= 0) options.pyramid_level = o.pyramid_level;
   options.threads = o.threads;
-  fmt::print("model '{}' (radius {:.2f} m), camera {}x{} fx {:.1f}, matching at pyramid level {}\n",
-             model->name, model->boundingRadius(), camera->width, camera->height, camera->fx,
-             options.pyramid_level);
+  fmt::print(
+      "model '{}' (radius {:.2f} m), camera {}x{} fx {:.1f} cx {:.1f} cy {:.1f}{}, matching at "
+      "pyramid level {}\n",
+      model->name, model->boundingRadius(), camera->width, camera->height, camera->fx, camera->cx,
+      camera->cy, o.rectified_with.empty() ? "" : " (rectified with " + o.rectified_with + ")",
+      options.pyramid_level);
   fmt::print("ranges (m):");
   for (double r : options.ranges) fmt::print(" {:.2f}", r);
   fmt::print("; view step {} deg, in-plane step {} deg\n", o.view_step, o.in_plane_step);
@@ -299,6 +344,10 @@ void addTrainCommand(CLI::App& root, int& exit_code) {
                     "scenario, else mid_range_approach)");
   train->add_option("--sensor", o->sensor, "The camera's name in that scenario")
       ->default_str("camera_left");
+  train->add_option("--rectified-with", o->rectified_with,
+                    "Train for the --sensor camera as StereoRectification rectifies it with this "
+                    "stereo partner (the detection's images in a stereo graph); default: the "
+                    "camera without its distortion");
   train->add_option("--view-step", o->view_step, "Degrees between neighbouring view directions")
       ->check(CLI::Range(1.0, 90.0))
       ->default_str("15");

@@ -25,6 +25,12 @@ hash=$(zcat "$work/target.yml.gz" | grep -oE 'mesh_hash: "?[0-9a-f]{16}' | grep 
 check train-mesh 0 "mesh hash $hash" -- \
   "$cdff" train "$work/model/target.ply" -o "$work/mesh.yml.gz" --view-step 60 \
   --in-plane-step 90 --ranges 8 --check 0
+check train-rectified 0 'fx [0-9.]+ cx [0-9.]+ cy [0-9.]+ \(rectified with camera_right\)' -- \
+  "$cdff" train mid_range_approach -o "$work/rectified.yml.gz" --view-step 60 \
+  --in-plane-step 90 --ranges 8 --check 0 --rectified-with camera_right
+check unknown-partner 1 "has no camera 'camera_middle'; expected --rectified-with" -- \
+  "$cdff" train mid_range_approach -o "$work/rectified.yml.gz" --view-step 60 \
+  --in-plane-step 90 --ranges 8 --check 0 --rectified-with camera_middle
 check missing-model 1 "nonexistent.ply" -- \
   "$cdff" train "$work/nonexistent.ply" -o "$work/x.yml.gz"
 check unknown-sensor 1 "has no camera 'camera_middle'" -- \
