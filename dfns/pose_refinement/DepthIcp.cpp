@@ -127,8 +127,10 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     return Status::ok();
   }
 
-  /// ICP settings at depth noise `sigma`: correspondences from a quarter of the model's radius
-  /// (a 15 degree error at its rim) down to 3 sigma (and twice the model's spacing).
+  /// ICP settings at depth noise `sigma`: correspondences from a third of the model's radius
+  /// (a 15 degree error at its rim plus a few percent of the range) down to 3 sigma (and twice
+  /// the model's spacing); a lookup grid of a 60th of the radius (coarser than the depth's
+  /// noise at any range of use) that reaches as far as the correspondences.
   registration::FastIcpOptions options(double sigma, int iterations) const {
     registration::FastIcpOptions o;
     registration::IcpOptions& icp = o.icp;
