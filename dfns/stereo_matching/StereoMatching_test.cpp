@@ -180,6 +180,9 @@ class StereoMatchingOnAPlane : public ::testing::TestWithParam<Matcher> {
     EXPECT_EQ(depth.image.format, PixelFormat::kFloat32);
     EXPECT_EQ(depth.image.frame_id, "left_rectified");
     EXPECT_EQ(depth.image.stamp, pair.left.stamp);
+    // The left image passes through unchanged, sharing its pixels.
+    EXPECT_TRUE(dfn.out.left_image->pixels.sharesMemoryWith(pair.left.pixels));
+    EXPECT_EQ(dfn.out.left_image->camera->fx, pair.left.camera->fx);
     const double offset = c.cx - pair.right.camera->cx / (1 << level);  // cv::pyrDown: x / 2
     // The search's reach: disparities up to f B / min_depth (1.5 m by default) at this level.
     const int search = static_cast<int>(std::ceil(c.fx * kBaseline / 1.5 + offset)) + 2;

@@ -202,6 +202,7 @@ Result<double> publish(const cv::Mat& fixed_point, const Search& s, const Image&
   out.disparity.set(std::move(disparity_image).value());
   out.depth.set(DepthMap{std::move(depth_image).value(), 1.0});
   out.valid_fraction.set(fraction);
+  out.left_image.set(left);
   return fraction;
 }
 
