@@ -112,6 +112,12 @@ class StereoRectificationOpenCV final : public StereoRectificationOpenCVBase {
     rectified.right_T_left.translation = Eigen::Vector3d(calibration.tx, 0, 0);
     out.rectified.set(std::move(rectified));
     out.baseline.set(std::abs(calibration.tx));
+    Transform left_T_rectified;
+    left_T_rectified.stamp = pair.left.stamp;
+    left_T_rectified.parent_frame = pair.left.frame_id;
+    left_T_rectified.child_frame = rectifiedFrame(pair.left.frame_id);
+    left_T_rectified.rotation = calibration.left_q_rectified;
+    out.rectified_frame.set(std::move(left_T_rectified));
     return Status::ok();
   }
 
@@ -121,6 +127,9 @@ class StereoRectificationOpenCV final : public StereoRectificationOpenCVBase {
     Transform right_T_left;
     CameraModel left_rectified, right_rectified;
     double tx = 0;  // m, x of the left rectified origin in the right rectified frame
+    // The rectified left frame's attitude in the original left optical frame: R1^T, R1 being
+    // OpenCV's rotation of points from the original into the rectified frame.
+    Eigen::Quaterniond left_q_rectified = Eigen::Quaterniond::Identity();
   };
 
   Status buildMaps(const CameraModel& left, const CameraModel& right, const Transform& right_T_left,
@@ -168,6 +177,12 @@ class StereoRectificationOpenCV final : public StereoRectificationOpenCVBase {
     calibration.left_rectified = rectifiedModel(p1, left.width, left.height);
     calibration.right_rectified = rectifiedModel(p2, right.width, right.height);
     calibration.tx = p2.at<double>(0, 3) / p2.at<double>(0, 0);
+    cv::Mat r1d;
+    r1.convertTo(r1d, CV_64F);
+    Eigen::Matrix3d rectify;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) rectify(i, j) = r1d.at<double>(i, j);
+    calibration.left_q_rectified = Eigen::Quaterniond(rectify.transpose()).normalized();
     cache_ = std::move(calibration);
     return Status::ok();
   }

@@ -307,6 +307,19 @@ TEST_P(StereoRectificationTest, CorrespondingPointsShareARowAndDisparityMatchesD
   EXPECT_EQ(l.fx, r.fx);
   EXPECT_EQ(l.cx, r.cx);  // zero_disparity (the default)
 
+  // The rectified left frame shares the left camera's centre and has the baseline along its x:
+  // the right camera's centre, c = -R^T t in the left frame, is at (baseline, 0, 0) in it.
+  const Transform& left_T_rectified = *dfn->out.rectified_frame;
+  EXPECT_EQ(left_T_rectified.parent_frame, "left");
+  EXPECT_EQ(left_T_rectified.child_frame, "left_rectified");
+  EXPECT_EQ(left_T_rectified.translation, Eigen::Vector3d::Zero());
+  const Eigen::Vector3d right_centre =
+      -(rig.right_T_left.rotation.conjugate() * rig.right_T_left.translation);
+  const Eigen::Vector3d in_rectified = left_T_rectified.rotation.conjugate() * right_centre;
+  EXPECT_NEAR(in_rectified.x(), *dfn->out.baseline, 1e-9);
+  EXPECT_NEAR(in_rectified.y(), 0.0, 1e-9);
+  EXPECT_NEAR(in_rectified.z(), 0.0, 1e-9);
+
   const Residuals res = measure(*dfn, rig, points, c.alpha);
   EXPECT_GE(res.measured, 80);
   EXPECT_LE(res.max_row_px, c.tolerance_px);
