@@ -12,6 +12,10 @@
 //   Counters: the fraction within the goal (1 % of the range, 2 degrees) overall and per range
 //   band, the median errors, and the mean NEES of the pose covariance over the draws within the
 //   goal (6 when the covariance is honest).
+// Environment: CDFF_DRAW_SET / CDFF_DRAWS (bench_support.hpp); CDFF_REFINEMENT_YAML and
+// CDFF_STEREO_YAML, settings of PoseRefinement/DepthIcp and StereoMatching/Sgbm to try;
+// CDFF_FROM_TRUTH, refine from the truth itself (what the depth alone holds the pose to);
+// CDFF_VERBOSE, one line per draw.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -116,14 +120,14 @@ Case caseOf(const eval::Draw& draw) {
 }
 
 /// Ray-cast depth with independent noise at the DFI's default setting.
-Result<DepthMap> rayCastDepth(const Case& c, std::uint64_t seed, bool noisy = true) {
+Result<DepthMap> rayCastDepth(const Case& c, std::uint64_t seed) {
   const Shared& s = shared();
   egse::TofSpec spec;
   spec.model = s.camera;
   spec.max_range = 40;
   spec.min_amplitude = 0;
-  spec.noise_constant = noisy ? 0.005 : 0.0;
-  spec.noise_quadratic = noisy ? 0.0017 : 0.0;
+  spec.noise_constant = 0.005;
+  spec.noise_quadratic = 0.0017;
   Result<egse::TofSensor> sensor = egse::TofSensor::create(spec, "depth");
   if (!sensor) return sensor.status();
   egse::Rng rng(seed);
@@ -219,6 +223,8 @@ struct Band {
 void BM_PoseRefinement_Accuracy(benchmark::State& state, bool stereo) {
   Result<std::vector<eval::Draw>> draws = bench::drawsFromEnvironment(drawSets(), 40);
   if (!draws) return state.SkipWithError(draws.status().toString().c_str());
+  const bool from_truth = std::getenv("CDFF_FROM_TRUTH") != nullptr;
+  const bool verbose = std::getenv("CDFF_VERBOSE") != nullptr;
   // Settings to try (on the tuning draws) as inline YAML from the environment.
   const char* refinement = std::getenv("CDFF_REFINEMENT_YAML");
   const char* stereo_settings = std::getenv("CDFF_STEREO_YAML");
@@ -238,7 +244,7 @@ void BM_PoseRefinement_Accuracy(benchmark::State& state, bool stereo) {
       Result<DepthMap> depth =
           stereo ? stereoDepth(c, *matcher) : rayCastDepth(c, draw.simulator_seed);
       if (!depth) return state.SkipWithError(depth.status().toString().c_str());
-      dfn->in.detections.set(detectionsOf({std::getenv("CDFF_FROM_TRUTH") ? c.truth : c.start}));
+      dfn->in.detections.set(detectionsOf({from_truth ? c.truth : c.start}));
       dfn->in.depth.set(*depth);
       dfn->in.model.set(shared().model);
       const auto t0 = std::chrono::steady_clock::now();
@@ -261,31 +267,7 @@ void BM_PoseRefinement_Accuracy(benchmark::State& state, bool stereo) {
           ++b.draws;
           b.within += ok;
         }
-      if (std::getenv("CDFF_VERBOSE") && stereo) {
-        Result<DepthMap> truth = rayCastDepth(c, 0, false);
-        egse::TofSpec spec;
-        int target = 0, valid = 0;
-        std::vector<double> err;
-        for (int y = 0; y < truth->image.height; ++y)
-          for (int x = 0; x < truth->image.width; ++x) {
-            const float t = truth->image.at<float>(x, y);
-            const float m = depth->image.at<float>(x, y);
-            if (t > 0) {
-              ++target;
-              if (std::isfinite(m) && m > 0) {
-                ++valid;
-                err.push_back(100 * (m - t) / t);
-              }
-            } else if (std::isfinite(m) && m > 0)
-              ++valid;
-          }
-        std::sort(err.begin(), err.end());
-        fmt::print(
-            "  target px {} with depth {} (any {}), err pct p10 {:.2f} p50 {:.2f} p90 {:.2f}\n",
-            target, err.size(), valid, err.empty() ? 0.0 : err[err.size() / 10],
-            err.empty() ? 0.0 : err[err.size() / 2], err.empty() ? 0.0 : err[err.size() * 9 / 10]);
-      }
-      if (std::getenv("CDFF_VERBOSE"))
+      if (verbose)
         fmt::print("draw {} range {:.1f} m turn {}: {:.2f} deg {:.2f} % refined {} misfit {:.2f}\n",
                    draw.number, c.range, draw.number % 4, angle / kDeg, 100 * position,
                    *dfn->out.refined, *dfn->out.misfit);

@@ -164,8 +164,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
   /// One start registered on measured_ and scored at its final pose.
   Result<Fit> refine(const Eigen::Isometry3d& start, const MeasuredDepth& depth, int iterations) {
     const double sigma = noise_.sigma((start * shape_.centre).z());
-    registration_.configure(options(sigma, iterations));
-    CDFF_RETURN_IF_ERROR(registration_.prepare(*in.model).status());
+    registration_.configure(options(sigma, iterations));  // the model stays prepared
     Fit fit{start, {}, {}};
     if (measured_.size() >= kMinimumPoints) {
       Result<registration::Registration> r = registration_.registerScan(measured_, start, 0);

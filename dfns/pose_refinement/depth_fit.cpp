@@ -50,9 +50,14 @@ void pointsNear(const MeasuredDepth& depth, const Eigen::Vector3d& centre, doubl
     const Eigen::Vector3d p((u - c.cx) / c.fx * z, (v - c.cy) / c.fy * z, z);
     return (p - centre).squaredNorm() <= r2;
   };
+  // Which pixels of the box are measured inside the sphere, once for both passes.
+  cv::Mat1b in_sphere(std::max(0, bottom - top + 1), std::max(0, right - left + 1));
   std::size_t measured = 0;
-  for (int v = top; v <= bottom; ++v)
-    for (int u = left; u <= right; ++u) measured += inside(u, v, depth.metres.at<float>(v, u));
+  for (int v = top; v <= bottom; ++v) {
+    const float* row = depth.metres.ptr<float>(v);
+    std::uint8_t* flags = in_sphere.ptr<std::uint8_t>(v - top);
+    for (int u = left; u <= right; ++u) measured += flags[u - left] = inside(u, v, row[u]);
+  }
   // Pixels in blocks of b x b, b such that the measured pixels make about max_points blocks;
   // each block with at least half its pixels measured inside the sphere gives one point at the
   // median depth of those (independent noise shrinks by about b; an edge stays where it is).
@@ -65,10 +70,10 @@ void pointsNear(const MeasuredDepth& depth, const Eigen::Vector3d& centre, doubl
       double su = 0, sv = 0;
       for (int v = v0; v < v0 + b; ++v) {
         const float* row = depth.metres.ptr<float>(v);
+        const std::uint8_t* flags = in_sphere.ptr<std::uint8_t>(v - top);
         for (int u = u0; u < u0 + b; ++u) {
-          const float z = row[u];
-          if (!inside(u, v, z)) continue;
-          depths.push_back(z);
+          if (!flags[u - left]) continue;
+          depths.push_back(row[u]);
           su += u;
           sv += v;
         }

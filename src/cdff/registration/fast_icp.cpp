@@ -10,6 +10,10 @@
 namespace cdff::registration {
 
 void FastIcp::configure(const FastIcpOptions& options) {
+  // The lookup grid is fetched again at the next prepare() only when its options change (a
+  // registration that retunes its correspondence distances per call keeps it).
+  if (options.grid.cell != options_.grid.cell || options.grid.band != options_.grid.band)
+    grid_model_ = 0;
   options_ = options;
   ConfirmationOptions& confirmation = options_.confirmation;
   confirmation.inlier_distance = options.quality.inlier_distance;
@@ -17,7 +21,6 @@ void FastIcp::configure(const FastIcpOptions& options) {
   confirmation.max_correspondence_distance = options.icp.max_correspondence_distance;
   icp_.configure(options_.icp);
   confirmation_.configure(confirmation);
-  grid_model_ = 0;  // the grid's options may have changed
 }
 
 Result<ModelPreparation> FastIcp::prepare(const PointCloud& model) {

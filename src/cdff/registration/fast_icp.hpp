@@ -65,7 +65,8 @@ struct Registration {
 
 class FastIcp {
  public:
-  /// New options; the lookup grid is fetched again at the next prepare().
+  /// New options; with other grid options the lookup grid is fetched again at the next
+  /// prepare() (the model stays prepared otherwise).
   void configure(const FastIcpOptions& options);
 
   /// The search structures over `model`, shared with every registration of the process that
