@@ -1,7 +1,8 @@
 # CDFF: two commands on a fresh Debian 12 machine, as root:
 #   make demo   installs the dependencies, builds, and runs the main job
 #   make test   installs the dependencies, builds, and runs every test
-# Also: make bench (benchmarks), make fuzz (the MCAP reader fuzzer), make format.
+# Also: make bench (benchmarks), make templates (the detection's LINEMOD templates), make fuzz
+# (the MCAP reader fuzzer), make format.
 # Sanitizers: make test SANITIZE=address,undefined   (or thread)
 
 SANITIZE ?=
@@ -12,7 +13,7 @@ comma := ,
 
 CMAKE_FLAGS = -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DCDFF_SANITIZE=$(SANITIZE)
 
-.PHONY: all deps configure build test demo bench fuzz format clean
+.PHONY: all deps configure build test demo bench templates fuzz format clean
 
 all: build
 
@@ -34,8 +35,17 @@ test: build
 demo: build
 	@bash scripts/demo.sh $(BUILD_DIR) out/demo
 
-bench: build
+bench: build templates
 	@bash scripts/run-benchmarks.sh $(BUILD_DIR)
+
+# The LINEMOD templates of dfpcs/detection.yaml (detect.template_file): the procedural target
+# (data/models/target.ply) for the rectified left camera of the simulator's Prosilica pair, the
+# default view sphere and ranges (docs/detection.md); about 10 minutes on 2 cores, once.
+TEMPLATES = $(BUILD_DIR)/templates/target_stereo.yml.gz
+templates: build
+	@mkdir -p $(dir $(TEMPLATES))
+	@test -f $(TEMPLATES) || $(BUILD_DIR)/apps/cdff train mid_range_approach \
+	  --rectified-with camera_right --check 0 -o $(TEMPLATES)
 
 fuzz:
 	@bash fuzz/run.sh

@@ -1,0 +1,261 @@
+#include "simulated_views.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/orchestrator.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/egse/simulator.hpp"
+#include "cdff/egse/sink.hpp"
+#include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/types/mesh.hpp"
+
+#ifndef CDFF_SOURCE_DIR
+#define CDFF_SOURCE_DIR "."
+#endif
+
+namespace cdff::detection_demo {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr const char* kLeft = "/chaser/camera/left/image";
+constexpr const char* kRight = "/chaser/camera/right/image";
+constexpr const char* kLeftMounting = "/chaser/tf/camera_left_optical";
+constexpr const char* kRightMounting = "/chaser/tf/camera_right_optical";
+constexpr const char* kCameraTruth = "/truth/camera_left/target_pose";
+constexpr const char* kPair = "/chaser/stereo/pair";
+
+std::string vec3(const Eigen::Vector3d& v) {
+  return fmt::format("[{:.17g}, {:.17g}, {:.17g}]", v.x(), v.y(), v.z());
+}
+
+// Fraction of `points` (target frame) in front of the camera and inside its image.
+double fractionInView(const PointCloud& points, const Eigen::Isometry3d& camera_T_target,
+                      const CameraModel& camera) {
+  if (points.size() == 0) return 0;
+  std::size_t inside = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d p = camera_T_target * points.points[i].vec().cast<double>();
+    if (p.z() <= 1e-3) continue;
+    const double u = camera.fx * p.x() / p.z() + camera.cx;
+    const double v = camera.fy * p.y() / p.z() + camera.cy;
+    if (u >= 0 && v >= 0 && u < camera.width && v < camera.height) ++inside;
+  }
+  return static_cast<double>(inside) / points.size();
+}
+
+Timestamp stampOf(const Image& v) {
+  return v.stamp;
+}
+Timestamp stampOf(const Transform& v) {
+  return v.stamp;
+}
+
+// The first `T` on `channel` (stamped `stamp`, or any when `stamp` < 0).
+template <typename T>
+const T* payloadAt(const egse::MemorySink& sink, const std::string& channel, Timestamp stamp) {
+  for (const egse::SimMessage& m : sink.messages())
+    if (m.channel == channel)
+      if (const T* v = std::get_if<T>(&m.payload); v && (stamp < 0 || stampOf(*v) == stamp))
+        return v;
+  return nullptr;
+}
+
+const Transform* truthPose(const egse::MemorySink& sink, const std::string& channel,
+                           Timestamp stamp) {
+  for (const egse::SimMessage& m : sink.messages()) {
+    if (m.channel != channel) continue;
+    const Transform* pose = nullptr;
+    if (const PoseWithCovariance* p = std::get_if<PoseWithCovariance>(&m.payload)) pose = &p->pose;
+    if (const RigidBodyState* s = std::get_if<RigidBodyState>(&m.payload)) pose = &s->pose;
+    if (pose && pose->stamp == stamp) return pose;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t seed,
+                                   bool with_target) {
+  if (options.lighting.empty()) return invalidInput("ViewOptions::lighting is empty");
+  if (!(options.min_range > 0 && options.max_range >= options.min_range))
+    return invalidInput("ViewOptions ranges [{}, {}] m; expected 0 < min_range <= max_range",
+                        options.min_range, options.max_range);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const std::string lighting = options.lighting[std::uniform_int_distribution<std::size_t>(
+      0, options.lighting.size() - 1)(rng)];
+  Result<std::filesystem::path> file = egse::resolveScenario(lighting);
+  if (!file) return file.status();
+  Result<egse::Scenario> base = egse::loadScenario(*file, options.overrides);
+  if (!base) return base.status();
+  // The servicer stays on the scenario's first line of sight, which its lighting is set for.
+  const Eigen::Vector3d line_of_sight = base->start.normalized();
+
+  std::normal_distribution<double> normal;
+  constexpr int kAttempts = 100;
+  for (int attempt = 0; attempt < kAttempts; ++attempt) {
+    const double range = options.min_range + (options.max_range - options.min_range) * unit(rng);
+    Eigen::Quaterniond attitude(normal(rng), normal(rng), normal(rng), normal(rng));
+    attitude.normalize();  // uniform on SO(3)
+    const Eigen::Vector3d ypr = attitude.toRotationMatrix().eulerAngles(2, 1, 0);
+    // Pointing offsets: within the inner part of the field of view with the target, turned at
+    // least 60 degrees away from it without.
+    double yaw = 0, pitch = 0;
+    if (with_target) {
+      yaw = (2 * unit(rng) - 1) * 12.0;
+      pitch = (2 * unit(rng) - 1) * 9.0;
+    } else {
+      yaw = (unit(rng) < 0.5 ? -1 : 1) * (60 + 120 * unit(rng));
+      pitch = (2 * unit(rng) - 1) * 60.0;
+    }
+    std::vector<std::string> overrides = {
+        "sensors.lidar.enabled=false",
+        "sensors.tof.enabled=false",
+        "sensors.imu.enabled=false",
+        fmt::format("servicer.trajectory={{type: hold, position: {}}}",
+                    vec3(range * line_of_sight)),
+        fmt::format("target.attitude={{mode: lvlh, rpy_deg: {}}}",
+                    vec3(Eigen::Vector3d(ypr[2], ypr[1], ypr[0]) / kDeg)),
+        fmt::format("servicer.attitude.yaw_offset_deg={:.6f}", yaw),
+        fmt::format("servicer.attitude.pitch_offset_deg={:.6f}", pitch)};
+    overrides.insert(overrides.begin(), options.overrides.begin(), options.overrides.end());
+    Result<egse::Scenario> scenario = egse::loadScenario(*file, overrides);
+    if (!scenario) return scenario.status().withContext(fmt::format("frame seed {}", seed));
+    Result<std::unique_ptr<egse::Simulator>> sim =
+        egse::Simulator::create(*scenario, seed, /*duration=*/0.01);
+    if (!sim) return sim.status();
+    const egse::SensorConfig* left = (*sim)->scenario().sensor("camera_left");
+    if (!left || !(*sim)->scenario().sensor("camera_right"))
+      return invalidInput("scenario '{}' has no camera_left and camera_right", lighting);
+    Result<PointCloud> samples = sampleSurface((*sim)->target().mesh, 1000, seed);
+    if (!samples) return samples.status();
+    const double in_view =
+        fractionInView(*samples, (*sim)->sensorTtarget(*left, 0.0), left->camera.model);
+    if (with_target ? in_view < options.min_in_view : in_view > 0) continue;
+
+    egse::MemorySink sink;
+    CDFF_RETURN_IF_ERROR((*sim)->run(sink));
+    const Image* l = payloadAt<Image>(sink, kLeft, -1);
+    if (!l) return notFound("frame seed {}: the simulation gave no {}", seed, kLeft);
+    const Image* r = payloadAt<Image>(sink, kRight, l->stamp);
+    const Transform* lm = payloadAt<Transform>(sink, kLeftMounting, -1);
+    const Transform* rm = payloadAt<Transform>(sink, kRightMounting, -1);
+    const Transform* camera_truth = truthPose(sink, kCameraTruth, l->stamp);
+    if (!r || !lm || !rm || !camera_truth)
+      return notFound(
+          "frame seed {}: the simulation lacks the right image, a mounting or the "
+          "truth at {} us",
+          seed, l->stamp);
+    SimulatedView view;
+    view.pair.left = *l;
+    view.pair.right = *r;
+    Result<Transform> right_T_left = rm->inverse().compose(*lm);
+    if (!right_T_left) return right_T_left.status();
+    view.pair.right_T_left = *right_T_left;
+    view.camera_mounting = *lm;
+    Result<Transform> truth = lm->compose(*camera_truth);
+    if (!truth) return truth.status();
+    view.truth = *truth;
+    view.truth.stamp = l->stamp;
+    view.camera_truth = *camera_truth;
+    view.lighting = lighting;
+    view.range = camera_truth->translation.norm();
+    view.target_in_view = with_target;
+    return view;
+  }
+  return Status(StatusCode::kInternal,
+                fmt::format("frame seed {}: no draw in {} attempts put {} the target in view", seed,
+                            kAttempts, with_target ? "enough of" : "none of"));
+}
+
+struct Detector::State {
+  dfpc::MemorySink products;
+  std::unique_ptr<dfpc::Orchestrator> orchestrator;
+  std::int64_t frames = 0;
+};
+
+Detector::Detector(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Detector::~Detector() = default;
+
+Result<std::unique_ptr<Detector>> Detector::create(const std::vector<std::string>& settings,
+                                                   const std::string& source_dir) {
+  const std::filesystem::path source = source_dir.empty() ? CDFF_SOURCE_DIR : source_dir;
+  Result<dfpc::GraphSpec> spec =
+      dfpc::loadGraphFile((source / "dfpcs/detection.yaml").string(), settings);
+  if (!spec) return spec.status();
+  // The graph's file parameters are relative to the repository.
+  for (dfpc::InstanceSpec& inst : spec->instances)
+    for (const char* key : {"template_file", "model_file", "mesh_file"})
+      if (inst.parameters[key] && !inst.parameters[key].as<std::string>().empty() &&
+          std::filesystem::path(inst.parameters[key].as<std::string>()).is_relative())
+        inst.parameters[key] = (source / inst.parameters[key].as<std::string>()).string();
+  Result<std::unique_ptr<dfpc::Dfpc>> dfpc = dfpc::Dfpc::create(std::move(spec).value());
+  if (!dfpc) return dfpc.status();
+  auto state = std::make_unique<State>();
+  dfpc::OrchestratorOptions o;
+  o.sink = &state->products;
+  state->orchestrator = std::make_unique<dfpc::Orchestrator>(o);
+  CDFF_RETURN_IF_ERROR(state->orchestrator->add(std::move(dfpc).value()));
+  CDFF_RETURN_IF_ERROR(state->orchestrator->startAll());
+  return std::unique_ptr<Detector>(new Detector(std::move(state)));
+}
+
+Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
+  State& s = *state_;
+  const Timestamp stamp = ++s.frames * 1'000'000;
+  Transform mounting = view.camera_mounting;
+  mounting.stamp = stamp;
+  StereoImagePair pair = view.pair;
+  pair.left.stamp = pair.right.stamp = pair.right_T_left.stamp = stamp;
+  CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kLeftMounting, stamp, mounting)));
+  CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kPair, stamp, std::move(pair))));
+
+  const auto at = [&](const std::string& output) -> std::optional<dfpc::Message> {
+    for (const dfpc::Message& m : s.products.messages("/cdff/detection/" + output))
+      if (m.stamp == stamp) return m;
+    return std::nullopt;
+  };
+  DetectionOutcome out;
+  const auto number = [&](const std::string& output) {
+    const std::optional<dfpc::Message> m = at(output);
+    const double* v = m ? m->as<double>() : nullptr;
+    return v ? *v : std::nan("");
+  };
+  if (const std::optional<dfpc::Message> d = at("detected"); d && d->as<bool>())
+    out.detected = *d->as<bool>();
+  out.fitness = number("fitness");
+  out.confirmed = number("confirmed");
+  out.misfit = number("misfit");
+  const std::optional<dfpc::Message> camera_pose = at("camera_pose");
+  const std::optional<dfpc::Message> pose = at("pose");
+  if (out.detected != (camera_pose.has_value() && pose.has_value()))
+    return Status(StatusCode::kInternal,
+                  fmt::format("frame at {} us: detected is {} but the DFPC published {} pose and "
+                              "{} camera pose",
+                              stamp, out.detected, pose ? "a" : "no", camera_pose ? "a" : "no"));
+  if (out.detected) {
+    out.camera_pose = *camera_pose->as<PoseWithCovariance>();
+    out.pose = *pose->as<RigidBodyState>();
+    out.position_error = (out.camera_pose.pose.translation - view.camera_truth.translation).norm();
+    out.angle_error = angularDistance(out.camera_pose.pose.rotation, view.camera_truth.rotation);
+    out.nees = eval::poseNees(out.camera_pose.pose, view.camera_truth, out.camera_pose.covariance);
+  }
+  std::map<std::string, double> per_node;
+  for (const dfpc::MemorySink::Timing& t : s.products.timings()) {
+    if (t.stamp != stamp) continue;
+    if (t.status != StatusCode::kOk) ++out.dfn_errors;
+    out.cpu_s += t.cpu_s;
+    per_node[t.instance] += t.cpu_s;
+  }
+  out.node_cpu_s.assign(per_node.begin(), per_node.end());
+  return out;
+}
+
+}  // namespace cdff::detection_demo

@@ -1,0 +1,111 @@
+// End to end: the detection DFPC (dfpcs/detection.yaml) through the Orchestrator on simulated
+// stereo frames of the procedural target (simulator's Prosilica pair, distorted, unrectified),
+// each a drawn attitude (uniform on SO(3)), range and pointing under the lighting of a library
+// scenario, evaluated against the simulator's truth. The templates come from `cdff train` (the
+// test fixture `detection_templates`: 4-8 m, 20 degree steps, for the rectified left camera).
+// Frames: the evaluation draws' seeds (data/evaluation/draws.yaml), none tuned on.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "cdff/eval/draws.hpp"
+#include "simulated_views.hpp"
+#include "support/synthetic.hpp"
+
+#ifndef CDFF_SOURCE_DIR
+#define CDFF_SOURCE_DIR "."
+#endif
+
+namespace cdff::detection_demo {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+std::vector<std::string> settings() {
+  return {std::string("detect.template_file=") + CDFF_DETECTION_TEMPLATES};
+}
+
+std::vector<eval::Draw> draws(std::size_t n) {
+  Result<eval::DrawSets> sets =
+      eval::loadDrawSets(std::string(CDFF_SOURCE_DIR) + "/data/evaluation/draws.yaml");
+  EXPECT_OK(sets.status());
+  return sets ? sets->evaluationDraws(n) : std::vector<eval::Draw>{};
+}
+
+// Frames of the target at 4-8.5 m (the fixture's template ranges): whenever the DFPC says
+// detected, its pose is right (within 1 % of the range and 2 degrees, the refinement's goal), and
+// the covariance of the right ones is honest; the detected fraction is a regression bound near
+// today's figure (the goal, 95 %, is not met yet: docs/detection.md).
+TEST(DetectionSimulated, DetectsTheTargetUnderTheLibrarysLighting) {
+  ViewOptions options;
+  options.min_range = 4.0;
+  options.max_range = 8.5;
+  Result<std::unique_ptr<Detector>> detector = Detector::create(settings());
+  ASSERT_OK(detector.status());
+  std::size_t frames = 0, detected = 0, right = 0, wrong = 0, errors = 0;
+  double nees_sum = 0, cpu_sum = 0;
+  for (const eval::Draw& draw : draws(12)) {
+    Result<SimulatedView> view = simulateView(options, draw.simulator_seed);
+    ASSERT_OK(view.status());
+    Result<DetectionOutcome> r = (*detector)->run(*view);
+    ASSERT_OK(r.status());
+    ++frames;
+    errors += r->dfn_errors;
+    cpu_sum += r->cpu_s;
+    const bool within =
+        r->detected && r->position_error <= 0.01 * view->range && r->angle_error <= 2 * kDeg;
+    std::printf(
+        "draw %llu (%s, %.2f m): detected %d, error %.3f m %.2f deg, NEES %.1f, fitness %.2f, "
+        "confirmed %.2f, misfit %.2f, %.0f ms\n",
+        static_cast<unsigned long long>(draw.number), view->lighting.c_str(), view->range,
+        r->detected, r->position_error, r->angle_error / kDeg, r->nees, r->fitness, r->confirmed,
+        r->misfit, r->cpu_s * 1e3);
+    if (!r->detected) continue;
+    ++detected;
+    if (within) {
+      ++right;
+      nees_sum += r->nees;
+    } else {
+      ++wrong;
+    }
+  }
+  std::printf("%zu frames: detected %zu, right %zu, wrong %zu; mean NEES %.1f; %.0f ms per frame\n",
+              frames, detected, right, wrong, right ? nees_sum / right : NAN,
+              frames ? cpu_sum / frames * 1e3 : NAN);
+  EXPECT_EQ(errors, 0u);
+  // Today (2026-12-05): 1 of 12 detected, right. Most frames' best pose is a half turn of the
+  // truth that fits the stereo depth (docs/detection.md), which min_confirmed keeps from being
+  // reported: what is reported is right.
+  EXPECT_GE(right, 1u);
+  EXPECT_EQ(wrong, 0u);
+}
+
+// Frames with the cameras turned away from the target (stars, the Earth, empty space): never a
+// detection (the goal: at most 1 % of frames).
+TEST(DetectionSimulated, FramesWithoutTheTargetGiveNoDetection) {
+  Result<std::unique_ptr<Detector>> detector = Detector::create(settings());
+  ASSERT_OK(detector.status());
+  for (const eval::Draw& draw : draws(6)) {
+    Result<SimulatedView> view = simulateView(ViewOptions{}, draw.simulator_seed, false);
+    ASSERT_OK(view.status());
+    Result<DetectionOutcome> r = (*detector)->run(*view);
+    ASSERT_OK(r.status());
+    EXPECT_FALSE(r->detected) << "draw " << draw.number << " (" << view->lighting << ")";
+    EXPECT_EQ(r->dfn_errors, 0u);
+  }
+}
+
+// A missing template file is refused when the graph is built, naming the node, the parameter and
+// the file.
+TEST(DetectionSimulated, AMissingTemplateFileIsAClearError) {
+  Result<std::unique_ptr<Detector>> detector =
+      Detector::create({"detect.template_file=/nonexistent/templates.yml.gz"});
+  ASSERT_FALSE(detector.isOk());
+  const std::string message = detector.status().message();
+  EXPECT_NE(message.find("/nonexistent/templates.yml.gz"), std::string::npos) << message;
+  EXPECT_NE(message.find("detect"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace cdff::detection_demo
