@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 #include <random>
 
@@ -259,7 +261,27 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// The output's folder is created, and the file opened for writing, before the training (minutes)
+// rather than after it: a path that cannot be written fails at once.
+Status checkWritable(const std::string& output) {
+  const std::filesystem::path path(output);
+  std::error_code error;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), error);
+  if (error)
+    return invalidInput("cannot create the folder '{}' of --output: {}",
+                        path.parent_path().string(), error.message());
+  const bool existed = std::filesystem::exists(path);
+  if (!std::ofstream(path, std::ios::app))
+    return invalidInput("cannot write --output '{}'; expected a writable path", output);
+  if (!existed) std::filesystem::remove(path, error);
+  return Status::ok();
+}
+
 int runTrain(const TrainOptions& o) {
+  if (Status s = checkWritable(o.output); !s) {
+    fmt::print(stderr, "error: cdff train: {}\n", s.message());
+    return 1;
+  }
   Result<egse::TargetModel> model = loadModelSource(o.source, o.overrides);
   if (!model) {
     fmt::print(stderr, "error: cdff train {}: {}\n", o.source, model.status().message());

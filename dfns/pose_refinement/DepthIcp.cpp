@@ -38,10 +38,6 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
 
     // Every start gets a short run on an eighth of the points and a quarter of the iterations;
     // the `finalists` best continue on all of them until converged, and the best of those wins.
-    struct Trial {
-      Fit fit;
-      int candidate = -1;
-    };
     std::vector<Trial> trials;
     const int count = std::min<int>(params_.candidates, detections.detections.size());
     const int short_iterations = std::max(5, params_.max_iterations / 4);
@@ -68,12 +64,15 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     trials.resize(std::min<std::size_t>(trials.size(), params_.finalists));
     Trial best;
     best.fit.score.misfit = std::numeric_limits<double>::infinity();
+    std::vector<Trial> finals;
     for (const Trial& t : trials) {
       cropAbout(detections.detections[t.candidate].pose.isometry(), *depth, params_.max_points);
       Result<Fit> fit = refine(t.fit.pose, *depth, params_.max_iterations);
       if (!fit) return fit.status();
+      finals.push_back({*fit, t.candidate});
       if (fit->score.misfit < best.fit.score.misfit) best = {*fit, t.candidate};
     }
+    out.candidates.set(finalistsOf(std::move(finals), detections));
     out.candidate.set(best.candidate);
     if (best.candidate < 0) {
       out.refined.set(false);
@@ -106,6 +105,32 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     Score score;
     registration::Quality quality;
   };
+  struct Trial {
+    Fit fit;
+    int candidate = -1;
+  };
+
+  /// The finalists' refined poses, best first, as detections of the depth's frame (fitness as the
+  /// similarity, the confirmed fraction as the depth agreement).
+  Detections finalistsOf(std::vector<Trial> finals, const Detections& detections) const {
+    std::stable_sort(finals.begin(), finals.end(), [](const Trial& a, const Trial& b) {
+      return a.fit.score.misfit < b.fit.score.misfit;
+    });
+    Detections refined;
+    refined.stamp = detections.stamp;
+    refined.frame_id = in.depth->image.frame_id;
+    for (const Trial& t : finals) {
+      Detection d = detections.detections[t.candidate];
+      d.pose = Transform::fromIsometry(t.fit.pose, in.depth->image.frame_id, in.model->frame_id,
+                                       detections.stamp);
+      d.pose.rotation.normalize();
+      d.similarity =
+          std::isfinite(t.fit.score.fitness) ? std::clamp(t.fit.score.fitness, 0.0, 1.0) : 0.0;
+      d.depth_agreement = t.fit.score.confirmed;
+      refined.detections.push_back(std::move(d));
+    }
+    return refined;
+  }
 
   /// The model's shape and search structures, rebuilt when a cloud with other buffers arrives;
   /// the lookup grid follows the model's size.

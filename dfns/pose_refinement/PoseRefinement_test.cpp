@@ -214,6 +214,14 @@ TEST(PoseRefinementDepthIcp, ChoosesTheRightCandidateAmongWrongOnes) {
   EXPECT_EQ(*dfn->out.candidate, 2);
   EXPECT_LT(e.angle_deg, 2.0);
   EXPECT_LT(e.position_fraction, 0.01);
+  // The finalists for a second stage: the chosen pose first, then the others, each distinct.
+  const Detections& finalists = *dfn->out.candidates;
+  ASSERT_EQ(finalists.detections.size(), 3u);  // `finalists` (3) of the three starts
+  EXPECT_EQ(finalists.frame_id, dfn->out.pose->pose.parent_frame);
+  EXPECT_LT(angularDistance(finalists.detections[0].pose.rotation, dfn->out.pose->pose.rotation),
+            1e-9);
+  EXPECT_TRUE(finalists.validate().isOk());
+  for (const Detection& d : finalists.detections) EXPECT_GE(d.similarity, 0.0);
 }
 
 TEST(PoseRefinementDepthIcp, NoDetectionGivesNoPose) {
@@ -227,6 +235,7 @@ TEST(PoseRefinementDepthIcp, NoDetectionGivesNoPose) {
   EXPECT_EQ(*dfn->out.candidate, -1);
   EXPECT_FALSE(dfn->out.pose.hasValue());
   EXPECT_TRUE(std::isnan(*dfn->out.fitness));
+  EXPECT_TRUE(dfn->out.candidates->detections.empty());
 }
 
 TEST(PoseRefinementDepthIcp, ADetectionWhereTheDepthShowsNoTargetIsNotRefined) {

@@ -233,6 +233,9 @@ Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
   out.fitness = number("fitness");
   out.confirmed = number("confirmed");
   out.misfit = number("misfit");
+  out.inlier_ratio = number("inlier_ratio");
+  if (const std::optional<dfpc::Message> a = at("alternatives"); a && a->as<int>())
+    out.alternatives = *a->as<int>();
   const std::optional<dfpc::Message> camera_pose = at("camera_pose");
   const std::optional<dfpc::Message> pose = at("pose");
   if (out.detected != (camera_pose.has_value() && pose.has_value()))

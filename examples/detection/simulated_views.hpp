@@ -51,7 +51,9 @@ struct DetectionOutcome {
   bool detected = false;
   PoseWithCovariance camera_pose;                 // camera_left_optical_T_target, when detected
   RigidBodyState pose;                            // servicer_T_target, when detected
-  double fitness = 0, confirmed = 0, misfit = 0;  // of the refinement's best pose (NaN: none)
+  double fitness = 0, confirmed = 0, misfit = 0;  // of the depth refinement's best pose (NaN: none)
+  double inlier_ratio = 0;    // of the edge refinement's chosen pose (NaN: none)
+  int alternatives = 0;       // distinct poses the edge refinement compared
   double position_error = 0;  // m, of camera_pose against the truth, when detected
   double angle_error = 0;     // rad
   double nees = 0;            // camera_pose's 6-dof NEES

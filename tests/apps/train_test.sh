@@ -39,8 +39,13 @@ check negative-range 2 "ranges" -- \
   "$cdff" train mid_range_approach -o "$work/x.yml.gz" --ranges 8,-2
 check bad-step 2 "view-step" -- \
   "$cdff" train mid_range_approach -o "$work/x.yml.gz" --view-step 0
-check unwritable 1 "cannot write template file" -- \
-  "$cdff" train mid_range_approach -o /nonexistent/dir/t.yml.gz --view-step 60 \
+# The output's folder is made; one that cannot be (a file is in the way) fails before training.
+check new-folder 0 "wrote $work/new/folder/t.yml.gz" -- \
+  "$cdff" train mid_range_approach -o "$work/new/folder/t.yml.gz" --view-step 60 \
+  --in-plane-step 90 --ranges 8 --check 0
+touch "$work/a_file"
+check unwritable 1 "cannot create the folder '$work/a_file/dir' of --output" -- \
+  "$cdff" train mid_range_approach -o "$work/a_file/dir/t.yml.gz" --view-step 60 \
   --in-plane-step 90 --ranges 8 --check 0
 
 if [ "$failures" -ne 0 ]; then

@@ -1,0 +1,278 @@
+// EdgeRefinement/EdgeTracker: every candidate acquired and tracked by the edge tracker
+// (tracking::AcquiringEdgeTracker, ModelBasedTracking/EdgeTracker's code); the converged poses
+// compared where their contours differ.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "EdgeRefinement.gen.hpp"
+#include "cdff/tracking/acquiring_edge_tracker.hpp"
+#include "cdff/tracking/contours.hpp"
+#include "cdff/tracking/edge_search.hpp"
+#include "cdff/types/opencv.hpp"
+
+namespace cdff::dfn {
+
+namespace {
+
+// One converged candidate.
+struct Converged {
+  tracking::TrackingResult result;
+  int candidate = -1;
+  std::vector<Eigen::Vector2d> pixels;  // its visible contour samples in the image
+  std::vector<bool> supported;          // whether each has an image edge within the evidence
+  int wins = 0;
+};
+
+// Half turns about the model's principal axes through its centroid (model frame): the axes of
+// the area-weighted second moments of its faces. The surface's centroid and axes are those of
+// its large symmetric parts (a bus, its wings), which small parts (an antenna) barely move, so
+// that a half turn of one symmetric pose lands next to the other.
+std::vector<Eigen::Isometry3d> halfTurns(const PolygonModel& model) {
+  struct Triangle {
+    double area;
+    Eigen::Vector3d centroid;
+  };
+  std::vector<Triangle> triangles;
+  double total = 0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const PolygonModel::Face& face : model.faces)
+    for (std::size_t k = 1; k + 1 < face.points.size(); ++k) {
+      const Eigen::Vector3d& a = model.points[face.points[0]];
+      const Eigen::Vector3d& b = model.points[face.points[k]];
+      const Eigen::Vector3d& c = model.points[face.points[k + 1]];
+      const Triangle t{0.5 * (b - a).cross(c - a).norm(), (a + b + c) / 3};
+      triangles.push_back(t);
+      total += t.area;
+      centre += t.area * t.centroid;
+    }
+  if (total <= 0) return {};
+  centre /= total;
+  Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
+  for (const Triangle& t : triangles)
+    moments += t.area * (t.centroid - centre) * (t.centroid - centre).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(moments);
+  std::vector<Eigen::Isometry3d> turns;
+  for (int i = 0; i < 3; ++i)
+    turns.push_back(Eigen::Translation3d(centre) *
+                    Eigen::AngleAxisd(M_PI, axes.eigenvectors().col(i).normalized()) *
+                    Eigen::Translation3d(-centre));
+  return turns;
+}
+
+}  // namespace
+
+class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
+ protected:
+  Status onConfigure() override {
+    file_model_.reset();
+    if (!params_.model_file.empty()) {
+      Result<PolygonModel> model = loadCao(params_.model_file);
+      if (!model) return model.status().withContext("parameter 'model_file'");
+      file_model_ = std::make_shared<const PolygonModel>(std::move(model).value());
+    }
+    options_ = {};
+    tracking::EdgeTrackerOptions& o = options_.tracking;
+    o.search.search_distance = params_.search_distance;
+    o.search.relative_gradient = params_.relative_gradient;
+    o.visibility.min_crease_angle = params_.min_crease_angle;
+    o.refinement_passes = 2;
+    o.min_inlier_ratio = 0.1;  // a weak fit still competes; `refined` applies min_inlier_ratio
+    options_.acquisition.restarts = 0;  // the candidates are the restarts
+    prepared_ = nullptr;
+    return Status::ok();
+  }
+
+  Status onProcess() override {
+    const Detections& detections = *in.candidates;
+    CDFF_RETURN_IF_ERROR(detections.validate().withContext("input 'candidates'"));
+    const std::shared_ptr<const PolygonModel> model =
+        in.model.hasValue() ? in.model.shared() : file_model_;
+    if (!model)
+      return invalidInput("no model: expected the 'model' input or the parameter model_file");
+    const Image& image = *in.image;
+    if (!image.camera)
+      return invalidInput(
+          "input 'image' ({}x{}, frame '{}') has no camera model; expected a calibrated, "
+          "distortion-free image",
+          image.width, image.height, image.frame_id);
+    CDFF_RETURN_IF_ERROR(tracking::checkPinhole(*image.camera, "input 'image'"));
+    if (!detections.frame_id.empty() && !image.frame_id.empty() &&
+        detections.frame_id != image.frame_id)
+      return invalidInput(
+          "input 'candidates' are in frame '{}' but input 'image' is in frame '{}'; expected the "
+          "candidates of this image",
+          detections.frame_id, image.frame_id);
+    Result<Image> grey = tracking::toGray8(image, "input 'image'");
+    if (!grey) return grey.status();
+    if (model.get() != prepared_) {
+      half_turns_ = halfTurns(*model);
+      prepared_ = model.get();
+    }
+
+    const std::vector<tracking::CameraFrame> cameras = {
+        {&*grey, *image.camera, Transform::identity(image.frame_id, image.frame_id)}};
+    const Frame frame{*grey, {cameras, nullptr, Eigen::Isometry3d::Identity()}, *model};
+    std::vector<Converged> converged;
+    const int count = std::min<int>(params_.candidates, detections.detections.size());
+    for (int i = 0; i < count; ++i)
+      CDFF_RETURN_IF_ERROR(trackFrom(detections.detections[i].pose, i, frame, converged));
+    // A near-symmetric target converges onto whichever of its symmetric poses is nearest the
+    // start: each converged pose's half turns about the model's principal axes are tried too,
+    // so that the poses the comparison must tell apart are all there.
+    const std::size_t found = converged.size();
+    for (std::size_t k = 0; k < found; ++k) {
+      const Transform pose = converged[k].result.reference_T_model;
+      for (const Eigen::Isometry3d& turn : half_turns_) {
+        const Transform start = Transform::fromIsometry(pose.isometry() * turn, pose.parent_frame,
+                                                        pose.child_frame, pose.stamp);
+        CDFF_RETURN_IF_ERROR(trackFrom(start, converged[k].candidate, frame, converged));
+      }
+    }
+
+    out.alternatives.set(static_cast<int>(converged.size()));
+    if (converged.empty()) {
+      out.candidate.set(-1);
+      out.refined.set(false);
+      out.inlier_ratio.set(std::numeric_limits<double>::quiet_NaN());
+      return Status::ok();
+    }
+    compare(converged);
+    const Converged& best = *std::max_element(
+        converged.begin(), converged.end(), [](const Converged& a, const Converged& b) {
+          return a.wins != b.wins ? a.wins < b.wins : a.result.inlier_ratio < b.result.inlier_ratio;
+        });
+    PoseWithCovariance pose;
+    pose.pose = best.result.reference_T_model;
+    pose.pose.stamp = detections.stamp;
+    pose.covariance = best.result.covariance;
+    out.pose.set(std::move(pose));
+    out.candidate.set(best.candidate);
+    out.inlier_ratio.set(best.result.inlier_ratio);
+    out.refined.set(best.result.inlier_ratio >= params_.min_inlier_ratio);
+    return Status::ok();
+  }
+
+ private:
+  struct Frame {
+    const Image& grey;
+    tracking::FrameMeasurements measurements;
+    const PolygonModel& model;
+  };
+
+  // Tracks from `start` as a first frame (nothing carries over from the previous start); a pose
+  // that converged and is not one already found joins `converged`.
+  Status trackFrom(const Transform& start, int candidate, const Frame& frame,
+                   std::vector<Converged>& converged) {
+    const double range = start.translation.norm();
+    tracking::PosePrediction prediction;
+    prediction.pose.pose = start;
+    prediction.pose.pose.stamp = frame.grey.stamp;
+    prediction.pose.covariance.diagonal()
+        << Eigen::Vector3d::Constant(std::pow(params_.position_sigma * range, 2)),
+        Eigen::Vector3d::Constant(std::pow(params_.attitude_sigma, 2));
+    tracker_.configure(options_);
+    CDFF_RETURN_IF_ERROR(tracker_.setModel(frame.model).withContext("model"));
+    Result<tracking::AcquiringTrackingResult> tracked =
+        tracker_.track(frame.measurements, prediction);
+    if (!tracked) return tracked.status();
+    const tracking::TrackingResult& r = tracked->tracking;
+    if (r.status == TrackingStatus::kLost) return Status::ok();
+    const bool repeat = std::any_of(converged.begin(), converged.end(), [&](const Converged& c) {
+      return angularDistance(c.result.reference_T_model.rotation, r.reference_T_model.rotation) <
+                 2 * M_PI / 180 &&
+             (c.result.reference_T_model.translation - r.reference_T_model.translation).norm() <
+                 0.01 * range;
+    });
+    if (repeat) return Status::ok();
+    Converged c;
+    c.result = r;
+    c.candidate = candidate;
+    CDFF_RETURN_IF_ERROR(evidence(frame.grey, c));
+    converged.push_back(std::move(c));
+    return Status::ok();
+  }
+
+  // The converged pose's visible contour samples in the image and whether an image edge supports
+  // each one within evidence_distance (the edge search's orientation test included).
+  Status evidence(const Image& grey, Converged& c) const {
+    const tracking::EdgeTrackerOptions& o = options_.tracking;
+    const Transform identity = Transform::identity(grey.frame_id, grey.frame_id);
+    Result<ModelContours> contours =
+        tracking::computeContours(tracker_.tracker().model(), *grey.camera,
+                                  c.result.reference_T_model, identity, o.visibility);
+    if (!contours) return contours.status();
+    tracking::SamplingOptions sampling = o.sampling;
+    sampling.step = 2.0;  // dense: the parts that differ may be a few samples long
+    sampling.max_samples = 4000;
+    const ContourSamples samples = tracking::sampleContours(
+        std::make_shared<const ModelContours>(std::move(*contours)), sampling);
+    tracking::EdgeSearchOptions search = o.search;
+    search.search_distance = std::max(1, static_cast<int>(std::ceil(params_.evidence_distance)));
+    Result<ContourSamples> searched = tracking::searchEdges(grey, samples, search);
+    if (!searched) return searched.status();
+    for (const ContourSample& s : searched->samples) {
+      bool near = false;
+      for (std::uint32_t k = 0; k < s.candidate_count && !near; ++k)
+        near = std::abs(searched->candidates[s.first_candidate + k].offset) <=
+               params_.evidence_distance;
+      c.pixels.push_back(s.pixel);
+      c.supported.push_back(near);
+    }
+    return Status::ok();
+  }
+
+  // Pairwise: each pose is judged on its samples where the other shows none; the one whose
+  // samples there find edges more often wins the pair.
+  void compare(std::vector<Converged>& converged) const {
+    const CameraModel& camera = *in.image->camera;
+    for (std::size_t i = 0; i < converged.size(); ++i)
+      for (std::size_t j = i + 1; j < converged.size(); ++j) {
+        const double a = supportWhereDifferent(converged[i], converged[j], camera);
+        const double b = supportWhereDifferent(converged[j], converged[i], camera);
+        if (std::isnan(a) || std::isnan(b) || a == b) continue;
+        ++(a > b ? converged[i] : converged[j]).wins;
+      }
+  }
+
+  // The fraction of `p`'s samples farther than evidence_distance from every sample of `q` that an
+  // image edge supports; NaN with fewer than min_evidence_samples such samples.
+  double supportWhereDifferent(const Converged& p, const Converged& q,
+                               const CameraModel& camera) const {
+    // q's samples drawn into a mask, dilated by the evidence distance.
+    cv::Mat mask = cv::Mat::zeros(camera.height, camera.width, CV_8UC1);
+    for (const Eigen::Vector2d& px : q.pixels)
+      cv::circle(
+          mask,
+          cv::Point(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y()))),
+          static_cast<int>(std::ceil(params_.evidence_distance)), cv::Scalar(255), cv::FILLED);
+    std::size_t differing = 0, supported = 0;
+    for (std::size_t k = 0; k < p.pixels.size(); ++k) {
+      const int x = static_cast<int>(std::lround(p.pixels[k].x()));
+      const int y = static_cast<int>(std::lround(p.pixels[k].y()));
+      if (x < 0 || y < 0 || x >= mask.cols || y >= mask.rows || mask.at<std::uint8_t>(y, x))
+        continue;
+      ++differing;
+      supported += p.supported[k] ? 1 : 0;
+    }
+    if (differing < static_cast<std::size_t>(params_.min_evidence_samples))
+      return std::numeric_limits<double>::quiet_NaN();
+    return static_cast<double>(supported) / differing;
+  }
+
+  std::shared_ptr<const PolygonModel> file_model_;
+  const PolygonModel* prepared_ = nullptr;
+  std::vector<Eigen::Isometry3d> half_turns_;  // of the prepared model
+  tracking::AcquiringEdgeTrackerOptions options_;
+  tracking::AcquiringEdgeTracker tracker_;
+};
+
+CDFF_REGISTER_DFI(EdgeRefinementEdgeTracker);
+
+}  // namespace cdff::dfn
