@@ -118,9 +118,34 @@ TEST(EdgeRefinementEdgeTracker, TellsTheTruthFromAHalfTurnByThePartsThatDiffer) 
                 azimuth, elevation / kDeg, *dfn->out.candidate, *dfn->out.alternatives,
                 *dfn->out.inlier_ratio, ok ? "right" : "wrong");
     if (ok) EXPECT_TRUE(*dfn->out.refined);
+    if (ok) EXPECT_FALSE(*dfn->out.ambiguous);
   }
   EXPECT_GE(right, 5);
   EXPECT_GE(compared, 4);  // the half turn converged too, and was out-voted
+}
+
+// A box is symmetric under half turns about its axes: the turned poses converge onto the same
+// contours, nothing in the image tells them apart, and the result is ambiguous, not refined.
+TEST(EdgeRefinementEdgeTracker, AnExactSymmetryIsReportedAmbiguous) {
+  auto dfn = make();
+  ASSERT_NE(dfn, nullptr);
+  const PolygonModel box = testing::boxModel(Eigen::Vector3d(1.6, 1.0, 0.7));
+  dfn->in.model.set(box);
+  std::mt19937 rng(8);
+  const Eigen::Isometry3d truth = viewAt(0.7, 0.5, 5.0);
+  testing::RenderOptions options;
+  options.background = 10;
+  options.noise_sigma = 2;
+  Image image =
+      fromMat(testing::renderModel(box, camera(), truth, options), 1000, "camera").value();
+  image.camera = camera();
+  dfn->in.image.set(image);
+  dfn->in.candidates.set(candidates({perturbed(truth, 2 * kDeg, 0.03, rng)}));
+  ASSERT_OK(dfn->process());
+  EXPECT_GE(*dfn->out.alternatives, 2);
+  EXPECT_TRUE(*dfn->out.ambiguous);
+  EXPECT_FALSE(*dfn->out.refined);
+  ASSERT_TRUE(dfn->out.pose.hasValue());  // the best guess, not to be trusted
 }
 
 TEST(EdgeRefinementEdgeTracker, NoCandidateGivesNoPose) {

@@ -28,6 +28,7 @@ struct Converged {
   std::vector<Eigen::Vector2d> pixels;  // its visible contour samples in the image
   std::vector<bool> supported;          // whether each has an image edge within the evidence
   int wins = 0;
+  std::vector<double> margin;  // per other pose: own support minus its, where they differ (NaN)
 };
 
 // Half turns about the model's principal axes through its centroid (model frame): the axes of
@@ -138,16 +139,30 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
 
     out.alternatives.set(static_cast<int>(converged.size()));
     if (converged.empty()) {
+      out.ambiguous.set(false);
       out.candidate.set(-1);
       out.refined.set(false);
       out.inlier_ratio.set(std::numeric_limits<double>::quiet_NaN());
       return Status::ok();
     }
     compare(converged);
-    const Converged& best = *std::max_element(
+    const auto chosen = std::max_element(
         converged.begin(), converged.end(), [](const Converged& a, const Converged& b) {
           return a.wins != b.wins ? a.wins < b.wins : a.result.inlier_ratio < b.result.inlier_ratio;
         });
+    const Converged& best = *chosen;
+    // Ambiguous: another pose fits the edges nearly as well and where the two differ the image
+    // does not clearly favour the chosen one (a symmetric target's distinguishing part dark,
+    // edge-on or out of view).
+    bool ambiguous = false;
+    for (std::size_t k = 0; k < converged.size(); ++k) {
+      if (&converged[k] == &best) continue;
+      const double m = best.margin[k];
+      if (converged[k].result.inlier_ratio >= best.result.inlier_ratio - params_.rival_inlier_gap &&
+          !(m >= params_.min_evidence_margin))
+        ambiguous = true;
+    }
+    out.ambiguous.set(ambiguous);
     PoseWithCovariance pose;
     pose.pose = best.result.reference_T_model;
     pose.pose.stamp = detections.stamp;
@@ -155,7 +170,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     out.pose.set(std::move(pose));
     out.candidate.set(best.candidate);
     out.inlier_ratio.set(best.result.inlier_ratio);
-    out.refined.set(best.result.inlier_ratio >= params_.min_inlier_ratio);
+    out.refined.set(best.result.inlier_ratio >= params_.min_inlier_ratio && !ambiguous);
     return Status::ok();
   }
 
@@ -232,10 +247,14 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
   // samples there find edges more often wins the pair.
   void compare(std::vector<Converged>& converged) const {
     const CameraModel& camera = *in.image->camera;
+    for (Converged& c : converged)
+      c.margin.assign(converged.size(), std::numeric_limits<double>::quiet_NaN());
     for (std::size_t i = 0; i < converged.size(); ++i)
       for (std::size_t j = i + 1; j < converged.size(); ++j) {
         const double a = supportWhereDifferent(converged[i], converged[j], camera);
         const double b = supportWhereDifferent(converged[j], converged[i], camera);
+        converged[i].margin[j] = a - b;
+        converged[j].margin[i] = b - a;
         if (std::isnan(a) || std::isnan(b) || a == b) continue;
         ++(a > b ? converged[i] : converged[j]).wins;
       }

@@ -34,9 +34,10 @@ std::vector<eval::Draw> draws(std::size_t n) {
 }
 
 // Frames of the target at 4-8.5 m (the fixture's template ranges). The bounds are regression
-// bounds near today's figures (2026-12-05: 3 of 12 detected, 2 right within 1 % of the range and
-// 2 degrees, one an exact half turn about the adapter ring's axis); the goal, 95 % right,
-// is not met yet (docs/detection.md: most frames get no candidate near the truth).
+// bounds near today's figures (2026-12-05: 2 of 12 detected, both right within 1 % of the range
+// and 2 degrees; a third frame's pose, an exact half turn about the adapter ring's axis, is
+// reported ambiguous, not detected); the goal, 95 % right, is not met yet
+// (docs/detection.md: most frames get no candidate near the truth).
 TEST(DetectionSimulated, DetectsTheTargetUnderTheLibrarysLighting) {
   ViewOptions options;
   options.min_range = 4.0;
@@ -80,7 +81,7 @@ TEST(DetectionSimulated, DetectsTheTargetUnderTheLibrarysLighting) {
               frames ? cpu_sum / frames * 1e3 : NAN);
   EXPECT_EQ(errors, 0u);
   EXPECT_GE(right, 2u);
-  EXPECT_LE(wrong, 1u);
+  EXPECT_EQ(wrong, 0u);
 }
 
 // Frames with the cameras turned away from the target (stars, the Earth, empty space): never a
