@@ -151,17 +151,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
           return a.wins != b.wins ? a.wins < b.wins : a.result.inlier_ratio < b.result.inlier_ratio;
         });
     const Converged& best = *chosen;
-    // Ambiguous: another pose fits the edges nearly as well and where the two differ the image
-    // does not clearly favour the chosen one (a symmetric target's distinguishing part dark,
-    // edge-on or out of view).
-    bool ambiguous = false;
-    for (std::size_t k = 0; k < converged.size(); ++k) {
-      if (&converged[k] == &best) continue;
-      const double m = best.margin[k];
-      if (converged[k].result.inlier_ratio >= best.result.inlier_ratio - params_.rival_inlier_gap &&
-          !(m >= params_.min_evidence_margin))
-        ambiguous = true;
-    }
+    const bool ambiguous = isAmbiguous(converged, best);
     out.ambiguous.set(ambiguous);
     PoseWithCovariance pose;
     pose.pose = best.result.reference_T_model;
@@ -258,6 +248,19 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
         if (std::isnan(a) || std::isnan(b) || a == b) continue;
         ++(a > b ? converged[i] : converged[j]).wins;
       }
+  }
+
+  // Ambiguous: another pose fits the edges nearly as well and where the two differ the image does
+  // not clearly favour the chosen one (a symmetric target's distinguishing part dark, edge-on or
+  // out of view; a NaN margin, too few differing samples, does not favour it either).
+  bool isAmbiguous(const std::vector<Converged>& converged, const Converged& best) const {
+    for (std::size_t k = 0; k < converged.size(); ++k) {
+      if (&converged[k] == &best) continue;
+      const bool rival =
+          converged[k].result.inlier_ratio >= best.result.inlier_ratio - params_.rival_inlier_gap;
+      if (rival && !(best.margin[k] >= params_.min_evidence_margin)) return true;
+    }
+    return false;
   }
 
   // The fraction of `p`'s samples farther than evidence_distance from every sample of `q` that an
