@@ -1,4 +1,6 @@
 // cdff run GRAPH.yaml... -i IN.mcap [-i MORE.mcap] -o OUT.mcap [--set NODE.PARAM=VALUE ...]
+//          [--map DFPC.INPUT=/channel] [--pair /pair=/left,/right] [--run-while
+//          DFPC=TRACKER:STATES]
 //
 // Replays recordings through one or several DFPCs and records the ground truth of the inputs,
 // every product, every event and one timing record per DFN call into OUT.
@@ -25,6 +27,8 @@ struct RunArguments {
   bool realtime = false;
   double speed = 1.0;
   std::vector<std::string> maps;
+  std::vector<std::string> pairs;
+  std::vector<std::string> run_while;
   std::vector<std::string> settings;
   std::vector<std::string> passthrough = {"/truth/"};
   bool no_timing = false;
@@ -44,6 +48,33 @@ std::string formatSeconds(Timestamp us) {
   return fmt::format("{:.3f} s", us * 1e-6);
 }
 
+// --set, --map, --pair and --run-while, each checked before anything is opened.
+bool parseRepeatedOptions(const RunArguments& args, dfpc::ReplayOptions& options) {
+  const auto fail = [](const char* option, const Status& s) {
+    fmt::print(stderr, "error: {}{}\n", option, s.message());
+    return false;
+  };
+  for (const std::string& text : args.settings)
+    if (Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text); !s)
+      return fail("", s.status());
+  for (const std::string& text : args.maps) {
+    Result<dfpc::ChannelRemap> remap = dfpc::parseRemap(text);
+    if (!remap) return fail("--map: ", remap.status());
+    options.remaps.push_back(std::move(remap).value());
+  }
+  for (const std::string& text : args.pairs) {
+    Result<dfpc::StereoPairing> pairing = dfpc::parseStereoPairing(text);
+    if (!pairing) return fail("--pair: ", pairing.status());
+    options.stereo_pairs.push_back(std::move(pairing).value());
+  }
+  for (const std::string& text : args.run_while) {
+    Result<dfpc::ActivationRule> rule = dfpc::parseActivationRule(text);
+    if (!rule) return fail("--run-while: ", rule.status());
+    options.run_while.push_back(std::move(rule).value());
+  }
+  return true;
+}
+
 int runGraphs(const RunArguments& args) {
   dfpc::ReplayOptions options;
   options.graph_files = args.graphs;
@@ -57,20 +88,7 @@ int runGraphs(const RunArguments& args) {
     fmt::print(stderr, "error: --speed {}: expected a positive number\n", args.speed);
     return 2;
   }
-  for (const std::string& text : args.settings) {
-    if (Result<dfpc::ParameterSetting> s = dfpc::parseParameterSetting(text); !s) {
-      fmt::print(stderr, "error: {}\n", s.status().message());
-      return 2;
-    }
-  }
-  for (const std::string& text : args.maps) {
-    Result<dfpc::ChannelRemap> remap = dfpc::parseRemap(text);
-    if (!remap) {
-      fmt::print(stderr, "error: --map: {}\n", remap.status().message());
-      return 2;
-    }
-    options.remaps.push_back(std::move(remap).value());
-  }
+  if (!parseRepeatedOptions(args, options)) return 2;
   const auto compression = io::compressionFromString(args.compression);
   if (!compression) {
     fmt::print(stderr, "error: --compression '{}' is not one of none, lz4, zstd\n",
@@ -172,6 +190,12 @@ void addRunCommand(CLI::App& root, int& exit_code) {
       ->capture_default_str();
   run->add_option("--map", args->maps,
                   "Feed a DFPC input from another channel: DFPC.INPUT=/channel (repeatable)");
+  run->add_option("--pair", args->pairs,
+                  "Make stereo pairs from two image channels: /pair=/left/image,/right/image "
+                  "(repeatable)");
+  run->add_option("--run-while", args->run_while,
+                  "Run a DFPC only while another's track state is one of some states: "
+                  "DFPC=TRACKER:STATE[,STATE] (repeatable)");
   run->add_option("--set", args->settings,
                   "Set an instance's parameter without editing the graph: "
                   "[DFPC/]NODE.PARAM=VALUE, the value YAML (repeatable)");

@@ -15,6 +15,36 @@ double RunProgress::fraction() const {
                     1.0);
 }
 
+Result<ActivationRule> parseActivationRule(const std::string& text) {
+  const auto bad = [&](const std::string& why) {
+    return invalidParameter(
+        "run-while rule '{}': {}; expected DFPC=TRACKER:STATE[,STATE...] "
+        "(e.g. detection=visual_tracking:UNINITIALISED,LOST)",
+        text, why);
+  };
+  const std::size_t eq = text.find('=');
+  const std::size_t colon = text.find(':', eq == std::string::npos ? 0 : eq);
+  if (eq == std::string::npos || colon == std::string::npos) return bad("no '=' and ':'");
+  ActivationRule rule;
+  rule.dfpc = text.substr(0, eq);
+  rule.tracker = text.substr(eq + 1, colon - eq - 1);
+  if (rule.dfpc.empty() || rule.tracker.empty()) return bad("a DFPC name is empty");
+  std::string states = text.substr(colon + 1);
+  for (std::size_t start = 0; start <= states.size();) {
+    const std::size_t end = std::min(states.find(',', start), states.size());
+    const std::string name = states.substr(start, end - start);
+    const std::optional<TrackState> state = parseTrackState(name);
+    if (!state) {
+      std::vector<std::string_view> names;
+      for (TrackState t : allTrackStates()) names.push_back(toString(t));
+      return bad(fmt::format("'{}' is not a track state ({})", name, fmt::join(names, ", ")));
+    }
+    rule.states.push_back(*state);
+    start = end + 1;
+  }
+  return rule;
+}
+
 Orchestrator::Orchestrator(OrchestratorOptions options)
     : options_(std::move(options)), products_(options_.products) {
   if (!products_) products_ = std::make_shared<DataProductManager>();
@@ -140,14 +170,75 @@ Status Orchestrator::resetAll() {
   return sink_status_;
 }
 
+Status Orchestrator::runWhile(ActivationRule rule) {
+  std::lock_guard lock(mutex_);
+  const Entry* dfpc = find(rule.dfpc);
+  if (!dfpc) return unknown(rule.dfpc).withContext("run-while rule");
+  const Entry* tracker = find(rule.tracker);
+  if (!tracker) return unknown(rule.tracker).withContext("run-while rule");
+  if (rule.dfpc == rule.tracker)
+    return invalidInput("run-while rule: DFPC '{}' cannot follow its own track state", rule.dfpc);
+  if (!tracker->dfpc->spec().track_state)
+    return invalidInput("run-while rule for '{}': DFPC '{}' declares no track_state to follow",
+                        rule.dfpc, rule.tracker);
+  if (rule.states.empty())
+    return invalidInput("run-while rule for '{}': no track state to run in", rule.dfpc);
+  for (const RuleState& r : activation_rules_)
+    if (r.rule.dfpc == rule.dfpc)
+      return invalidInput("DFPC '{}' already runs while '{}' is in given states; one rule per DFPC",
+                          rule.dfpc, r.rule.tracker);
+  activation_rules_.push_back({std::move(rule)});
+  return Status::ok();
+}
+
+Status Orchestrator::applyActivationRules(Timestamp stamp) {
+  for (RuleState& r : activation_rules_) {
+    const ActivationRule& rule = r.rule;
+    Entry* e = find(rule.dfpc);
+    const Entry* tracker = find(rule.tracker);
+    const DfpcState state = e->dfpc->state();
+    const bool running = state == DfpcState::kRunning;
+    if (!running && !(state == DfpcState::kStopped && r.stopped_by_rule)) continue;
+    const TrackState followed = tracker->dfpc->trackState();
+    const bool wanted =
+        std::find(rule.states.begin(), rule.states.end(), followed) != rule.states.end();
+    if (wanted == running) continue;
+    CDFF_RETURN_IF_ERROR(wanted ? e->dfpc->start() : e->dfpc->stop());
+    r.stopped_by_rule = !wanted;
+    Event event;
+    event.stamp = stamp;
+    event.type = wanted ? EventType::kActivated : EventType::kDeactivated;
+    event.dfpc = rule.dfpc;
+    std::vector<std::string_view> names;
+    for (TrackState t : rule.states) names.push_back(toString(t));
+    event.message = fmt::format("'{}' is {}; '{}' runs while it is {}", rule.tracker,
+                                toString(followed), rule.dfpc, fmt::join(names, " or "));
+    onEvent(event);
+  }
+  return Status::ok();
+}
+
 Status Orchestrator::checkChannels(const std::vector<ChannelInfo>& available) const {
   std::lock_guard lock(mutex_);
   std::vector<std::string> problems;
+  // Another DFPC's output feeds an input on its channel (detection's pose a tracker's).
+  std::vector<std::pair<std::string, std::string>> produced;  // channel, type
+  for (const Entry& e : entries_)
+    for (const DfpcOutputSpec& out : e.dfpc->spec().outputs)
+      produced.emplace_back(e.dfpc->spec().outputChannel(out), out.type);
   for (const Entry& e : entries_) {
     for (const DfpcInputSpec& in : e.dfpc->spec().inputs) {
       auto it = std::find_if(available.begin(), available.end(),
                              [&](const ChannelInfo& c) { return c.channel == in.channel; });
-      if (it == available.end()) {
+      auto product = std::find_if(produced.begin(), produced.end(),
+                                  [&](const auto& p) { return p.first == in.channel; });
+      if (it == available.end() && product != produced.end()) {
+        if (product->second != in.type)
+          problems.push_back(
+              fmt::format("DFPC '{}' input '{}' takes {}; channel '{}' is a "
+                          "DFPC output of type {}",
+                          e.dfpc->name(), in.name, in.type, in.channel, product->second));
+      } else if (it == available.end()) {
         if (!in.optional)
           problems.push_back(
               fmt::format("DFPC '{}' input '{}' needs channel '{}' ({}), which the "
@@ -225,6 +316,7 @@ Status Orchestrator::process(const Message& message) {
       break;
     }
   }
+  CDFF_RETURN_IF_ERROR(applyActivationRules(message.stamp));
   Status result = deliverLocked(message, true);
   // Products consumed by other DFPCs, in the order they were made (FIFO; a product made while
   // routing another joins the end).

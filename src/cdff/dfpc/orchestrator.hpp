@@ -63,6 +63,17 @@ struct RunSummary {
   bool cancelled = false;
 };
 
+/// Runs one DFPC only while another's track state is one of some states: the seed's Figure 5,
+/// detection running while a tracker is UNINITIALISED or LOST and stopped while it tracks.
+struct ActivationRule {
+  std::string dfpc;     // the DFPC started and stopped
+  std::string tracker;  // the DFPC whose track state decides (its graph declares track_state)
+  std::vector<TrackState> states;  // `dfpc` runs while the tracker is in one of these
+};
+
+/// Parses "DFPC=TRACKER:STATE[,STATE...]", e.g. "detection=visual_tracking:UNINITIALISED,LOST".
+Result<ActivationRule> parseActivationRule(const std::string& text);
+
 class Orchestrator final : private DfpcObserver {
  public:
   explicit Orchestrator(OrchestratorOptions options = {});
@@ -88,7 +99,15 @@ class Orchestrator final : private DfpcObserver {
   Status stopAll();  // stops the running ones
   Status resetAll();
 
-  /// Every DFPC input (not optional) has its channel among `available`, with its type.
+  /// Adds a rule: before every message, `rule.dfpc` is started when the tracker's track state
+  /// is one of `rule.states` and stopped otherwise, with an `activated` or `deactivated` event
+  /// (the DFPC as a whole) that names the tracker's state. A DFPC that a caller stopped is not
+  /// restarted by its rule. One rule per DFPC; both DFPCs loaded, distinct, and the tracker with
+  /// a track state.
+  Status runWhile(ActivationRule rule);
+
+  /// Every DFPC input (not optional) has its channel among `available`, or among the loaded
+  /// DFPCs' outputs, with its type.
   Status checkChannels(const std::vector<ChannelInfo>& available) const;
 
   /// One message: moves stream time, copies it through when its channel is a passthrough, and
@@ -141,6 +160,7 @@ class Orchestrator final : private DfpcObserver {
   Status unknown(const std::string& dfpc) const;
   void rebuildRoutes();
   Status deliverLocked(const Message& message, bool external);
+  Status applyActivationRules(Timestamp stamp);
   void recordSinkError(const Status& status);
 
   OrchestratorOptions options_;
@@ -149,6 +169,11 @@ class Orchestrator final : private DfpcObserver {
   std::vector<Entry> entries_;
   std::unordered_map<std::string, std::vector<Route>> routes_;  // channel -> DFPC inputs
   std::vector<Message> internal_;  // products waiting to be routed within this step
+  struct RuleState {
+    ActivationRule rule;
+    bool stopped_by_rule = false;  // a DFPC stopped by a caller stays stopped
+  };
+  std::vector<RuleState> activation_rules_;
   Status sink_status_;
   RunSummary counters_;
 };

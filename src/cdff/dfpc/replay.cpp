@@ -106,6 +106,8 @@ Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions&
     if (!dfpc) return dfpc.status();
     CDFF_RETURN_IF_ERROR(orchestrator.add(std::move(dfpc).value()));
   }
+  for (const ActivationRule& rule : options.run_while)
+    CDFF_RETURN_IF_ERROR(orchestrator.runWhile(rule));
   CDFF_RETURN_IF_ERROR(orchestrator.startAll());
   RunOptions run;
   run.realtime = options.realtime;
@@ -113,7 +115,9 @@ Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions&
   run.clock = options.clock;
   run.progress = options.progress;
   run.cancel = options.cancel;
-  Result<RunSummary> summary = orchestrator.run(input, run);
+  StereoPairStream paired(input, options.stereo_pairs);
+  InputStream& source = options.stereo_pairs.empty() ? input : paired;
+  Result<RunSummary> summary = orchestrator.run(source, run);
   if (!summary) {
     // The DFPCs stop where the input failed, so that what was recorded ends with their stop.
     (void)orchestrator.stopAll();

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "cdff/dfpc/orchestrator.hpp"
+#include "cdff/dfpc/stereo_pairing.hpp"
 
 namespace cdff::dfpc {
 
@@ -35,6 +36,12 @@ Result<ChannelRemap> parseRemap(const std::string& text);
 struct ReplayOptions {
   std::vector<std::string> graph_files;  // one DFPC per file; all run together
   std::vector<ChannelRemap> remaps;
+  /// Stereo pairs made from two image channels of the input (StereoPairStream), for the DFPCs
+  /// that take StereoImagePair.
+  std::vector<StereoPairing> stereo_pairs;
+  /// DFPCs that run only while another's track state is in given states (detection while a
+  /// tracker is UNINITIALISED or LOST).
+  std::vector<ActivationRule> run_while;
   /// Instance parameters set without editing the graphs: "[DFPC/]NODE.PARAM=VALUE"
   /// (ParameterSetting); each must address exactly one graph's instance.
   std::vector<std::string> parameter_settings;
@@ -56,7 +63,7 @@ struct ReplayResult {
 /// Loads the graphs, applies the remaps, checks the input's channels, runs the input to its end
 /// and flushes the sink. Errors: a graph that does not load (every problem, with file:line), a
 /// remap that names no input, a channel the input lacks, a message of the wrong type, a failed
-/// write.
+/// write, a run-while rule that names a DFPC not loaded, an image without its mounting (pairs).
 Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options);
 
 /// A one-line progress bar on a terminal ("[#####.....]  52.0 %  t = 12.30 s  4 517 messages"),
