@@ -74,6 +74,10 @@ TEST(DetectThenTrack, DetectionRunsOnlyWhileTheTrackerIsUninitialisedOrLost) {
                                         {EventType::kDeactivated, fromSeconds(4)},
                                         {EventType::kActivated, fromSeconds(5)},
                                         {EventType::kDeactivated, fromSeconds(6)}}));
+  std::vector<Timestamp> started;  // the rule's starts carry the stream time of the start
+  for (const Event& e : sink.events(EventType::kStarted))
+    if (e.dfpc == "detection") started.push_back(e.stamp);
+  EXPECT_EQ(started, (std::vector<Timestamp>{0, fromSeconds(3), fromSeconds(5)}));
   const std::vector<Event> deactivated = sink.events(EventType::kDeactivated);
   ASSERT_FALSE(deactivated.empty());
   EXPECT_EQ(deactivated[0].message,

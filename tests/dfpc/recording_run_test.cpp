@@ -297,6 +297,14 @@ TEST(RunCommand, BadInputGetsAClearErrorAndANonZeroStatus) {
       {fmt::format("run {} -i {} -o {} --set ekf.position_sigma=-1", kGraph, in.string(),
                    out.string()),
        "position_sigma = -1: out of range", 1},
+      {fmt::format("run {} -i {} -o {} --pair /p=/left", kGraph, in.string(), out.string()),
+       "--pair: stereo pairing '/p=/left': expected CHANNEL=LEFT,RIGHT", 2},
+      {fmt::format("run {} -i {} -o {} --run-while pose_filtering=x:LOSING", kGraph, in.string(),
+                   out.string()),
+       "'LOSING' is not a track state", 2},
+      {fmt::format("run {} -i {} -o {} --run-while pose_filtering=tracking:LOST", kGraph,
+                   in.string(), out.string()),
+       "run-while rule: no DFPC 'tracking'; expected one of {pose_filtering}", 1},
   };
   for (const Case& c : cases) {
     const CommandResult r = runCdff(c.arguments);

@@ -91,9 +91,10 @@ Status Dfpc::init() {
   return Status::ok();
 }
 
-Status Dfpc::start() {
+Status Dfpc::start(std::optional<Timestamp> now) {
   if (state_ == DfpcState::kRunning) return invalidInput("DFPC '{}' is already running", name());
   state_ = DfpcState::kRunning;
+  if (now && *now > step_stamp_) step_stamp_ = *now;
   // Periodic triggers and watchdogs start again from the next stream time: the time spent
   // stopped is neither ticked through nor a silence.
   started_ = false;

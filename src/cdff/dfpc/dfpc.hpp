@@ -96,8 +96,9 @@ class Dfpc {
   /// Fresh instances (internal states cleared), queues and track state cleared; any state ->
   /// initialised, except running (stop first).
   Status init();
-  /// initialised or stopped -> running.
-  Status start();
+  /// initialised or stopped -> running; `now`, when given, is the stream time of the start (its
+  /// event's stamp: a stopped DFPC's own time stood still).
+  Status start(std::optional<Timestamp> now = std::nullopt);
   /// running -> stopped: messages are then ignored (and counted); instances keep their state.
   Status stop();
   /// As init(), keeping the DFPC running if it was.
@@ -162,7 +163,7 @@ class Dfpc {
     bool sync_loaded = false;  // a match is on the ports, waiting to run
     bool pending = false;
     Timestamp pending_stamp = 0;
-    std::array<int, 4> consecutive{};  // consecutive faults per FaultKind
+    std::array<int, 4> consecutive{};             // consecutive faults per FaultKind
     std::array<std::deque<Timestamp>, 4> recent;  // per FaultKind, for a recovery's within_s
     std::uint64_t warnings_seen = 0;
     std::uint64_t faults = 0, skipped = 0, sync_dropped = 0;

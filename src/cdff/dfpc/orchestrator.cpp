@@ -203,7 +203,7 @@ Status Orchestrator::applyActivationRules(Timestamp stamp) {
     const bool wanted =
         std::find(rule.states.begin(), rule.states.end(), followed) != rule.states.end();
     if (wanted == running) continue;
-    CDFF_RETURN_IF_ERROR(wanted ? e->dfpc->start() : e->dfpc->stop());
+    CDFF_RETURN_IF_ERROR(wanted ? e->dfpc->start(stamp) : e->dfpc->stop());
     r.stopped_by_rule = !wanted;
     Event event;
     event.stamp = stamp;
