@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # make demo: simulate the mid-range approach -> LIDAR tracking DFPC -> evaluation against the
 # ground truth (a short table on the terminal and an HTML report); then the same for visual
-# tracking on the simulated close-range approach.
+# tracking on the simulated close-range approach, first from a perturbed truth, then started by
+# the detection DFPC with no truth at all.
 #   scripts/demo.sh BUILD_DIR OUT_DIR
 # Each step is one `cdff` command, so any of them can be run by hand on other data.
 set -euo pipefail
@@ -51,6 +52,22 @@ echo "== 5. visual tracking (dfpcs/visual_tracking.yaml) on the simulated close-
   -o "$out/vt_out.mcap"
 "$cdff" eval --check "$out/vt_out.mcap" --product /cdff/visual_tracking/pose \
   --json "$out/vt_report.json" --html "$out/vt_report.html"
-echo "reports: $out/report.html (LIDAR), $out/vt_report.html (visual)"
+echo "== 6. detect, then track, with no initial state: the close-range approach, stereo at 5 Hz"
+# The detection DFPC (dfpcs/detection.yaml, LINEMOD templates from `make templates`) runs on the
+# stereo pairs made from the two cameras' channels (--pair) while the visual tracker is
+# UNINITIALISED or LOST (--run-while) and stops while it tracks; its camera-frame state is the
+# tracker's initial pose (--map). No ground truth enters the run.
+"$cdff" sim close_range_approach -o "$out/dt_sim.mcap" -q --set sensors.camera_left.rate=5 \
+  --set sensors.camera_right.rate=5 --set sensors.lidar.enabled=false \
+  --set sensors.tof.enabled=false --set sensors.imu.enabled=false
+"$cdff" run dfpcs/detection.yaml dfpcs/visual_tracking.yaml -i "$out/dt_sim.mcap" \
+  -o "$out/dt_out.mcap" --set detect.template_file="$build/templates/target_stereo.yml.gz" \
+  --pair /chaser/stereo/pair=/chaser/camera/left/image,/chaser/camera/right/image \
+  --map visual_tracking.initial_pose=/cdff/detection/camera_state \
+  --run-while detection=visual_tracking:UNINITIALISED,LOST
+"$cdff" eval --check "$out/dt_out.mcap" --product /cdff/visual_tracking/pose \
+  --product /cdff/detection/pose --json "$out/dt_report.json" --html "$out/dt_report.html"
+echo "reports: $out/report.html (LIDAR), $out/vt_report.html (visual)," \
+  "$out/dt_report.html (detect, then track)"
 # Ours and ViSP's tracker side by side on the same approach (ViSP takes seconds per frame):
 #   build/examples/visual_tracking_demo --scenario close_range_approach --rate 2 --dfi both

@@ -11,7 +11,6 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -23,6 +22,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using cdff::testing::CommandResult;
+using cdff::testing::readReport;
 using cdff::testing::reportProduct;
 using cdff::testing::runCdff;
 
@@ -52,8 +52,7 @@ TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
   ASSERT_EQ(r.status, 0) << r.output;
   std::printf("%s\n", r.output.c_str());
 
-  std::ifstream file(json);
-  const nlohmann::json report = nlohmann::json::parse(file);
+  const nlohmann::json report = readReport(json);
   const nlohmann::json* pose = reportProduct(report, "/cdff/visual_tracking/pose");
   ASSERT_NE(pose, nullptr) << report.dump(2);
   EXPECT_EQ(pose->at("truth_channel"), "/truth/target_pose");

@@ -1,0 +1,96 @@
+// Detect, then track, with no ground truth, end to end through the command line: `cdff sim
+// close_range_approach` records both cameras at 5 Hz; `cdff run` runs the detection DFPC on the
+// stereo pairs made from the two cameras' channels (--pair) while the visual tracking DFPC is
+// UNINITIALISED or LOST (--run-while), the detection's camera-frame state is the tracker's
+// initial pose (--map); `cdff eval` pairs the tracker's pose with the simulator's truth. The
+// templates are the CTest fixture's coarse set (tests/dfpc/CMakeLists.txt). The first 10 s of
+// the approach (3.2 m to 2.9 m between the centres of mass) keep the run affordable in CI.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <regex>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "support/command.hpp"
+#include "support/eval_report.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using cdff::testing::CommandResult;
+using cdff::testing::readReport;
+using cdff::testing::reportProduct;
+using cdff::testing::runCdff;
+
+// Stream time (s) of the tracker's first TRACKING, from the recording's events; -1 if never.
+double firstTracking(const std::string& recording) {
+  const CommandResult r = runCdff(fmt::format("log cat {} -c /cdff/events", recording));
+  std::istringstream lines(r.output);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const nlohmann::json event = nlohmann::json::parse(line, nullptr, false);
+    if (event.is_discarded() || !event.contains("data")) continue;
+    const nlohmann::json& d = event["data"];
+    if (d.value("dfpc", "") == "visual_tracking" && d.value("type", "") == "track_state_changed" &&
+        d.value("message", "").ends_with("-> TRACKING"))
+      return event["log_time"].get<double>();
+  }
+  return -1;
+}
+
+TEST(DetectThenTrackCommandLine, TheDetectionStartsTheVisualTrackerAndStopsWhileItTracks) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("cdff_detect_track_{}", ::getpid());
+  fs::create_directories(dir);
+  // The graphs' model files are relative to the repository root.
+  fs::current_path(CDFF_SOURCE_DIR);
+  const std::string sim = (dir / "sim.mcap").string(), out = (dir / "out.mcap").string(),
+                    json = (dir / "report.json").string();
+  CommandResult r = runCdff(fmt::format(
+      "sim close_range_approach -o {} -q --duration 10 --set sensors.camera_left.rate=5 "
+      "--set sensors.camera_right.rate=5 --set sensors.lidar.enabled=false "
+      "--set sensors.tof.enabled=false --set sensors.imu.enabled=false",
+      sim));
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = runCdff(
+      fmt::format("run dfpcs/detection.yaml dfpcs/visual_tracking.yaml -i {} -o {} -q "
+                  "--set detect.template_file={} "
+                  "--pair /chaser/stereo/pair=/chaser/camera/left/image,/chaser/camera/right/image "
+                  "--map visual_tracking.initial_pose=/cdff/detection/camera_state "
+                  "--run-while detection=visual_tracking:UNINITIALISED,LOST",
+                  sim, out, CDFF_DETECTION_TEMPLATES));
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s\n", r.output.c_str());
+  // The detection ran on the pairs until the tracker tracked, then stopped (the first pair
+  // today: 2 messages, the pair and the mounting).
+  std::smatch m;
+  const std::regex detection_line(R"(detection: stopped, (\d+) messages)");
+  ASSERT_TRUE(std::regex_search(r.output, m, detection_line)) << r.output;
+  EXPECT_LE(std::stoi(m[1]), 20);
+
+  // The issue's goal: TRACKING within 2 s of the first frame.
+  const double tracking = firstTracking(out);
+  std::printf("first TRACKING at %.1f s\n", tracking);
+  EXPECT_GE(tracking, 0) << "the tracker never tracked";
+  EXPECT_LE(tracking, 2.0);
+
+  r = runCdff(fmt::format("eval {} --json {} --product /cdff/visual_tracking/pose", out, json));
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s\n", r.output.c_str());
+  const nlohmann::json report = readReport(json);
+  const nlohmann::json* pose = reportProduct(report, "/cdff/visual_tracking/pose");
+  ASSERT_NE(pose, nullptr) << report.dump(2);
+  // Tracked from the hand-over on (the issue: >= 98 % of the frames), and the accuracy the
+  // visual tracker meets from a perturbed truth at close range: p95 <= 10 mm and 0.5 degrees.
+  EXPECT_GE(pose->at("tracked_fraction").get<double>(), 0.98);
+  EXPECT_GE(pose->at("valid_frames").get<int>(), 30);
+  EXPECT_LE(pose->at("position_error_m").at("p95").get<double>(), 0.010);
+  EXPECT_LE(pose->at("angle_error_deg").at("p95").get<double>(), 0.5);
+  if (!HasFailure()) fs::remove_all(dir);  // else kept for a look (cdff log, cdff eval)
+}
+
+}  // namespace
