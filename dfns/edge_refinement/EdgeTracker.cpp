@@ -21,12 +21,17 @@ namespace cdff::dfn {
 
 namespace {
 
+// The chance lines' distance from a contour sample, in evidence distances: outside its own
+// window, near enough to cross the same surface.
+constexpr double kChanceShift = 3.0;
+
 // One converged candidate.
 struct Converged {
   tracking::TrackingResult result;
   int candidate = -1;
   std::vector<Eigen::Vector2d> pixels;  // its visible contour samples in the image
   std::vector<bool> supported;          // whether each has an image edge within the evidence
+  std::vector<int> by_chance;  // per sample: on how many of the two shifted lines an edge is
   int wins = 0;
   std::vector<double> margin;  // per other pose: own support minus its, where they differ (NaN)
 };
@@ -218,17 +223,24 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     sampling.max_samples = 4000;
     const ContourSamples samples = tracking::sampleContours(
         std::make_shared<const ModelContours>(std::move(*contours)), sampling);
+    // Out to the shifted lines, every edge: the strongest few would hide the near ones.
+    const double e = params_.evidence_distance, shift = kChanceShift * e;
     tracking::EdgeSearchOptions search = o.search;
-    search.search_distance = std::max(1, static_cast<int>(std::ceil(params_.evidence_distance)));
+    search.search_distance = static_cast<int>(std::ceil(shift + e));
+    search.max_candidates = 4 * search.search_distance;
     Result<ContourSamples> searched = tracking::searchEdges(grey, samples, search);
     if (!searched) return searched.status();
     for (const ContourSample& s : searched->samples) {
-      bool near = false;
-      for (std::uint32_t k = 0; k < s.candidate_count && !near; ++k)
-        near = std::abs(searched->candidates[s.first_candidate + k].offset) <=
-               params_.evidence_distance;
+      bool near = false, before = false, after = false;
+      for (std::uint32_t k = 0; k < s.candidate_count; ++k) {
+        const double offset = searched->candidates[s.first_candidate + k].offset;
+        near = near || std::abs(offset) <= e;
+        before = before || std::abs(offset + shift) <= e;
+        after = after || std::abs(offset - shift) <= e;
+      }
       c.pixels.push_back(s.pixel);
       c.supported.push_back(near);
+      c.by_chance.push_back((before ? 1 : 0) + (after ? 1 : 0));
     }
     return Status::ok();
   }
@@ -263,8 +275,12 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     return false;
   }
 
-  // The fraction of `p`'s samples farther than evidence_distance from every sample of `q` that an
-  // image edge supports; NaN with fewer than min_evidence_samples such samples.
+  // Over `p`'s samples farther than evidence_distance from every sample of `q`: the fraction that
+  // an image edge supports, less the fraction that the same lines shifted kChanceShift times the
+  // evidence distance to either side find (the rate at which the image's texture and clutter
+  // there support any contour by chance: a dark part drawn over a textured surface finds some of
+  // the texture's edges, one drawn over empty space none); NaN with fewer than
+  // min_evidence_samples such samples.
   double supportWhereDifferent(const Converged& p, const Converged& q,
                                const CameraModel& camera) const {
     // q's samples drawn into a mask, dilated by the evidence distance.
@@ -274,7 +290,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
           mask,
           cv::Point(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y()))),
           static_cast<int>(std::ceil(params_.evidence_distance)), cv::Scalar(255), cv::FILLED);
-    std::size_t differing = 0, supported = 0;
+    std::size_t differing = 0, supported = 0, by_chance = 0;
     for (std::size_t k = 0; k < p.pixels.size(); ++k) {
       const int x = static_cast<int>(std::lround(p.pixels[k].x()));
       const int y = static_cast<int>(std::lround(p.pixels[k].y()));
@@ -282,10 +298,11 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
         continue;
       ++differing;
       supported += p.supported[k] ? 1 : 0;
+      by_chance += static_cast<std::size_t>(p.by_chance[k]);
     }
     if (differing < static_cast<std::size_t>(params_.min_evidence_samples))
       return std::numeric_limits<double>::quiet_NaN();
-    return static_cast<double>(supported) / differing;
+    return (static_cast<double>(supported) - 0.5 * static_cast<double>(by_chance)) / differing;
   }
 
   std::shared_ptr<const PolygonModel> file_model_;
