@@ -98,6 +98,8 @@ int runGraphs(const RunArguments& args) {
 
   dfpc::McapInputStream input;
   io::ReplayOptions window;
+  // A window keeps what was recorded once at the beginning (the mountings a graph needs).
+  window.keep_static = true;
   {
     // --start/--end are seconds from the beginning of the inputs: open once to learn it.
     if (args.start_s || args.end_s) {

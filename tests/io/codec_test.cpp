@@ -606,6 +606,48 @@ TEST(Replay, MergesFilesInTimeOrderAndSeeksByTimeAndChannel) {
       << st.message();
 }
 
+// A window of a recording keeps, on request, what was recorded once at its beginning (a sensor's
+// mounting): first, at its own time, from the file that holds it.
+TEST(Replay, AWindowKeepsTheStaticChannelsOnRequest) {
+  const std::string a = tempPath("static_a.mcap"), b = tempPath("static_b.mcap");
+  {
+    Recorder ra, rb;
+    ASSERT_TRUE(ra.open(a).isOk());
+    ASSERT_TRUE(rb.open(b).isOk());
+    const IoSamples s = testing::makeIoSamples(0, 0);
+    Transform mounting = s.transform;
+    mounting.stamp = 0;
+    ASSERT_TRUE(rb.write("/chaser/tf/lidar", mounting).isOk());
+    for (int i = 0; i < 100; ++i) {
+      ImuSample imu = s.imu;
+      imu.stamp = i * 1000;
+      ASSERT_TRUE(ra.write("/chaser/imu", imu).isOk());
+    }
+    ASSERT_TRUE(ra.close().isOk());
+    ASSERT_TRUE(rb.close().isOk());
+  }
+  const auto read = [&](bool keep_static) {
+    ReplayOptions window;
+    window.start = 50'000;
+    window.keep_static = keep_static;
+    Replay replay;
+    EXPECT_TRUE(replay.open({a, b}, window).isOk());
+    std::vector<std::pair<std::string, Timestamp>> out;
+    while (replay.next()) {
+      out.emplace_back(replay.message().channel(), replay.message().logTime());
+      if (out.back().first == "/chaser/tf/lidar") EXPECT_EQ(replay.message().fileIndex(), 1u);
+    }
+    EXPECT_TRUE(replay.status().isOk());
+    return out;
+  };
+  const auto plain = read(false), kept = read(true);
+  ASSERT_EQ(plain.size(), 50u);  // 50 ms to 99 ms
+  EXPECT_EQ(plain.front(), (std::pair<std::string, Timestamp>("/chaser/imu", 50'000)));
+  ASSERT_EQ(kept.size(), 51u);
+  EXPECT_EQ(kept.front(), (std::pair<std::string, Timestamp>("/chaser/tf/lidar", 0)));
+  EXPECT_EQ(kept[1], plain.front());
+}
+
 TEST(Replay, DecodingAsTheWrongTypeIsRefused) {
   const std::string path = tempPath("wrong.mcap");
   {

@@ -183,8 +183,9 @@ struct Replay::Impl {
   std::vector<std::string> paths;
   std::vector<std::unique_ptr<McapReader>> readers;
   std::vector<MessageIterator> iterators;
+  std::vector<std::size_t> iterator_files;  // the file each iterator reads
   std::vector<bool> has_current;
-  std::vector<std::size_t> heap;  // file indices, min-heap on the current message
+  std::vector<std::size_t> heap;  // iterator indices, min-heap on the current message
   std::vector<ReplayChannel> channels;
   std::vector<std::map<std::uint16_t, TypeId>> types;  // per file, by channel id
   ReplayMessage current;
@@ -314,6 +315,25 @@ ReadOptions readOptionsFor(const McapReader& r, const ReplayOptions& options) {
   return ro;
 }
 
+// The channels of one file that hold a single message in all the files (static), among the
+// requested ones, read before the window's start.
+ReadOptions staticChannelsBefore(const McapReader& r, const std::vector<ReplayChannel>& channels,
+                                 const ReplayOptions& options) {
+  ReadOptions ro;
+  ro.start_time = 0;
+  ro.end_time = toMcapTime(*options.start) - 1;
+  for (const auto& [id, ch] : r.channels()) {
+    const bool wanted = options.channels.empty() ||
+                        std::find(options.channels.begin(), options.channels.end(), ch.topic) !=
+                            options.channels.end();
+    const bool single = std::any_of(channels.begin(), channels.end(), [&](const ReplayChannel& c) {
+      return c.topic == ch.topic && c.message_count == 1;
+    });
+    if (wanted && single) ro.channels.push_back(id);
+  }
+  return ro;
+}
+
 }  // namespace
 
 Replay::Replay() = default;
@@ -338,8 +358,19 @@ Status Replay::open(const std::vector<std::string>& paths, const ReplayOptions& 
   impl->types = std::move(index->types);
   CDFF_RETURN_IF_ERROR(checkTopicsExist(options.channels, impl->channels, paths));
   std::tie(impl->start, impl->end) = selectionRange(impl->readers, options);
-  for (const auto& r : impl->readers)
-    impl->iterators.push_back(r->messages(readOptionsFor(*r, options)));
+  for (std::size_t f = 0; f < impl->readers.size(); ++f) {
+    impl->iterators.push_back(
+        impl->readers[f]->messages(readOptionsFor(*impl->readers[f], options)));
+    impl->iterator_files.push_back(f);
+  }
+  if (options.keep_static && options.start && *options.start > 0) {
+    for (std::size_t f = 0; f < impl->readers.size(); ++f) {
+      ReadOptions before = staticChannelsBefore(*impl->readers[f], impl->channels, options);
+      if (before.channels.empty()) continue;
+      impl->iterators.push_back(impl->readers[f]->messages(before));
+      impl->iterator_files.push_back(f);
+    }
+  }
   impl_ = std::move(impl);
   return Status::ok();
 }
@@ -378,8 +409,8 @@ bool Replay::next() {
     if (m.iterators[f].next()) m.push(f);
   }
   if (m.heap.empty()) return false;
-  const std::size_t f = m.heap.front();
-  const MessageView& view = m.iterators[f].message();
+  const std::size_t it = m.heap.front(), f = m.iterator_files[it];
+  const MessageView& view = m.iterators[it].message();
   m.current.view_ = view;
   m.current.file_ = f;
   m.current.path_ = &m.paths[f];
@@ -396,9 +427,9 @@ std::vector<std::string> Replay::damages() const {
   std::vector<std::string> all;
   if (!impl_) return all;
   all = impl_->open_damages;
-  for (std::size_t f = 0; f < impl_->iterators.size(); ++f)
-    for (const Damage& d : impl_->iterators[f].damages())
-      all.push_back(fmt::format("'{}': {}", impl_->paths[f], d.toString()));
+  for (std::size_t it = 0; it < impl_->iterators.size(); ++it)
+    for (const Damage& d : impl_->iterators[it].damages())
+      all.push_back(fmt::format("'{}': {}", impl_->paths[impl_->iterator_files[it]], d.toString()));
   return all;
 }
 

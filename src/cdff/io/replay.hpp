@@ -25,6 +25,10 @@ struct ReplayOptions {
   std::optional<Timestamp> start;     // us, inclusive; none: from the beginning
   std::optional<Timestamp> end;       // us, inclusive; none: to the end
   std::vector<std::string> channels;  // topics; empty: every channel
+  /// With `start`: also the messages before it on the channels that hold a single message in
+  /// the files (static ones: a sensor's mounting, the target's mesh), first, at their own
+  /// times, so that a window of a recording still has what was recorded once at its beginning.
+  bool keep_static = false;
   McapReaderOptions reader;
 };
 
