@@ -15,6 +15,7 @@
 #include "cdff/egse/model_io.hpp"
 #include "cdff/egse/procedural.hpp"
 #include "cdff/types/opencv.hpp"
+#include "support/detections.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/model_rendering.hpp"
 #include "support/synthetic.hpp"
@@ -75,16 +76,7 @@ Eigen::Isometry3d perturbed(const Eigen::Isometry3d& pose, double angle, double 
 }
 
 Detections candidates(const std::vector<Eigen::Isometry3d>& poses) {
-  Detections d;
-  d.stamp = 1000;
-  d.frame_id = "camera";
-  for (const Eigen::Isometry3d& p : poses) {
-    Detection c;
-    c.pose = Transform::fromIsometry(p, "camera", "target", 1000);
-    c.similarity = 0.9;
-    d.detections.push_back(c);
-  }
-  return d;
+  return testing::detectionsAt(poses, 0.9);
 }
 
 std::unique_ptr<EdgeRefinement> make(const std::string& yaml = "{}") {

@@ -24,6 +24,7 @@
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/opencv.hpp"
 #include "depth_fit.hpp"
+#include "support/detections.hpp"
 #include "support/dfn_testing.hpp"
 
 namespace cdff {
@@ -106,16 +107,7 @@ Eigen::Isometry3d perturbed(const Eigen::Isometry3d& truth, double angle, double
 }
 
 Detections detectionsAt(const std::vector<Eigen::Isometry3d>& poses) {
-  Detections d;
-  d.stamp = 1000;
-  d.frame_id = "camera";
-  for (const Eigen::Isometry3d& p : poses) {
-    Detection one;
-    one.pose = Transform::fromIsometry(p, "camera", "target", 1000);
-    one.similarity = 0.8;
-    d.detections.push_back(one);
-  }
-  return d;
+  return testing::detectionsAt(poses, 0.8);
 }
 
 /// The DFI set for a depth camera that measures wherever the target is (a missing depth is

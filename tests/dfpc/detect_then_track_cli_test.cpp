@@ -7,8 +7,6 @@
 // the approach (3.2 m to 2.9 m between the centres of mass) keep the run affordable in CI.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <regex>
 #include <sstream>
@@ -26,6 +24,7 @@ using cdff::testing::CommandResult;
 using cdff::testing::readReport;
 using cdff::testing::reportProduct;
 using cdff::testing::runCdff;
+using cdff::testing::scratchDirectory;
 
 // Stream time (s) of the tracker's first TRACKING, from the recording's events; -1 if never.
 double firstTracking(const std::string& recording) {
@@ -44,8 +43,7 @@ double firstTracking(const std::string& recording) {
 }
 
 TEST(DetectThenTrackCommandLine, TheDetectionStartsTheVisualTrackerAndStopsWhileItTracks) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("cdff_detect_track_{}", ::getpid());
-  fs::create_directories(dir);
+  const fs::path dir = scratchDirectory("cdff_detect_track");
   // The graphs' model files are relative to the repository root.
   fs::current_path(CDFF_SOURCE_DIR);
   const std::string sim = (dir / "sim.mcap").string(), out = (dir / "out.mcap").string(),

@@ -8,8 +8,6 @@
 // tracking harder).
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -25,10 +23,10 @@ using cdff::testing::CommandResult;
 using cdff::testing::readReport;
 using cdff::testing::reportProduct;
 using cdff::testing::runCdff;
+using cdff::testing::scratchDirectory;
 
 TEST(VisualTrackingCommandLine, CloseRangeApproachEvaluatedInTheServicerFrame) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("cdff_visual_cli_{}", ::getpid());
-  fs::create_directories(dir);
+  const fs::path dir = scratchDirectory("cdff_visual_cli");
   // The graph's model file (data/models/target.cao) is relative to the repository root.
   fs::current_path(CDFF_SOURCE_DIR);
   const std::string sim = (dir / "sim.mcap").string(), init = (dir / "init.mcap").string(),

@@ -1,9 +1,11 @@
 #pragma once
 // Runs the `cdff` command (CDFF_EXECUTABLE, set by the test's CMake target) for CLI tests.
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 namespace cdff::testing {
@@ -23,6 +25,14 @@ inline CommandResult runCdff(const std::string& arguments) {
   const int raw = pclose(pipe);
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
   return r;
+}
+
+/// A folder of its own for a CLI test's files: the temporary folder's PREFIX_PID, created.
+inline std::filesystem::path scratchDirectory(const std::string& prefix) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / (prefix + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
 }
 
 }  // namespace cdff::testing

@@ -17,9 +17,7 @@ namespace cdff::dfpc {
 namespace {
 
 std::string trackStateNames() {
-  std::vector<std::string_view> names;
-  for (TrackState s : allTrackStates()) names.push_back(toString(s));
-  return fmt::format("{{{}}}", fmt::join(names, ", "));
+  return "{" + joinTrackStates(allTrackStates(), ", ") + "}";
 }
 
 const dfn::PortSpec* findSpec(const std::vector<dfn::PortSpec>& ports, const std::string& name) {

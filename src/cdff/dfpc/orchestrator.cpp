@@ -34,11 +34,9 @@ Result<ActivationRule> parseActivationRule(const std::string& text) {
     const std::size_t end = std::min(states.find(',', start), states.size());
     const std::string name = states.substr(start, end - start);
     const std::optional<TrackState> state = parseTrackState(name);
-    if (!state) {
-      std::vector<std::string_view> names;
-      for (TrackState t : allTrackStates()) names.push_back(toString(t));
-      return bad(fmt::format("'{}' is not a track state ({})", name, fmt::join(names, ", ")));
-    }
+    if (!state)
+      return bad(fmt::format("'{}' is not a track state ({})", name,
+                             joinTrackStates(allTrackStates(), ", ")));
     rule.states.push_back(*state);
     start = end + 1;
   }
@@ -187,32 +185,29 @@ Status Orchestrator::runWhile(ActivationRule rule) {
     if (r.rule.dfpc == rule.dfpc)
       return invalidInput("DFPC '{}' already runs while '{}' is in given states; one rule per DFPC",
                           rule.dfpc, r.rule.tracker);
-  activation_rules_.push_back({std::move(rule)});
+  activation_rules_.push_back({std::move(rule), dfpc->dfpc.get(), tracker->dfpc.get()});
   return Status::ok();
 }
 
 Status Orchestrator::applyActivationRules(Timestamp stamp) {
   for (RuleState& r : activation_rules_) {
     const ActivationRule& rule = r.rule;
-    Entry* e = find(rule.dfpc);
-    const Entry* tracker = find(rule.tracker);
-    const DfpcState state = e->dfpc->state();
+    const DfpcState state = r.dfpc->state();
     const bool running = state == DfpcState::kRunning;
     if (!running && !(state == DfpcState::kStopped && r.stopped_by_rule)) continue;
-    const TrackState followed = tracker->dfpc->trackState();
+    const TrackState followed = r.tracker->trackState();
     const bool wanted =
         std::find(rule.states.begin(), rule.states.end(), followed) != rule.states.end();
     if (wanted == running) continue;
-    CDFF_RETURN_IF_ERROR(wanted ? e->dfpc->start(stamp) : e->dfpc->stop());
+    CDFF_RETURN_IF_ERROR(wanted ? r.dfpc->start(stamp) : r.dfpc->stop());
     r.stopped_by_rule = !wanted;
     Event event;
     event.stamp = stamp;
     event.type = wanted ? EventType::kActivated : EventType::kDeactivated;
     event.dfpc = rule.dfpc;
-    std::vector<std::string_view> names;
-    for (TrackState t : rule.states) names.push_back(toString(t));
-    event.message = fmt::format("'{}' is {}; '{}' runs while it is {}", rule.tracker,
-                                toString(followed), rule.dfpc, fmt::join(names, " or "));
+    event.message =
+        fmt::format("'{}' is {}; '{}' runs while it is {}", rule.tracker, toString(followed),
+                    rule.dfpc, joinTrackStates(rule.states, " or "));
     onEvent(event);
   }
   return Status::ok();

@@ -171,6 +171,8 @@ class Orchestrator final : private DfpcObserver {
   std::vector<Message> internal_;  // products waiting to be routed within this step
   struct RuleState {
     ActivationRule rule;
+    Dfpc* dfpc;                    // rule.dfpc, resolved once (DFPCs are never removed)
+    const Dfpc* tracker;           // rule.tracker
     bool stopped_by_rule = false;  // a DFPC stopped by a caller stays stopped
   };
   std::vector<RuleState> activation_rules_;

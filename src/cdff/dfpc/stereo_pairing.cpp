@@ -87,20 +87,18 @@ Result<std::optional<Message>> StereoPairStream::pair(std::size_t index, const I
   if (!l) return l.status();
   Result<Transform> r = mounting(*pending.right, p.right);
   if (!r) return r.status();
-  if (l->parent_frame != r->parent_frame)
-    return invalidInput(
-        "stereo pairing '{}': the mountings of '{}' and '{}' are in frames '{}' and '{}'; "
-        "expected the same parent frame",
-        p.channel, pending.left->frame_id, pending.right->frame_id, l->parent_frame,
-        r->parent_frame);
+  // right_T_left = (servicer_T_right)^-1 * servicer_T_left; compose checks the common frame.
+  Result<Transform> right_T_left = r->inverse().compose(*l);
+  if (!right_T_left)
+    return right_T_left.status().withContext(
+        fmt::format("stereo pairing '{}': the cameras' mountings", p.channel));
   StereoImagePair pair;
   pair.left = std::move(*pending.left);
   pair.right = std::move(*pending.right);
   pending.left.reset();
   pending.right.reset();
-  pair.right_T_left =
-      Transform::fromIsometry(r->isometry().inverse() * l->isometry(), pair.right.frame_id,
-                              pair.left.frame_id, pair.left.stamp);
+  pair.right_T_left = std::move(right_T_left).value();
+  pair.right_T_left.stamp = pair.left.stamp;
   const Timestamp stamp = pair.left.stamp;
   return std::optional<Message>(Message::of(p.channel, stamp, std::move(pair)));
 }

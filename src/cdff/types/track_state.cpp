@@ -31,6 +31,15 @@ std::optional<TrackState> parseTrackState(std::string_view name) {
   return std::nullopt;
 }
 
+std::string joinTrackStates(const std::vector<TrackState>& states, std::string_view separator) {
+  std::string out;
+  for (TrackState s : states) {
+    if (!out.empty()) out += separator;
+    out += toString(s);
+  }
+  return out;
+}
+
 bool isTracked(TrackState state) {
   return state == TrackState::kTracking || state == TrackState::kDegraded;
 }

@@ -3,6 +3,7 @@
 // conditions and recoveries name it, and the evaluation that counts tracked frames.
 
 #include <optional>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -23,6 +24,8 @@ std::string_view toString(TrackState state);
 std::optional<TrackState> parseTrackState(std::string_view name);
 /// Every state, in declaration order.
 const std::vector<TrackState>& allTrackStates();
+/// The states' names joined by `separator` ("UNINITIALISED, LOST"), for messages.
+std::string joinTrackStates(const std::vector<TrackState>& states, std::string_view separator);
 /// Whether an estimate in this state counts as a tracked frame (TRACKING or DEGRADED).
 bool isTracked(TrackState state);
 
