@@ -13,7 +13,8 @@ comma := ,
 
 CMAKE_FLAGS = -G Ninja -DCMAKE_BUILD_TYPE=$(BUILD_TYPE) -DCDFF_SANITIZE=$(SANITIZE)
 
-.PHONY: all deps configure build test demo bench templates fuzz format clean
+.PHONY: all deps configure build test demo bench templates stereo-templates tof-templates fuzz \
+  format clean
 
 all: build
 
@@ -33,20 +34,27 @@ test: build
 # The LIDAR tracking chain on the simulated mid-range approach, visual tracking on the close-range
 # approach, and detection then tracking with no ground truth (scripts/demo.sh: the detection's
 # templates first, once); the foundation DFNs' demo stays available as `cdff demo --out DIR`.
-demo: build templates
+demo: build stereo-templates
 	@bash scripts/demo.sh $(BUILD_DIR) out/demo
 
 bench: build templates
 	@bash scripts/run-benchmarks.sh $(BUILD_DIR)
 
-# The LINEMOD templates of dfpcs/detection.yaml (detect.template_file): the procedural target
-# (data/models/target.ply) for the rectified left camera of the simulator's Prosilica pair, the
-# default view sphere and ranges (docs/detection.md); about 10 minutes on 2 cores, once.
+# The LINEMOD templates of the detection graphs, for the procedural target (data/models/target.ply)
+# with the default view sphere and ranges (docs/detection.md), each trained once:
+# dfpcs/detection.yaml's (detect.template_file) for the rectified left camera of the simulator's
+# Prosilica pair, about 10 minutes on 2 cores; dfpcs/detection_tof.yaml's for its ToF camera.
 TEMPLATES = $(BUILD_DIR)/templates/target_stereo.yml.gz
-templates: build
+TOF_TEMPLATES = $(BUILD_DIR)/templates/target_tof.yml.gz
+templates: stereo-templates tof-templates
+stereo-templates: build
 	@mkdir -p $(dir $(TEMPLATES))
 	@test -f $(TEMPLATES) || $(BUILD_DIR)/apps/cdff train mid_range_approach \
 	  --rectified-with camera_right --check 0 -o $(TEMPLATES)
+tof-templates: build
+	@mkdir -p $(dir $(TOF_TEMPLATES))
+	@test -f $(TOF_TEMPLATES) || $(BUILD_DIR)/apps/cdff train mid_range_approach --sensor tof \
+	  --check 0 -o $(TOF_TEMPLATES)
 
 fuzz:
 	@bash fuzz/run.sh

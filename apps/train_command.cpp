@@ -53,16 +53,28 @@ struct TrainOptions {
   std::uint64_t check_seed = 20261205;
 };
 
-/// The camera `name` of `scenario`, an error naming the scenario when it has none.
+/// The camera (or, with `tof_allowed`, ToF camera) `name` of `scenario`, an error naming the
+/// scenario when it has none.
 Result<const egse::SensorConfig*> cameraOf(const egse::Scenario& scenario,
                                            const std::string& scenario_name,
-                                           const std::string& name, const char* option) {
+                                           const std::string& name, const char* option,
+                                           bool tof_allowed) {
   const egse::SensorConfig* sensor = scenario.sensor(name);
-  if (!sensor || sensor->type != egse::SensorType::kCamera)
-    return notFound("scenario '{}' has no camera '{}'; expected {} naming one of its cameras",
-                    scenario_name, name, option);
+  if (!sensor || !(sensor->type == egse::SensorType::kCamera ||
+                   (tof_allowed && sensor->type == egse::SensorType::kTof)))
+    return notFound("scenario '{}' has no {} '{}'; expected {} naming one of its cameras{}",
+                    scenario_name, tof_allowed ? "camera or ToF camera" : "camera", name, option,
+                    tof_allowed ? " or its ToF camera" : "");
   return sensor;
 }
+
+/// The camera the templates are trained for: an image camera, or a ToF camera, which gives a
+/// depth and no image (its templates are matched on their depth normals alone).
+struct TrainingCamera {
+  CameraModel model;
+  bool depth_only = false;
+  double max_range = 0;  // m, a ToF camera's: nothing beyond is measured (0: no limit)
+};
 
 /// The left camera of the pair (`left`, `right`) as StereoRectification/OpenCV (its defaults)
 /// rectifies it: the camera the detection's images have in a stereo graph.
@@ -88,7 +100,7 @@ Result<CameraModel> rectifiedCamera(const egse::SensorConfig& left,
   return *(*dfn)->out.rectified->left.camera;
 }
 
-Result<CameraModel> trainingCamera(const TrainOptions& o) {
+Result<TrainingCamera> trainingCamera(const TrainOptions& o) {
   const std::string name = !o.camera_scenario.empty() ? o.camera_scenario
                            : isMeshFile(o.source)     ? std::string("mid_range_approach")
                                                       : o.source;
@@ -97,17 +109,27 @@ Result<CameraModel> trainingCamera(const TrainOptions& o) {
   Result<egse::Scenario> scenario =
       egse::loadScenario(*path, isMeshFile(o.source) ? std::vector<std::string>{} : o.overrides);
   if (!scenario) return scenario.status();
-  Result<const egse::SensorConfig*> sensor = cameraOf(*scenario, name, o.sensor, "--sensor");
+  Result<const egse::SensorConfig*> sensor =
+      cameraOf(*scenario, name, o.sensor, "--sensor", o.rectified_with.empty());
   if (!sensor) return sensor.status();
   if (!o.rectified_with.empty()) {
     Result<const egse::SensorConfig*> partner =
-        cameraOf(*scenario, name, o.rectified_with, "--rectified-with");
+        cameraOf(*scenario, name, o.rectified_with, "--rectified-with", false);
     if (!partner) return partner.status();
-    return rectifiedCamera(**sensor, **partner);
+    Result<CameraModel> rectified = rectifiedCamera(**sensor, **partner);
+    if (!rectified) return rectified.status();
+    return TrainingCamera{*rectified};
   }
-  CameraModel camera = (*sensor)->camera.model;
-  camera.distortion_model = DistortionModel::kNone;
-  camera.distortion.clear();
+  TrainingCamera camera;
+  if ((*sensor)->type == egse::SensorType::kTof) {
+    camera.model = (*sensor)->tof.model;
+    camera.depth_only = true;
+    camera.max_range = (*sensor)->tof.max_range;
+  } else {
+    camera.model = (*sensor)->camera.model;
+  }
+  camera.model.distortion_model = DistortionModel::kNone;
+  camera.model.distortion.clear();
   return camera;
 }
 
@@ -190,10 +212,11 @@ Result<Refinement> makeRefinement(const egse::TargetModel& model) {
 
 /// Detects on views the templates were not trained on (random attitude, range log-uniform
 /// over the trained ones, centre within the middle half of the image, sun anywhere behind the
-/// camera's plane) with their rendered depth.
+/// camera's plane) with their rendered depth (`depth_only`: the depth without the image, as a
+/// ToF camera gives it).
 Result<CheckFigures> check(const egse::TargetModel& model,
                            const linemod_templates::TemplateSet& set, const std::string& file,
-                           int views, std::uint64_t seed) {
+                           int views, std::uint64_t seed, bool depth_only) {
   Result<std::unique_ptr<dfn::TemplateDetection>> dfn =
       dfn::Registry::instance().createAs<dfn::TemplateDetection>("TemplateDetection", "Linemod");
   if (!dfn) return dfn.status();
@@ -231,7 +254,7 @@ Result<CheckFigures> check(const egse::TargetModel& model,
     if (!depth_image) return depth_image.status();
     depth.image = *depth_image;
     depth.image.camera = camera;
-    (*dfn)->in.image.set(*image);
+    if (!depth_only) (*dfn)->in.image.set(*image);
     (*dfn)->in.depth.set(depth);
     const auto t0 = std::chrono::steady_clock::now();
     CDFF_RETURN_IF_ERROR((*dfn)->process());
@@ -287,13 +310,30 @@ int runTrain(const TrainOptions& o) {
     fmt::print(stderr, "error: cdff train {}: {}\n", o.source, model.status().message());
     return 1;
   }
-  Result<CameraModel> camera = trainingCamera(o);
-  if (!camera) {
-    fmt::print(stderr, "error: cdff train: {}\n", camera.status().message());
+  Result<TrainingCamera> training_camera = trainingCamera(o);
+  if (!training_camera) {
+    fmt::print(stderr, "error: cdff train: {}\n", training_camera.status().message());
     return 1;
   }
+  const CameraModel* camera = &training_camera->model;
   linemod_templates::TrainingOptions options =
       linemod_templates::defaultTrainingOptions(*model, *camera);
+  if (training_camera->max_range > 0) {
+    // A ToF camera measures nothing beyond its maximum range: the classes whose ranges lie
+    // wholly beyond it would never be searched.
+    const double half_step = std::sqrt(1.25);
+    std::erase_if(options.ranges,
+                  [&](double r) { return r / half_step > training_camera->max_range; });
+    if (options.ranges.empty()) {
+      fmt::print(stderr,
+                 "error: cdff train: every default range of model '{}' lies beyond the ToF "
+                 "camera's maximum range {} m; expected --ranges within it\n",
+                 model->name, training_camera->max_range);
+      return 1;
+    }
+    options.settings.normal_distance_threshold =
+        static_cast<int>(std::ceil((options.ranges.back() + 2 * model->boundingRadius()) * 1000.0));
+  }
   options.view_step = o.view_step * kDeg;
   options.in_plane_step = o.in_plane_step * kDeg;
   if (!o.ranges.empty()) options.ranges = o.ranges;
@@ -303,7 +343,10 @@ int runTrain(const TrainOptions& o) {
       "model '{}' (radius {:.2f} m), camera {}x{} fx {:.1f} cx {:.1f} cy {:.1f}{}, matching at "
       "pyramid level {}\n",
       model->name, model->boundingRadius(), camera->width, camera->height, camera->fx, camera->cx,
-      camera->cy, o.rectified_with.empty() ? "" : " (rectified with " + o.rectified_with + ")",
+      camera->cy,
+      !o.rectified_with.empty()     ? " (rectified with " + o.rectified_with + ")"
+      : training_camera->depth_only ? std::string(" (a ToF camera: matched on its depth alone)")
+                                    : std::string(),
       options.pyramid_level);
   fmt::print("ranges (m):");
   for (double r : options.ranges) fmt::print(" {:.2f}", r);
@@ -328,7 +371,8 @@ int runTrain(const TrainOptions& o) {
       "trained in {:.1f} s\n",
       o.output, set->templates.size(), skipped, set->mesh_hash, seconds);
   if (o.check_views <= 0) return 0;
-  Result<CheckFigures> f = check(*model, *set, o.output, o.check_views, o.check_seed);
+  Result<CheckFigures> f =
+      check(*model, *set, o.output, o.check_views, o.check_seed, training_camera->depth_only);
   if (!f) {
     fmt::print(stderr, "error: cdff train: checking the templates: {}\n", f.status().message());
     return 1;
@@ -364,7 +408,10 @@ void addTrainCommand(CLI::App& root, int& exit_code) {
   train->add_option("--camera", o->camera_scenario,
                     "The scenario whose camera the templates are for (default: MODEL when it is a "
                     "scenario, else mid_range_approach)");
-  train->add_option("--sensor", o->sensor, "The camera's name in that scenario")
+  train
+      ->add_option("--sensor", o->sensor,
+                   "The camera's name in that scenario, or its ToF camera's (templates matched "
+                   "on the depth alone)")
       ->default_str("camera_left");
   train->add_option("--rectified-with", o->rectified_with,
                     "Train for the --sensor camera as StereoRectification rectifies it with this "

@@ -2,7 +2,9 @@
 // (examples/detection/simulated_views.hpp): each frame a library scenario's lighting and
 // background, the target at an attitude uniform on SO(3), a range uniform in 2-17 m and a pointing
 // that keeps at least 80 % of it in view; frame k has the seed 900001 + k (the evaluation seeds,
-// beyond the tuning draws 1-10000; CDFF_DRAW_SET=tuning: 1 + k).
+// beyond the tuning draws 1-10000; CDFF_DRAW_SET=tuning: 1 + k). With CDFF_DETECTION_SOURCE=tof,
+// the ToF graph (dfpcs/detection_tof.yaml) on the ToF camera's depth maps of the same draws, at
+// ranges 2 m to the ToF camera's maximum range.
 //
 //   Accuracy     detected, right (within 1 % of the range and 2 degrees) and wrong (detected, not
 //                right) fractions, by range band; the SPEED score (mean over the detected frames
@@ -11,8 +13,9 @@
 //   NoTarget     the cameras turned away from the target (stars, the Earth, empty space): the
 //                fraction of frames with a detection.
 //
-// Environment: CDFF_DRAW_SET=tuning (seeds 1 on, to tune on), CDFF_DETECTION_TEMPLATES (default
-// build/templates/target_stereo.yml.gz, written by `make templates`), CDFF_FRAMES (300; NoTarget: a
+// Environment: CDFF_DRAW_SET=tuning (seeds 1 on, to tune on), CDFF_DETECTION_SOURCE (stereo or
+// tof), CDFF_DETECTION_TEMPLATES (default build/templates/target_stereo.yml.gz, or
+// target_tof.yml.gz, written by `make templates`), CDFF_FRAMES (300; NoTarget: a
 // third), CDFF_DETECTION_SET ("NODE.PARAM=VALUE" settings of the graph, ';'-separated),
 // CDFF_VIEW_SET (scenario overrides of every frame,
 // ';'-separated, e.g. target.procedural.kind=hexagonal with the hexagonal target's templates and
@@ -26,6 +29,7 @@
 #include <sstream>
 
 #include "bench_support.hpp"
+#include "cdff/egse/range_sensors.hpp"
 #include "simulated_views.hpp"
 
 #ifndef CDFF_SOURCE_DIR
@@ -53,12 +57,18 @@ std::vector<std::string> splitEnvironment(const char* name) {
   return out;
 }
 
+DepthSource depthSource() {
+  const char* source = std::getenv("CDFF_DETECTION_SOURCE");
+  return source && std::string(source) == "tof" ? DepthSource::kTof : DepthSource::kStereo;
+}
+
 std::vector<std::string> graphSettings() {
   const char* templates = std::getenv("CDFF_DETECTION_TEMPLATES");
+  const char* file = depthSource() == DepthSource::kTof ? "/build/templates/target_tof.yml.gz"
+                                                        : "/build/templates/target_stereo.yml.gz";
   std::vector<std::string> s = {
       "detect.template_file=" +
-      (templates ? std::string(templates)
-                 : std::string(CDFF_SOURCE_DIR) + "/build/templates/target_stereo.yml.gz")};
+      (templates ? std::string(templates) : std::string(CDFF_SOURCE_DIR) + file)};
   for (const std::string& extra : splitEnvironment("CDFF_DETECTION_SET")) s.push_back(extra);
   return s;
 }
@@ -72,16 +82,29 @@ bool verbose() {
   return std::getenv("CDFF_VERBOSE") != nullptr;
 }
 
+/// The frames' options: the depth source, and for the ToF camera ranges up to its maximum range
+/// (nothing farther is measured).
+ViewOptions viewOptions() {
+  ViewOptions options;
+  options.source = depthSource();
+  if (options.source == DepthSource::kTof) options.max_range = egse::TofSpec::defaults().max_range;
+  options.overrides = splitEnvironment("CDFF_VIEW_SET");
+  if (const char* r = std::getenv("CDFF_MIN_RANGE")) options.min_range = std::atof(r);
+  if (const char* r = std::getenv("CDFF_MAX_RANGE")) options.max_range = std::atof(r);
+  return options;
+}
+
+Result<std::unique_ptr<Detector>> makeDetector() {
+  return Detector::create(graphSettings(), "", depthSource());
+}
+
 void Accuracy(benchmark::State& state) {
-  Result<std::unique_ptr<Detector>> detector = Detector::create(graphSettings());
+  Result<std::unique_ptr<Detector>> detector = makeDetector();
   if (!detector) {
     state.SkipWithError(detector.status().message().c_str());
     return;
   }
-  ViewOptions options;
-  options.overrides = splitEnvironment("CDFF_VIEW_SET");
-  if (const char* r = std::getenv("CDFF_MIN_RANGE")) options.min_range = std::atof(r);
-  if (const char* r = std::getenv("CDFF_MAX_RANGE")) options.max_range = std::atof(r);
+  const ViewOptions options = viewOptions();
   const std::size_t frames = frameCount(300);
   struct Band {
     double upto;
@@ -125,11 +148,13 @@ void Accuracy(benchmark::State& state) {
       if (verbose())
         std::printf(
             "frame %llu (%s, %.2f m): detected %d, error %.3f m (%.2f %%) %.2f deg, NEES %.1f, "
-            "fitness %.2f, confirmed %.2f, misfit %.2f, inliers %.2f of %d, %.0f ms\n",
+            "fitness %.2f, confirmed %.2f, misfit %.2f, rival margin %.2f, inliers %.2f of %d, "
+            "%.0f "
+            "ms\n",
             static_cast<unsigned long long>(firstSeed() + k), view->lighting.c_str(), view->range,
             r->detected, r->position_error, 100 * r->position_error / view->range,
-            r->angle_error / kDeg, r->nees, r->fitness, r->confirmed, r->misfit, r->inlier_ratio,
-            r->alternatives, r->cpu_s * 1e3);
+            r->angle_error / kDeg, r->nees, r->fitness, r->confirmed, r->misfit, r->rival_margin,
+            r->inlier_ratio, r->alternatives, r->cpu_s * 1e3);
     }
   }
   const double n = static_cast<double>(frames);
@@ -151,13 +176,12 @@ void Accuracy(benchmark::State& state) {
 BENCHMARK(Accuracy)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 void NoTarget(benchmark::State& state) {
-  Result<std::unique_ptr<Detector>> detector = Detector::create(graphSettings());
+  Result<std::unique_ptr<Detector>> detector = makeDetector();
   if (!detector) {
     state.SkipWithError(detector.status().message().c_str());
     return;
   }
-  ViewOptions options;
-  options.overrides = splitEnvironment("CDFF_VIEW_SET");
+  const ViewOptions options = viewOptions();
   const std::size_t frames = std::max<std::size_t>(frameCount(300) / 3, 1);
   std::size_t detected = 0;
   double cpu = 0;

@@ -72,6 +72,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
       finals.push_back({*fit, t.candidate});
       if (fit->score.misfit < best.fit.score.misfit) best = {*fit, t.candidate};
     }
+    const double rival_margin = rivalMargin(best, finals);
     out.candidates.set(finalistsOf(std::move(finals), detections));
     out.candidate.set(best.candidate);
     if (best.candidate < 0) {
@@ -79,6 +80,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
       out.fitness.set(std::numeric_limits<double>::quiet_NaN());
       out.confirmed.set(std::numeric_limits<double>::quiet_NaN());
       out.misfit.set(std::numeric_limits<double>::quiet_NaN());
+      out.rival_margin.set(std::numeric_limits<double>::quiet_NaN());
       return Status::ok();
     }
     PoseWithCovariance pose;
@@ -94,8 +96,10 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     out.fitness.set(best.fit.score.fitness);
     out.confirmed.set(best.fit.score.confirmed);
     out.misfit.set(best.fit.score.misfit);
+    out.rival_margin.set(rival_margin);
     out.refined.set(best.fit.score.fitness >= params_.min_fitness &&
-                    best.fit.score.confirmed >= params_.min_confirmed);
+                    best.fit.score.confirmed >= params_.min_confirmed &&
+                    rival_margin >= params_.min_rival_margin);
     return Status::ok();
   }
 
@@ -109,6 +113,19 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     Fit fit;
     int candidate = -1;
   };
+
+  /// The misfit of the nearest rival of `best` less best's: the lowest among the finalists that
+  /// are another pose (more than the template grid's reach from it in attitude), e.g. a half
+  /// turn of a near-symmetric target; +inf without one.
+  static double rivalMargin(const Trial& best, const std::vector<Trial>& finals) {
+    double margin = std::numeric_limits<double>::infinity();
+    if (best.candidate < 0) return margin;
+    for (const Trial& t : finals)
+      if (Eigen::AngleAxisd(best.fit.pose.linear().transpose() * t.fit.pose.linear()).angle() >
+          kSameBasinAngle)
+        margin = std::min(margin, t.fit.score.misfit - best.fit.score.misfit);
+    return margin;
+  }
 
   /// The finalists' refined poses, best first, as detections of the depth's frame (fitness as the
   /// similarity, the confirmed fraction as the depth agreement).

@@ -216,6 +216,38 @@ TEST(PoseRefinementDepthIcp, ChoosesTheRightCandidateAmongWrongOnes) {
   for (const Detection& d : finalists.detections) EXPECT_GE(d.similarity, 0.0);
 }
 
+// rival_margin: the misfit of the best pose that is another attitude (a half turn), less the
+// best's; a pose without one has an infinite margin, and min_rival_margin withholds a pose whose
+// rival fits the depth nearly as well.
+TEST(PoseRefinementDepthIcp, APoseWithARivalThatFitsAsWellIsNotTrusted) {
+  std::mt19937 rng(16);
+  registration::ModelIndex index;
+  ASSERT_TRUE(index.update(suite().model).isOk());
+  const pose_refinement::ModelShape shape = pose_refinement::modelShape(index, 1000);
+  const Eigen::Isometry3d truth = drawTruth(rng, 6.0);
+  // One start: no rival.
+  auto alone = make(", half_turn_starts: false, min_rival_margin: 9");
+  refine(*alone, truth, {truth}, 600);
+  EXPECT_TRUE(std::isinf(*alone->out.rival_margin));
+  // The truth and its three half turns: each converges where it started, the truth fits best.
+  const std::vector<Eigen::Isometry3d> starts = pose_refinement::startsOf(truth, shape, true);
+  auto lenient = make(", half_turn_starts: false, finalists: 4");
+  const Errors e = refine(*lenient, truth, starts, 600);
+  EXPECT_LT(e.angle_deg, 2.0);
+  const double margin = *lenient->out.rival_margin;
+  EXPECT_GT(margin, 0.0);
+  EXPECT_LT(margin, 9.0);
+  auto strict = make(fmt::format(", half_turn_starts: false, finalists: 4, min_rival_margin: {}",
+                                 std::nextafter(margin, 10.0)));
+  strict->in.detections.set(detectionsAt(starts));
+  strict->in.depth.set(depthOf(truth, 600));
+  strict->in.model.set(suite().model);
+  ASSERT_TRUE(strict->process().isOk());
+  EXPECT_FALSE(*strict->out.refined);
+  EXPECT_TRUE(strict->out.pose.hasValue());  // the best guess, not trusted
+  EXPECT_NEAR(*strict->out.rival_margin, margin, 1e-9);
+}
+
 TEST(PoseRefinementDepthIcp, NoDetectionGivesNoPose) {
   std::mt19937 rng(14);
   auto dfn = make();

@@ -77,6 +77,7 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
           params_.template_file);
     set_ = std::make_shared<TemplateSet>(std::move(set).value());
     gradients_ = linemod_templates::gradientOnlyDetector(*set_);
+    normals_ = linemod_templates::normalsOnlyDetector(*set_);
     matching_ = set_->matchingCamera();
     return Status::ok();
   }
@@ -86,40 +87,33 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
       return invalidParameter(
           "no templates: parameter 'template_file' is empty; expected the file `cdff train` "
           "wrote");
-    const Image& image = *in.image;
-    Result<int> level = imageLevel(image);
+    if (!in.image.hasValue() && !in.depth.hasValue())
+      return invalidInput(
+          "neither input 'image' nor input 'depth' has a value; expected an image (with or "
+          "without its depth), or a depth alone");
+    // The frame searched: the image's, or the depth's when there is no image (a ToF camera).
+    const Image& frame = in.image.hasValue() ? *in.image : in.depth->image;
+    const char* port = in.image.hasValue() ? "input 'image'" : "input 'depth'";
+    CDFF_RETURN_IF_ERROR(checkFrameFormat(frame, port));
+    Result<int> level = cameraLevel(frame, port);
     if (!level) return level.status();
-    cv::Mat grey = toMat(image);
-    if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
-    grey = pyrDownTimes(grey, set_->pyramid_level - *level);
-    const cv::Size size = grey.size();
+    const CameraModel matching_grid =
+        cameraAfterPyrDown(*frame.camera, set_->pyramid_level - *level);
+    const cv::Size size(matching_grid.width, matching_grid.height);
 
     cv::Mat depth;  // metres, 32FC1, matching grid, NaN where none
     if (in.depth.hasValue()) {
-      Result<cv::Mat> d = depthOnMatchingGrid(*in.depth, *image.camera, size);
+      Result<cv::Mat> d = depthOnMatchingGrid(*in.depth, *frame.camera, size);
       if (!d) return d.status();
       depth = *d;
     }
-    const bool normals = params_.depth_normals && !depth.empty();
     if (params_.depth_normals && depth.empty())
       return invalidInput(
           "parameter 'depth_normals' is true but input 'depth' has no value; expected a depth "
           "map with every image");
 
-    const cv::Size padded = linemod_templates::matchableSize(size, set_->settings.spreading);
-    std::vector<cv::Mat> sources = {
-        linemod_templates::padTo(linemod_templates::asColour(grey), padded)};
-    if (normals)
-      sources.push_back(
-          linemod_templates::padTo(linemod_templates::depthMillimetres(depth, size), padded));
     std::vector<cv::linemod::Match> matches;
-    const std::vector<cv::String> classes = classesToSearch(depth);
-    try {
-      (normals ? set_->detector : gradients_)
-          ->match(sources, static_cast<float>(params_.similarity_threshold), matches, classes);
-    } catch (const cv::Exception& e) {
-      return numericalFailure("LINEMOD matching failed: {}", e.what());
-    }
+    CDFF_RETURN_IF_ERROR(match(frame, *level, depth, size, matches));
 
     std::vector<Hypothesis> hypotheses = distinctHypotheses(matches, size);
     if (!depth.empty())
@@ -130,14 +124,14 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
                      [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
 
     Detections detections;
-    detections.stamp = image.stamp;
-    detections.frame_id = image.frame_id;
+    detections.stamp = frame.stamp;
+    detections.frame_id = frame.frame_id;
     const int scale = 1 << (set_->pyramid_level - *level);
     for (const Hypothesis& h : hypotheses) {
       if (static_cast<int>(detections.detections.size()) >= params_.max_detections) break;
       if (!std::isnan(h.agreement) && h.agreement < params_.min_depth_agreement) continue;
       Detection d;
-      d.pose = Transform::fromIsometry(h.pose, image.frame_id, set_->model_name, image.stamp);
+      d.pose = Transform::fromIsometry(h.pose, frame.frame_id, set_->model_name, frame.stamp);
       d.similarity = std::clamp(h.match.similarity / 100.0, 0.0, 1.0);
       d.depth_agreement = h.agreement;
       d.template_id = fmt::format("{}/{}", h.match.class_id, h.match.template_id);
@@ -153,28 +147,66 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
   }
 
  private:
-  /// The image's level in the templates' camera pyramid, once its format and camera model
-  /// are checked.
-  Result<int> imageLevel(const Image& image) const {
-    CDFF_RETURN_IF_ERROR(
-        image.validate("input 'image'", {PixelFormat::kGray8, PixelFormat::kBgr8}));
-    if (!image.camera)
+  /// The frame's pixel format: an 8-bit image, or without one a depth map (then the templates
+  /// must have their depth-normal part).
+  Status checkFrameFormat(const Image& frame, const char* port) const {
+    if (in.image.hasValue()) return frame.validate(port, {PixelFormat::kGray8, PixelFormat::kBgr8});
+    CDFF_RETURN_IF_ERROR(frame.validate(port, {PixelFormat::kFloat32, PixelFormat::kGray16}));
+    if (!normals_)
       return invalidInput(
-          "input 'image' has no camera model; expected the calibrated camera the templates were "
-          "trained for ({})",
-          describe(set_->camera));
-    if (image.camera->hasDistortion())
+          "input 'image' has no value and templates '{}' have no depth-normal features; "
+          "expected an image, or templates trained with depth normals (`cdff train`) to match a "
+          "depth alone",
+          params_.template_file);
+    return Status::ok();
+  }
+
+  /// LINEMOD's matches in the searched range classes: the image's gradients (and, with
+  /// depth_normals, the depth's normals), or without an image the depth's normals alone.
+  Status match(const Image& frame, int level, const cv::Mat& depth, cv::Size size,
+               std::vector<cv::linemod::Match>& matches) const {
+    const cv::Size padded = linemod_templates::matchableSize(size, set_->settings.spreading);
+    std::vector<cv::Mat> sources;
+    cv::Ptr<cv::linemod::Detector> detector = normals_;
+    if (in.image.hasValue()) {
+      cv::Mat grey = toMat(frame);
+      if (grey.channels() == 3) cv::cvtColor(grey, grey, cv::COLOR_BGR2GRAY);
+      grey = pyrDownTimes(grey, set_->pyramid_level - level);
+      sources.push_back(linemod_templates::padTo(linemod_templates::asColour(grey), padded));
+      detector = params_.depth_normals ? set_->detector : gradients_;
+    }
+    if (!depth.empty() && detector != gradients_)
+      sources.push_back(
+          linemod_templates::padTo(linemod_templates::depthMillimetres(depth, size), padded));
+    try {
+      detector->match(sources, static_cast<float>(params_.similarity_threshold), matches,
+                      classesToSearch(depth));
+    } catch (const cv::Exception& e) {
+      return numericalFailure("LINEMOD matching failed: {}", e.what());
+    }
+    return Status::ok();
+  }
+
+  /// The level in the templates' camera pyramid of `frame` (the image, or the depth without an
+  /// image), once its camera model is checked.
+  Result<int> cameraLevel(const Image& frame, const char* port) const {
+    if (!frame.camera)
       return invalidInput(
-          "input 'image' has lens distortion ({}); expected an undistorted or rectified image",
-          toString(image.camera->distortion_model));
-    const CameraModel& camera = *image.camera;
+          "{} has no camera model; expected the calibrated camera the templates were trained for "
+          "({})",
+          port, describe(set_->camera));
+    if (frame.camera->hasDistortion())
+      return invalidInput("{} has lens distortion ({}); expected an undistorted or rectified {}",
+                          port, toString(frame.camera->distortion_model),
+                          in.image.hasValue() ? "image" : "depth map");
+    const CameraModel& camera = *frame.camera;
     for (int l = 0; l <= set_->pyramid_level; ++l)
       if (sameCamera(camera, cameraAfterPyrDown(set_->camera, l))) return l;
     return invalidInput(
-        "input 'image' has camera {} but templates '{}' were trained for {} (matched at {}); "
-        "expected that camera or one of its cv::pyrDown levels down to the matching one, or "
-        "templates trained for this camera (`cdff train`)",
-        describe(camera), params_.template_file, describe(set_->camera), describe(matching_));
+        "{} has camera {} but templates '{}' were trained for {} (matched at {}); expected that "
+        "camera or one of its cv::pyrDown levels down to the matching one, or templates trained "
+        "for this camera (`cdff train`)",
+        port, describe(camera), params_.template_file, describe(set_->camera), describe(matching_));
   }
 
   /// The depth map as metres on the matching grid; it must share the image's field of view.
@@ -333,6 +365,7 @@ class TemplateDetectionLinemod final : public TemplateDetectionLinemodBase {
 
   std::shared_ptr<const TemplateSet> set_;
   cv::Ptr<cv::linemod::Detector> gradients_;
+  cv::Ptr<cv::linemod::Detector> normals_;  // null: templates without depth normals
   CameraModel matching_;
   mutable std::vector<float> zbuffer_;
   mutable std::vector<std::pair<Eigen::Vector3d, cv::Point>> candidates_;

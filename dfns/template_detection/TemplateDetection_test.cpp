@@ -183,6 +183,40 @@ TEST(TemplateDetectionLinemod, DetectsViewsOffTheGridWithDepth) {
   EXPECT_GE(placed, n / 2);
 }
 
+/// The same kind of views as a ToF camera gives them: a depth and no image. Only the templates'
+/// surface-normal part is matched; the target is found and placed at the measured depth.
+TEST(TemplateDetectionLinemod, DetectsViewsFromTheirDepthAlone) {
+  std::mt19937 rng(12);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto dfn = make();
+  const int n = 24;
+  int correct = 0, placed = 0, detected = 0;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Quaterniond q = Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized();
+    const double depth = 6.0 + 1.5 * (0.5 + 0.5 * u(rng));
+    const TestView view = renderView(
+        poseAt(q, Eigen::Vector3d(0.1 * u(rng) * depth, 0.08 * u(rng) * depth, depth)), kSideSun);
+    dfn->in.depth.set(view.depth);
+    ASSERT_TRUE(dfn->process().isOk()) << dfn->process().toString();
+    if (!*dfn->out.detected) continue;
+    ++detected;
+    const Detection& best = dfn->out.detections->detections.front();
+    EXPECT_EQ(best.pose.parent_frame, view.depth.image.frame_id);
+    EXPECT_EQ(dfn->out.detections->stamp, view.depth.image.stamp);
+    const Errors e = errorsOf(best, view.truth);
+    correct += e.angle < 22.5 && e.range < 0.1;
+    placed += e.range < 0.1;
+  }
+  fmt::print(
+      "depth alone: {} of {} detected, {} placed within 10 % of the range, {} also within "
+      "the grid's angular reach\n",
+      detected, n, placed, correct);
+  // Today all 24 are detected and 18 placed (the attitude, as with the image, is most often a
+  // near-symmetric view); the bound guards that.
+  EXPECT_GE(placed, 16);
+}
+
 TEST(TemplateDetectionLinemod, AnEmptySkyIsNotDetected) {
   auto dfn = make();
   TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
@@ -289,6 +323,23 @@ TEST(TemplateDetectionLinemodBadInput, ImagesOfAnotherCameraOrWithoutOneAreRefus
   depth.image.camera->fx *= 0.5;
   dfn->in.depth.set(depth);
   testing::expectRejected(*dfn, "does not cover the image's field of view");
+}
+
+TEST(TemplateDetectionLinemodBadInput, ADepthAloneMustBeInTheTemplatesCamera) {
+  auto dfn = make();
+  testing::expectRejected(*dfn, "neither input 'image' nor input 'depth' has a value");
+  TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
+  DepthMap depth = view.depth;
+  depth.image.camera.reset();
+  dfn->in.depth.set(depth);
+  testing::expectRejected(*dfn, "input 'depth' has no camera model");
+  depth = view.depth;
+  depth.image.camera->fx *= 1.1;
+  depth.image.camera->fy *= 1.1;
+  dfn->in.depth.set(depth);
+  testing::expectRejected(*dfn, "input 'depth' has camera");
+  dfn->in.depth.set(DepthMap{});
+  testing::expectRejected(*dfn, "input 'depth'");
 }
 
 TEST(TemplateDetectionLinemodBadInput, DepthNormalsNeedADepth) {

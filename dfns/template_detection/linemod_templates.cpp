@@ -135,20 +135,46 @@ cv::Ptr<cv::linemod::Detector> createDetector(const DetectorSettings& s, bool wi
   return cv::makePtr<cv::linemod::Detector>(modalities, s.spreading);
 }
 
-cv::Ptr<cv::linemod::Detector> gradientOnlyDetector(const TemplateSet& set) {
-  cv::Ptr<cv::linemod::Detector> detector = createDetector(set.settings, false);
-  const int modalities = static_cast<int>(set.detector->getModalities().size());
+namespace {
+
+/// A detector of one modality (0: gradients, 1: normals) holding that part of every template.
+cv::Ptr<cv::linemod::Detector> singleModalityDetector(const TemplateSet& set, int modality) {
+  const DetectorSettings& s = set.settings;
+  std::vector<cv::Ptr<cv::linemod::Modality>> modalities;
+  if (modality == 0)
+    modalities.push_back(cv::makePtr<cv::linemod::ColorGradient>(
+        s.gradient_weak_threshold, static_cast<std::size_t>(s.gradient_features),
+        s.gradient_strong_threshold));
+  else
+    modalities.push_back(cv::makePtr<cv::linemod::DepthNormal>(
+        s.normal_distance_threshold, s.normal_difference_threshold,
+        static_cast<std::size_t>(s.normal_features), 2));
+  auto detector = cv::makePtr<cv::linemod::Detector>(modalities, s.spreading);
+  const int count_of_modalities = static_cast<int>(set.detector->getModalities().size());
   const int levels = set.detector->pyramidLevels();
   for (const std::string& class_id : set.detector->classIds()) {
     const int count = set.detector->numTemplates(class_id);
     for (int id = 0; id < count; ++id) {
       const std::vector<cv::linemod::Template>& pyramid = set.detector->getTemplates(class_id, id);
-      std::vector<cv::linemod::Template> gradients;
-      for (int l = 0; l < levels; ++l) gradients.push_back(pyramid[l * modalities]);
-      detector->addSyntheticTemplate(gradients, class_id);
+      std::vector<cv::linemod::Template> part;
+      for (int l = 0; l < levels; ++l) part.push_back(pyramid[l * count_of_modalities + modality]);
+      // Template ids must stay those of `set` (TemplateSet::find): every template is added,
+      // also one whose part has no feature (it then never matches).
+      detector->addSyntheticTemplate(part, class_id);
     }
   }
   return detector;
+}
+
+}  // namespace
+
+cv::Ptr<cv::linemod::Detector> gradientOnlyDetector(const TemplateSet& set) {
+  return singleModalityDetector(set, 0);
+}
+
+cv::Ptr<cv::linemod::Detector> normalsOnlyDetector(const TemplateSet& set) {
+  if (set.settings.normal_features <= 0 || set.detector->getModalities().size() < 2) return {};
+  return singleModalityDetector(set, 1);
 }
 
 Status writeTemplateSet(const TemplateSet& set, const std::filesystem::path& path) {

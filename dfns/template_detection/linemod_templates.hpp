@@ -105,6 +105,9 @@ std::string meshHash(const TriangleMesh& mesh);
 cv::Ptr<cv::linemod::Detector> createDetector(const DetectorSettings& settings, bool with_normals);
 /// A colour-gradient-only detector with the gradient part of every template of `set`.
 cv::Ptr<cv::linemod::Detector> gradientOnlyDetector(const TemplateSet& set);
+/// A depth-normal-only detector with the normal part of every template of `set` (a depth camera
+/// without an image: a ToF camera); null when `set` has no depth-normal features.
+cv::Ptr<cv::linemod::Detector> normalsOnlyDetector(const TemplateSet& set);
 
 Status writeTemplateSet(const TemplateSet& set, const std::filesystem::path& path);
 /// Reads a template file; a missing, truncated or foreign file is an error naming it.

@@ -30,6 +30,9 @@ constexpr const char* kLeftMounting = "/chaser/tf/camera_left_optical";
 constexpr const char* kRightMounting = "/chaser/tf/camera_right_optical";
 constexpr const char* kCameraTruth = "/truth/camera_left/target_pose";
 constexpr const char* kPair = "/chaser/stereo/pair";
+constexpr const char* kTofDepth = "/chaser/tof/depth";
+constexpr const char* kTofMounting = "/chaser/tf/tof_optical";
+constexpr const char* kTofTruth = "/truth/tof/target_pose";
 
 std::string vec3(const Eigen::Vector3d& v) {
   return fmt::format("[{:.17g}, {:.17g}, {:.17g}]", v.x(), v.y(), v.z());
@@ -55,6 +58,9 @@ Timestamp stampOf(const Image& v) {
 }
 Timestamp stampOf(const Transform& v) {
   return v.stamp;
+}
+Timestamp stampOf(const DepthMap& v) {
+  return v.image.stamp;
 }
 
 // The first `T` on `channel` (stamped `stamp`, or any when `stamp` < 0).
@@ -115,9 +121,12 @@ Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t see
       yaw = (unit(rng) < 0.5 ? -1 : 1) * (60 + 120 * unit(rng));
       pitch = (2 * unit(rng) - 1) * 60.0;
     }
+    const bool tof = options.source == DepthSource::kTof;
     std::vector<std::string> overrides = {
         "sensors.lidar.enabled=false",
-        "sensors.tof.enabled=false",
+        tof ? "sensors.tof.enabled=true" : "sensors.tof.enabled=false",
+        tof ? "sensors.camera_left.enabled=false" : "sensors.camera_left.enabled=true",
+        tof ? "sensors.camera_right.enabled=false" : "sensors.camera_right.enabled=true",
         "sensors.imu.enabled=false",
         fmt::format("servicer.trajectory={{type: hold, position: {}}}",
                     vec3(range * line_of_sight)),
@@ -131,6 +140,37 @@ Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t see
     Result<std::unique_ptr<egse::Simulator>> sim =
         egse::Simulator::create(*scenario, seed, /*duration=*/0.01);
     if (!sim) return sim.status();
+    if (tof) {
+      const egse::SensorConfig* sensor = (*sim)->scenario().sensor("tof");
+      if (!sensor) return invalidInput("scenario '{}' has no tof", lighting);
+      Result<PointCloud> samples = sampleSurface((*sim)->target().mesh, 1000, seed);
+      if (!samples) return samples.status();
+      const double in_view =
+          fractionInView(*samples, (*sim)->sensorTtarget(*sensor, 0.0), sensor->tof.model);
+      if (with_target ? in_view < options.min_in_view : in_view > 0) continue;
+      egse::MemorySink sink;
+      CDFF_RETURN_IF_ERROR((*sim)->run(sink));
+      const DepthMap* depth = payloadAt<DepthMap>(sink, kTofDepth, -1);
+      if (!depth) return notFound("frame seed {}: the simulation gave no {}", seed, kTofDepth);
+      const Transform* mounting = payloadAt<Transform>(sink, kTofMounting, -1);
+      const Transform* camera_truth = truthPose(sink, kTofTruth, depth->image.stamp);
+      if (!mounting || !camera_truth)
+        return notFound("frame seed {}: the simulation lacks {} or the truth at {} us", seed,
+                        kTofMounting, depth->image.stamp);
+      SimulatedView view;
+      view.source = DepthSource::kTof;
+      view.depth = *depth;
+      view.camera_mounting = *mounting;
+      Result<Transform> truth = mounting->compose(*camera_truth);
+      if (!truth) return truth.status();
+      view.truth = *truth;
+      view.truth.stamp = depth->image.stamp;
+      view.camera_truth = *camera_truth;
+      view.lighting = lighting;
+      view.range = camera_truth->translation.norm();
+      view.target_in_view = with_target;
+      return view;
+    }
     const egse::SensorConfig* left = (*sim)->scenario().sensor("camera_left");
     if (!left || !(*sim)->scenario().sensor("camera_right"))
       return invalidInput("scenario '{}' has no camera_left and camera_right", lighting);
@@ -176,6 +216,8 @@ Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t see
 }
 
 struct Detector::State {
+  std::string product_prefix;  // /cdff/<graph name>/
+  bool has_camera_pose = false;
   dfpc::MemorySink products;
   std::unique_ptr<dfpc::Orchestrator> orchestrator;
   std::int64_t frames = 0;
@@ -185,11 +227,17 @@ Detector::Detector(std::unique_ptr<State> state) : state_(std::move(state)) {}
 Detector::~Detector() = default;
 
 Result<std::unique_ptr<Detector>> Detector::create(const std::vector<std::string>& settings,
-                                                   const std::string& source_dir) {
+                                                   const std::string& source_dir,
+                                                   DepthSource depth_source) {
   const std::filesystem::path source = source_dir.empty() ? CDFF_SOURCE_DIR : source_dir;
-  Result<dfpc::GraphSpec> spec =
-      dfpc::loadGraphFile((source / "dfpcs/detection.yaml").string(), settings);
+  const char* graph =
+      depth_source == DepthSource::kTof ? "dfpcs/detection_tof.yaml" : "dfpcs/detection.yaml";
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile((source / graph).string(), settings);
   if (!spec) return spec.status();
+  auto state = std::make_unique<State>();
+  state->product_prefix = "/cdff/" + spec->name + "/";
+  for (const dfpc::DfpcOutputSpec& output : spec->outputs)
+    state->has_camera_pose = state->has_camera_pose || output.name == "camera_pose";
   // The graph's file parameters are relative to the repository.
   for (dfpc::InstanceSpec& inst : spec->instances)
     for (const char* key : {"template_file", "model_file", "mesh_file"})
@@ -198,7 +246,6 @@ Result<std::unique_ptr<Detector>> Detector::create(const std::vector<std::string
         inst.parameters[key] = (source / inst.parameters[key].as<std::string>()).string();
   Result<std::unique_ptr<dfpc::Dfpc>> dfpc = dfpc::Dfpc::create(std::move(spec).value());
   if (!dfpc) return dfpc.status();
-  auto state = std::make_unique<State>();
   dfpc::OrchestratorOptions o;
   o.sink = &state->products;
   state->orchestrator = std::make_unique<dfpc::Orchestrator>(o);
@@ -212,13 +259,22 @@ Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
   const Timestamp stamp = ++s.frames * 1'000'000;
   Transform mounting = view.camera_mounting;
   mounting.stamp = stamp;
-  StereoImagePair pair = view.pair;
-  pair.left.stamp = pair.right.stamp = pair.right_T_left.stamp = stamp;
-  CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kLeftMounting, stamp, mounting)));
-  CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kPair, stamp, std::move(pair))));
+  if (view.source == DepthSource::kTof) {
+    DepthMap depth = view.depth;
+    depth.image.stamp = stamp;
+    CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kTofMounting, stamp, mounting)));
+    CDFF_RETURN_IF_ERROR(
+        s.orchestrator->process(dfpc::Message::of(kTofDepth, stamp, std::move(depth))));
+  } else {
+    StereoImagePair pair = view.pair;
+    pair.left.stamp = pair.right.stamp = pair.right_T_left.stamp = stamp;
+    CDFF_RETURN_IF_ERROR(
+        s.orchestrator->process(dfpc::Message::of(kLeftMounting, stamp, mounting)));
+    CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kPair, stamp, std::move(pair))));
+  }
 
   const auto at = [&](const std::string& output) -> std::optional<dfpc::Message> {
-    for (const dfpc::Message& m : s.products.messages("/cdff/detection/" + output))
+    for (const dfpc::Message& m : s.products.messages(s.product_prefix + output))
       if (m.stamp == stamp) return m;
     return std::nullopt;
   };
@@ -233,22 +289,26 @@ Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
   out.fitness = number("fitness");
   out.confirmed = number("confirmed");
   out.misfit = number("misfit");
+  out.rival_margin = number("rival_margin");
   out.inlier_ratio = number("inlier_ratio");
   if (const std::optional<dfpc::Message> a = at("alternatives"); a && a->as<int>())
     out.alternatives = *a->as<int>();
   const std::optional<dfpc::Message> camera_pose = at("camera_pose");
   const std::optional<dfpc::Message> pose = at("pose");
-  if (out.detected != (camera_pose.has_value() && pose.has_value()))
+  if (out.detected != pose.has_value() ||
+      (s.has_camera_pose && out.detected != camera_pose.has_value()))
     return Status(StatusCode::kInternal,
                   fmt::format("frame at {} us: detected is {} but the DFPC published {} pose and "
                               "{} camera pose",
                               stamp, out.detected, pose ? "a" : "no", camera_pose ? "a" : "no"));
   if (out.detected) {
-    out.camera_pose = *camera_pose->as<PoseWithCovariance>();
     out.pose = *pose->as<RigidBodyState>();
-    out.position_error = (out.camera_pose.pose.translation - view.camera_truth.translation).norm();
-    out.angle_error = angularDistance(out.camera_pose.pose.rotation, view.camera_truth.rotation);
-    out.nees = eval::poseNees(out.camera_pose.pose, view.camera_truth, out.camera_pose.covariance);
+    out.camera_pose =
+        s.has_camera_pose ? *camera_pose->as<PoseWithCovariance>() : out.pose.poseWithCovariance();
+    const Transform& truth = s.has_camera_pose ? view.camera_truth : view.truth;
+    out.position_error = (out.camera_pose.pose.translation - truth.translation).norm();
+    out.angle_error = angularDistance(out.camera_pose.pose.rotation, truth.rotation);
+    out.nees = eval::poseNees(out.camera_pose.pose, truth, out.camera_pose.covariance);
   }
   std::map<std::string, double> per_node;
   for (const dfpc::MemorySink::Timing& t : s.products.timings()) {

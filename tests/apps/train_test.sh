@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# `cdff train`: templates of a scenario's target and of a mesh file, their check on untrained
+# `cdff train`: templates of a scenario's target and of a mesh file (for a camera, and for a ToF
+# camera, whose templates are matched on the depth alone), their check on untrained
 # views, and errors naming the value for bad requests. Coarse steps keep it a few seconds.
 # usage: train_test.sh CDFF WORK_DIR
 set -u
@@ -33,7 +34,10 @@ check unknown-partner 1 "has no camera 'camera_middle'; expected --rectified-wit
   --in-plane-step 90 --ranges 8 --check 0 --rectified-with camera_middle
 check missing-model 1 "nonexistent.ply" -- \
   "$cdff" train "$work/nonexistent.ply" -o "$work/x.yml.gz"
-check unknown-sensor 1 "has no camera 'camera_middle'" -- \
+check train-tof 0 'camera 320x240 fx [0-9.]+ cx [0-9.]+ cy [0-9.]+ \(a ToF camera: matched on its depth alone\)' -- \
+  "$cdff" train mid_range_approach -o "$work/tof.yml.gz" --sensor tof --view-step 60 \
+  --in-plane-step 90 --ranges 6 --check 5
+check unknown-sensor 1 "has no camera or ToF camera 'camera_middle'" -- \
   "$cdff" train mid_range_approach -o "$work/x.yml.gz" --sensor camera_middle
 check negative-range 2 "ranges" -- \
   "$cdff" train mid_range_approach -o "$work/x.yml.gz" --ranges 8,-2

@@ -1,0 +1,113 @@
+// End to end: the ToF detection DFPC (dfpcs/detection_tof.yaml) through the Orchestrator on
+// simulated depth maps of the ToF camera, each a drawn attitude (uniform on SO(3)), range and
+// pointing of the procedural target, evaluated against the simulator's truth. The templates come
+// from `cdff train --sensor tof` (the test fixture `detection_tof_templates`: 3.4-8.3 m, 20 degree
+// steps). Frames: the evaluation draws' seeds (data/evaluation/draws.yaml), none tuned on.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "cdff/eval/draws.hpp"
+#include "simulated_views.hpp"
+#include "support/synthetic.hpp"
+
+#ifndef CDFF_SOURCE_DIR
+#define CDFF_SOURCE_DIR "."
+#endif
+
+namespace cdff::detection_demo {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+std::vector<std::string> settings() {
+  return {std::string("detect.template_file=") + CDFF_DETECTION_TOF_TEMPLATES};
+}
+
+std::vector<eval::Draw> draws(std::size_t n) {
+  Result<eval::DrawSets> sets =
+      eval::loadDrawSets(std::string(CDFF_SOURCE_DIR) + "/data/evaluation/draws.yaml");
+  EXPECT_OK(sets.status());
+  return sets ? sets->evaluationDraws(n) : std::vector<eval::Draw>{};
+}
+
+Result<std::unique_ptr<Detector>> tofDetector(const std::vector<std::string>& s = settings()) {
+  return Detector::create(s, "", DepthSource::kTof);
+}
+
+// Depth maps of the target at 4-8 m (within the fixture's template ranges). The bounds are
+// regression bounds near today's figures (2026-12-05: 5 of 12 detected, all within 1 % of the
+// range and 2 degrees; the others withheld, mostly because a half turn fits the depth about as
+// well); the goal is 95 % within 1 % of the range and 2 degrees (docs/detection.md).
+TEST(DetectionTofSimulated, DetectsTheTargetInTheToFDepth) {
+  ViewOptions options;
+  options.source = DepthSource::kTof;
+  options.min_range = 4.0;
+  options.max_range = 8.0;
+  Result<std::unique_ptr<Detector>> detector = tofDetector();
+  ASSERT_OK(detector.status());
+  std::size_t frames = 0, detected = 0, right = 0, wrong = 0, errors = 0;
+  double nees_sum = 0, cpu_sum = 0;
+  for (const eval::Draw& draw : draws(12)) {
+    Result<SimulatedView> view = simulateView(options, draw.simulator_seed);
+    ASSERT_OK(view.status());
+    Result<DetectionOutcome> r = (*detector)->run(*view);
+    ASSERT_OK(r.status());
+    ++frames;
+    errors += r->dfn_errors;
+    cpu_sum += r->cpu_s;
+    const bool within =
+        r->detected && r->position_error <= 0.01 * view->range && r->angle_error <= 2 * kDeg;
+    std::printf(
+        "draw %llu (%.2f m): detected %d, error %.3f m %.2f deg, NEES %.1f, fitness %.2f, "
+        "confirmed %.2f, misfit %.2f, %.0f ms\n",
+        static_cast<unsigned long long>(draw.number), view->range, r->detected, r->position_error,
+        r->angle_error / kDeg, r->nees, r->fitness, r->confirmed, r->misfit, r->cpu_s * 1e3);
+    if (!r->detected) continue;
+    ++detected;
+    if (within) {
+      ++right;
+      nees_sum += r->nees;
+      EXPECT_EQ(r->pose.pose.parent_frame, view->truth.parent_frame);
+      EXPECT_GT(r->pose.covariance(6, 6), 0.0);  // the twist is unknown, not exact
+    } else {
+      ++wrong;
+    }
+  }
+  std::printf("%zu frames: detected %zu, right %zu, wrong %zu; mean NEES %.1f; %.0f ms per frame\n",
+              frames, detected, right, wrong, right ? nees_sum / right : NAN,
+              frames ? cpu_sum / frames * 1e3 : NAN);
+  EXPECT_EQ(errors, 0u);
+  EXPECT_GE(right, 4u);
+  EXPECT_LE(wrong, 1u);
+}
+
+// Depth maps with the ToF camera turned away from the target: never a detection.
+TEST(DetectionTofSimulated, DepthMapsWithoutTheTargetGiveNoDetection) {
+  Result<std::unique_ptr<Detector>> detector = tofDetector();
+  ASSERT_OK(detector.status());
+  ViewOptions options;
+  options.source = DepthSource::kTof;
+  for (const eval::Draw& draw : draws(4)) {
+    Result<SimulatedView> view = simulateView(options, draw.simulator_seed, false);
+    ASSERT_OK(view.status());
+    Result<DetectionOutcome> r = (*detector)->run(*view);
+    ASSERT_OK(r.status());
+    EXPECT_FALSE(r->detected) << "draw " << draw.number;
+    EXPECT_EQ(r->dfn_errors, 0u);
+  }
+}
+
+// A missing template file is refused when the graph is built, naming the node and the file.
+TEST(DetectionTofSimulated, AMissingTemplateFileIsAClearError) {
+  Result<std::unique_ptr<Detector>> detector =
+      tofDetector({"detect.template_file=/nonexistent/tof_templates.yml.gz"});
+  ASSERT_FALSE(detector.isOk());
+  const std::string message = detector.status().message();
+  EXPECT_NE(message.find("/nonexistent/tof_templates.yml.gz"), std::string::npos) << message;
+  EXPECT_NE(message.find("detect"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace cdff::detection_demo
