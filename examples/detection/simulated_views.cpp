@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <random>
 
 #include <fmt/format.h>
@@ -221,6 +222,7 @@ struct Detector::State {
   dfpc::MemorySink products;
   std::unique_ptr<dfpc::Orchestrator> orchestrator;
   std::int64_t frames = 0;
+  std::optional<Transform> mounting;  // the last one sent
 };
 
 Detector::Detector(std::unique_ptr<State> state) : state_(std::move(state)) {}
@@ -257,19 +259,26 @@ Result<std::unique_ptr<Detector>> Detector::create(const std::vector<std::string
 Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
   State& s = *state_;
   const Timestamp stamp = ++s.frames * 1'000'000;
-  Transform mounting = view.camera_mounting;
-  mounting.stamp = stamp;
-  if (view.source == DepthSource::kTof) {
+  // The mounting comes as a recording's static channel gives it: once, and again only when it
+  // changes (a graph must keep it from its first message).
+  const bool tof = view.source == DepthSource::kTof;
+  const Transform& mounting = view.camera_mounting;
+  if (!s.mounting || !s.mounting->isometry().isApprox(mounting.isometry()) ||
+      s.mounting->child_frame != mounting.child_frame) {
+    Transform sent = mounting;
+    sent.stamp = stamp;
+    CDFF_RETURN_IF_ERROR(s.orchestrator->process(
+        dfpc::Message::of(tof ? kTofMounting : kLeftMounting, stamp, sent)));
+    s.mounting = mounting;
+  }
+  if (tof) {
     DepthMap depth = view.depth;
     depth.image.stamp = stamp;
-    CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kTofMounting, stamp, mounting)));
     CDFF_RETURN_IF_ERROR(
         s.orchestrator->process(dfpc::Message::of(kTofDepth, stamp, std::move(depth))));
   } else {
     StereoImagePair pair = view.pair;
     pair.left.stamp = pair.right.stamp = pair.right_T_left.stamp = stamp;
-    CDFF_RETURN_IF_ERROR(
-        s.orchestrator->process(dfpc::Message::of(kLeftMounting, stamp, mounting)));
     CDFF_RETURN_IF_ERROR(s.orchestrator->process(dfpc::Message::of(kPair, stamp, std::move(pair))));
   }
 
