@@ -12,4 +12,10 @@ for bench in "$build_dir"/bench/*_bench; do
   "$bench" --benchmark_out="$out_dir/$name.json" --benchmark_out_format=json \
     --benchmark_min_time=0.2 || status=1
 done
+# The detection benchmark once more on the ToF camera's depth (dfpcs/detection_tof.yaml).
+if [ -x "$build_dir/bench/detection_bench" ]; then
+  echo "== detection_bench (ToF)"
+  CDFF_DETECTION_SOURCE=tof "$build_dir/bench/detection_bench" \
+    --benchmark_out="$out_dir/detection_bench_tof.json" --benchmark_out_format=json || status=1
+fi
 exit $status
