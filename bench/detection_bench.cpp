@@ -155,6 +155,7 @@ void Accuracy(benchmark::State& state) {
             r->detected, r->position_error, 100 * r->position_error / view->range,
             r->angle_error / kDeg, r->nees, r->fitness, r->confirmed, r->misfit, r->rival_margin,
             r->inlier_ratio, r->alternatives, r->cpu_s * 1e3);
+      if (verbose() && !r->fault.empty()) std::printf("  fault: %s\n", r->fault.c_str());
     }
   }
   const double n = static_cast<double>(frames);

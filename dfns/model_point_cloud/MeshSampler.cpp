@@ -32,6 +32,12 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
     }
     file_mesh_ = std::move(loaded->mesh);
     file_mesh_->frame_id = params_.frame_id;
+    // The surface's reflectivity to a LIDAR or ToF camera, per triangle, from the file's
+    // materials (a file without materials gets the loader's default).
+    file_reflectivity_.clear();
+    if (loaded->triangle_material.size() == file_mesh_->triangleCount())
+      for (std::size_t t = 0; t < file_mesh_->triangleCount(); ++t)
+        file_reflectivity_.push_back(loaded->triangleMaterial(t).lidar_reflectivity);
     return Status::ok();
   }
 
@@ -48,7 +54,7 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
         if (!model) return model.status();
         model_ = std::make_shared<const PointCloud>(std::move(model).value());
       } else if (file_mesh_) {
-        Result<PointCloud> model = sample(*file_mesh_, "mesh_file");
+        Result<PointCloud> model = sample(*file_mesh_, "mesh_file", file_reflectivity_);
         if (!model) return model.status();
         model_ = std::make_shared<const PointCloud>(std::move(model).value());
       } else {
@@ -62,7 +68,9 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
   }
 
  private:
-  Result<PointCloud> sample(const TriangleMesh& mesh, const char* what) const {
+  /// `reflectivity`: per triangle of `mesh`, the cloud's intensity (none when empty).
+  Result<PointCloud> sample(const TriangleMesh& mesh, const char* what,
+                            const std::vector<float>& reflectivity = {}) const {
     const double area = mesh.surfaceArea();
     const double count = std::round(area / (params_.point_spacing * params_.point_spacing));
     if (count > params_.max_points)
@@ -73,12 +81,21 @@ class ModelPointCloudMeshSampler final : public ModelPointCloudMeshSamplerBase {
     const SampleNormals normals = params_.normals == "face"     ? SampleNormals::kFace
                                   : params_.normals == "vertex" ? SampleNormals::kVertex
                                                                 : SampleNormals::kAuto;
-    return sampleSurface(mesh, static_cast<std::size_t>(std::max(1.0, count)),
-                         static_cast<std::uint64_t>(params_.seed), normals);
+    std::vector<std::uint32_t> triangles;
+    Result<PointCloud> cloud =
+        sampleSurface(mesh, static_cast<std::size_t>(std::max(1.0, count)),
+                      static_cast<std::uint64_t>(params_.seed), normals, &triangles);
+    if (!cloud || reflectivity.empty()) return cloud;
+    std::vector<float> intensity;
+    intensity.reserve(triangles.size());
+    for (std::uint32_t t : triangles) intensity.push_back(reflectivity[t]);
+    cloud->intensity = Buffer<float>::fromVector(std::move(intensity));
+    return cloud;
   }
 
   std::shared_ptr<const PointCloud> model_;
   std::optional<TriangleMesh> file_mesh_;
+  std::vector<float> file_reflectivity_;  // per triangle of file_mesh_
 };
 
 CDFF_REGISTER_DFI(ModelPointCloudMeshSampler);

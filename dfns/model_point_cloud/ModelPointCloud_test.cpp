@@ -4,6 +4,7 @@
 // files; a missing or malformed file and a missing mesh are reported.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -13,6 +14,7 @@
 #include "ModelPointCloud.gen.hpp"
 #include "cdff/dfn/registry.hpp"
 #include "cdff/egse/model_io.hpp"
+#include "cdff/egse/procedural.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
@@ -155,6 +157,46 @@ TEST_F(MeshFiles, ObjAndPlyFilesLoadAsTheSameCube) {
             "v 1000 0 1000\nv 1000 1000 1000\nv 0 1000 1000\n"
             "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n");
   EXPECT_NEAR(modelArea(fmt::format("{{mesh_file: '{}', scale: 0.001}}", mm)), 6.0, 1e-3);
+}
+
+// A model read from a file with materials carries each point's reflectivity (the LIDAR/ToF
+// return of its triangle's material) as its intensity: the samples are uniform by area, so their
+// mean is the model's area-weighted mean reflectivity (within the sampling's share rounding:
+// one point per triangle at most, of tens of thousands). A mesh from the input has none.
+TEST_F(MeshFiles, AModelFileWithMaterialsGivesThePointsTheirReflectivity) {
+  const egse::TargetModel target = egse::makeTargetSatellite().value();
+  const std::string path = (dir_ / "target.ply").string();
+  ASSERT_OK(egse::writePly(target, path));
+  const egse::TargetModel loaded = egse::loadModel(path).value();
+  double weighted = 0, area = 0;
+  for (std::size_t t = 0; t < loaded.mesh.triangleCount(); ++t) {
+    const auto& tri = loaded.mesh.triangles[t];
+    const Eigen::Vector3f a = loaded.mesh.vertices[tri[0]];
+    const double s =
+        0.5 * (loaded.mesh.vertices[tri[1]] - a).cross(loaded.mesh.vertices[tri[2]] - a).norm();
+    weighted += s * loaded.triangleMaterial(t).lidar_reflectivity;
+    area += s;
+  }
+  auto sampler = make(fmt::format("{{mesh_file: '{}', point_spacing: 0.02}}", path));
+  ASSERT_OK(sampler->process());
+  const PointCloud& model = *sampler->out.model;
+  ASSERT_EQ(model.intensity.size(), model.size());
+  double mean = 0;
+  for (float r : model.intensity) {
+    ASSERT_GE(r, 0.0f);
+    ASSERT_LE(r, 1.0f);
+    mean += r;
+  }
+  mean /= static_cast<double>(model.size());
+  EXPECT_NEAR(mean, weighted / area, 0.01 * weighted / area);
+  // The solar cells (0.12) and the MLI (0.55, 0.6) are both there: not one material throughout.
+  EXPECT_LT(*std::min_element(model.intensity.begin(), model.intensity.end()), 0.2f);
+  EXPECT_GT(*std::max_element(model.intensity.begin(), model.intensity.end()), 0.5f);
+
+  auto from_input = make("{point_spacing: 0.02}");
+  from_input->in.mesh.set(loaded.mesh);
+  ASSERT_OK(from_input->process());
+  EXPECT_TRUE(from_input->out.model->intensity.empty());
 }
 
 // A mesh file is read when the node is configured, so a missing or malformed file stops a graph

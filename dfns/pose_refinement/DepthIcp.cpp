@@ -19,6 +19,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
  protected:
   Status onConfigure() override {
     noise_ = {params_.depth_noise_constant, params_.depth_noise_quadratic};
+    returns_ = {params_.min_amplitude};
     shape_for_ = 0;
     return Status::ok();
   }
@@ -157,7 +158,8 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     if (!index) return Status(index.status().code(), "input 'model': " + index.status().message());
     index_ = std::move(index).value();
     if (shape_for_ != index_->builds) {
-      shape_ = modelShape(*index_, 3 * static_cast<std::size_t>(params_.max_points));
+      shape_ = modelShape(*index_, 3 * static_cast<std::size_t>(params_.max_points),
+                          model.intensity.span());
       shape_for_ = index_->builds;
       model_spacing_ = registration::modelSpacing(*index_);
       registration_.configure(options(noise_.sigma(1.0), params_.max_iterations));
@@ -220,8 +222,8 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     double measured_cost = (n - static_cast<double>(fit.quality.inliers)) * kUnexplainedCost;
     if (fit.quality.inliers > 0)
       measured_cost += fit.quality.inliers * std::pow(fit.quality.inlier_rms / sigma, 2);
-    const double shown_cost =
-        shownModelCost(fit.pose, shape_, depth, sigma, params_.missing_depth_cost, fit.score);
+    const double shown_cost = shownModelCost(fit.pose, shape_, depth, sigma,
+                                             params_.missing_depth_cost, returns_, fit.score);
     fit.score.measured = measured_.size();
     fit.score.fitness = fit.quality.fitness;
     fit.score.misfit = n > 0 && fit.score.shown > 0
@@ -234,6 +236,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
   static constexpr double kSameBasinAngle = 10 * M_PI / 180;
 
   DepthNoise noise_;
+  DepthReturn returns_;
   std::shared_ptr<const registration::ModelIndex> index_;
   std::uint64_t shape_for_ = 0;
   ModelShape shape_;

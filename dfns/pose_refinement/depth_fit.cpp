@@ -91,7 +91,8 @@ void pointsNear(const MeasuredDepth& depth, const Eigen::Vector3d& centre, doubl
   out.resize(max_points);
 }
 
-ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples) {
+ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples,
+                      std::span<const float> reflectivity) {
   ModelShape s;
   const std::size_t n = index.points.size();
   if (n == 0) return s;
@@ -116,6 +117,7 @@ ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples
   for (std::size_t k = 0; k < keep; ++k) {
     s.points.push_back(index.points[k * n / keep].vec());
     s.normals.push_back(index.normals[k * n / keep].vec());
+    if (reflectivity.size() == n) s.reflectivity.push_back(reflectivity[k * n / keep]);
   }
   // The model is uniform by area: keep points of n at spacing d cover n d^2, so the subsample's
   // spacing is d sqrt(n / keep).
@@ -138,7 +140,8 @@ std::vector<Eigen::Isometry3d> startsOf(const Eigen::Isometry3d& candidate, cons
 }
 
 double shownModelCost(const Eigen::Isometry3d& pose, const ModelShape& shape,
-                      const MeasuredDepth& depth, double sigma, double missing_cost, Score& score) {
+                      const MeasuredDepth& depth, double sigma, double missing_cost,
+                      const DepthReturn& returns, Score& score) {
   const CameraModel& c = depth.camera;
   const int width = depth.metres.cols, height = depth.metres.rows;
   // z-buffer cells span the subsample's projected spacing, so that a nearer surface covers
@@ -151,6 +154,7 @@ double shownModelCost(const Eigen::Isometry3d& pose, const ModelShape& shape,
   struct Shown {
     float z;
     int u, v;
+    bool sure;  // the camera surely measures it
   };
   std::vector<Shown> candidates;
   candidates.reserve(shape.points.size() / 2);
@@ -163,26 +167,29 @@ double shownModelCost(const Eigen::Isometry3d& pose, const ModelShape& shape,
     if (u < 0 || v < 0 || u >= width || v >= height) continue;
     float& z = nearest[static_cast<std::size_t>((v / cell) * gw + u / cell)];
     z = std::min(z, static_cast<float>(p.z()));
-    candidates.push_back({static_cast<float>(p.z()), u, v});
+    const float reflectivity = shape.reflectivity.empty() ? 1.0f : shape.reflectivity[i];
+    candidates.push_back({static_cast<float>(p.z()), u, v, returns.sure(p, n, reflectivity)});
   }
   // Points more than the subsample's spacing (and the noise) behind the cell's nearest are hidden.
   const double hidden = std::max(3 * sigma, 2 * shape.spacing);
   double cost = 0;
-  std::size_t shown = 0, confirmed = 0;
+  std::size_t shown = 0, expected = 0, confirmed = 0;
   for (const Shown& s : candidates) {
     if (s.z > nearest[static_cast<std::size_t>((s.v / cell) * gw + s.u / cell)] + hidden) continue;
     ++shown;
     const float measured = depth.metres.at<float>(s.v, s.u);
     if (!std::isfinite(measured)) {
-      cost += missing_cost;
+      cost += s.sure ? missing_cost : 1.0;
+      expected += s.sure;
       continue;
     }
+    ++expected;
     const double r = (measured - s.z) / sigma;
     cost += std::min(r * r, kUnexplainedCost);
     confirmed += std::abs(r) <= 3;
   }
   score.shown = shown;
-  score.confirmed = shown > 0 ? static_cast<double>(confirmed) / shown : 0.0;
+  score.confirmed = expected > 0 ? static_cast<double>(confirmed) / expected : 0.0;
   return cost;
 }
 

@@ -3,6 +3,7 @@
 // (from a depth map), the model's shape (its bounding sphere, principal axes and a subsample
 // of its surface), and the two-sided score of a pose at the depth's noise.
 
+#include <cmath>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -49,11 +50,31 @@ struct ModelShape {
   double radius = 0;
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3f> points, normals;
-  double spacing = 0;  // m, between neighbouring subsample points
+  std::vector<float> reflectivity;  // per subsample point; empty when the model has none
+  double spacing = 0;               // m, between neighbouring subsample points
 };
 
-/// The shape of `index`'s model with a subsample of about `samples` points.
-ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples);
+/// The shape of `index`'s model with a subsample of about `samples` points; `reflectivity`:
+/// per point of the index (the model cloud's intensity), or empty.
+ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples,
+                      std::span<const float> reflectivity = {});
+
+/// What a depth camera returns: a ToF camera measures a surface only where its return,
+/// reflectivity x |cos(incidence)| / range^2, reaches min_amplitude (0: everywhere).
+struct DepthReturn {
+  double min_amplitude = 0;  // 1/m^2
+  /// Whether the camera surely measures point `p` (camera frame) of normal `n` and reflectivity
+  /// `reflectivity`: its return at least twice the threshold (the model's reflectivities are
+  /// nominal).
+  bool sure(const Eigen::Vector3d& p, const Eigen::Vector3d& n, float reflectivity) const {
+    return min_amplitude <= 0 || predicted(p, n, reflectivity) >= 2 * min_amplitude;
+  }
+  /// The return of point `p` (camera frame) of normal `n`: reflectivity x |cos| / range^2.
+  static double predicted(const Eigen::Vector3d& p, const Eigen::Vector3d& n, float reflectivity) {
+    const double r2 = p.squaredNorm();
+    return reflectivity * std::abs(n.dot(p)) / (r2 * std::sqrt(r2));
+  }
+};
 
 /// The starts of a candidate camera_T_model: itself and, with `half_turns`, itself turned by
 /// 180 degrees about each principal axis through the bounding centre.
@@ -74,8 +95,11 @@ inline constexpr double kUnexplainedCost = 9.0;
 /// The model side of the score at camera_T_model `pose`: the subsample points facing the camera,
 /// inside the image and not hidden behind nearer ones (a z-buffer whose cells span the
 /// subsample's spacing), compared with the measured depth at their pixel; one without a depth
-/// costs `missing_cost`. Returns their summed cost and sets score.shown and score.confirmed.
+/// costs `missing_cost` where the camera surely measures it (`returns`; elsewhere none is
+/// expected and it costs 1, a right point's expected cost). Returns their summed cost and sets
+/// score.shown and score.confirmed (of the shown points with a depth or a sure return).
 double shownModelCost(const Eigen::Isometry3d& pose, const ModelShape& shape,
-                      const MeasuredDepth& depth, double sigma, double missing_cost, Score& score);
+                      const MeasuredDepth& depth, double sigma, double missing_cost,
+                      const DepthReturn& returns, Score& score);
 
 }  // namespace cdff::pose_refinement

@@ -327,6 +327,10 @@ Result<DetectionOutcome> Detector::run(const SimulatedView& view) {
     per_node[t.instance] += t.cpu_s;
   }
   out.node_cpu_s.assign(per_node.begin(), per_node.end());
+  if (out.dfn_errors > 0) {
+    const std::vector<dfpc::DfpcStatus> statuses = s.orchestrator->statuses();
+    if (!statuses.empty()) out.fault = statuses.front().last_fault;
+  }
   return out;
 }
 

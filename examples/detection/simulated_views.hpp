@@ -75,6 +75,7 @@ struct DetectionOutcome {
   double cpu_s = 0;           // CPU of all DFN calls of the frame, one thread
   std::vector<std::pair<std::string, double>> node_cpu_s;  // per instance, CPU s
   std::size_t dfn_errors = 0;
+  std::string fault;  // the DFPC's last fault, when a DFN failed on this frame
 };
 
 /// The detection graph of `source` (dfpcs/detection.yaml or dfpcs/detection_tof.yaml in

@@ -50,7 +50,8 @@ struct SplitMix64 {
 }  // namespace
 
 Result<PointCloud> sampleSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed,
-                                 SampleNormals normals) {
+                                 SampleNormals normals,
+                                 std::vector<std::uint32_t>* sample_triangles) {
   CDFF_RETURN_IF_ERROR(mesh.validate("mesh to sample"));
   const bool has_vertex_normals = !mesh.vertex_normals.empty();
   if (normals == SampleNormals::kVertex && !has_vertex_normals)
@@ -78,6 +79,7 @@ Result<PointCloud> sampleSurface(const TriangleMesh& mesh, std::size_t count, st
   std::vector<Point4f> points, point_normals;
   points.reserve(count);
   point_normals.reserve(count);
+  if (sample_triangles) sample_triangles->clear();
   const double step = total / static_cast<double>(count);
   const double offset = rng.uniform() * step;
   std::size_t t = 0;
@@ -107,6 +109,7 @@ Result<PointCloud> sampleSurface(const TriangleMesh& mesh, std::size_t count, st
     Point4f normal(static_cast<float>(n.x()), static_cast<float>(n.y()), static_cast<float>(n.z()));
     normal.pad = 0.0f;
     point_normals.push_back(normal);
+    if (sample_triangles) sample_triangles->push_back(static_cast<std::uint32_t>(t));
   }
   PointCloud cloud;
   cloud.stamp = mesh.stamp;

@@ -39,7 +39,9 @@ enum class SampleNormals { kFace, kVertex, kAuto };
 /// cumulative area, so the counts are proportional up to one point), at uniformly random
 /// positions inside it. The same mesh, count and seed give the same cloud on every platform.
 /// Degenerate (zero-area) triangles get no points; kVertex without vertex normals is an error.
+/// With `sample_triangles`, it receives the index of each point's triangle (the cloud's order).
 Result<PointCloud> sampleSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed,
-                                 SampleNormals normals = SampleNormals::kAuto);
+                                 SampleNormals normals = SampleNormals::kAuto,
+                                 std::vector<std::uint32_t>* sample_triangles = nullptr);
 
 }  // namespace cdff
