@@ -240,6 +240,32 @@ TEST(EstimationFilterExtendedKalman, TheTrackStateFollowsTheFusedMeasurementsAnd
   EXPECT_EQ(*plain->out.track_state, TrackState::kAcquiring);
 }
 
+// An initial state that no measurement confirms (a wrong detection: the tracker's registrations
+// never pass) becomes LOST after acquisition_timeout, so that the Orchestrator runs the
+// detection again; without the timeout it stays ACQUIRING. A new initial state acquires again.
+TEST(EstimationFilterExtendedKalman, AnUnconfirmedInitialStateIsLostAfterTheAcquisitionTimeout) {
+  const RigidBodyState s0 = knownState();  // at 1 s
+  auto timed = make("{acquisition_timeout: 5.0}");
+  auto untimed = make("{}");
+  for (auto* ekf : {timed.get(), untimed.get()}) {
+    ekf->in.initial_state.set(s0);
+    ASSERT_OK(ekf->process());
+    EXPECT_EQ(*ekf->out.track_state, TrackState::kAcquiring);
+    ekf->in.time.set(Timestamp{6'000'000});  // 5 s on: not yet over the timeout
+    ASSERT_OK(ekf->process());
+    EXPECT_EQ(*ekf->out.track_state, TrackState::kAcquiring);
+    ekf->in.time.set(Timestamp{6'100'000});
+    ASSERT_OK(ekf->process());
+  }
+  EXPECT_EQ(*timed->out.track_state, TrackState::kLost);
+  EXPECT_EQ(*untimed->out.track_state, TrackState::kAcquiring);
+  RigidBodyState again = s0;
+  again.pose.stamp = 6'200'000;
+  timed->in.initial_state.set(again);
+  ASSERT_OK(timed->process());
+  EXPECT_EQ(*timed->out.track_state, TrackState::kAcquiring);
+}
+
 TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost) {
   // The filter is confident in a state 0.5 m from where every measurement puts the target: one
   // of the two is wrong, and after lost_after_rejections of them in a row the track is LOST so

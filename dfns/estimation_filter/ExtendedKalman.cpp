@@ -113,9 +113,10 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     out.pose.set(estimate_->state.pose);
     out.measurement_accepted.set(accepted);
     out.innovation_nis.set(nis);
-    out.track_state.set(estimate_->acquiring ? TrackState::kAcquiring
-                        : lost(*estimate_)   ? TrackState::kLost
-                                             : TrackState::kTracking);
+    out.track_state.set(estimate_->acquiring
+                            ? (unconfirmed(*estimate_) ? TrackState::kLost : TrackState::kAcquiring)
+                        : lost(*estimate_) ? TrackState::kLost
+                                           : TrackState::kTracking);
     return Status::ok();
   }
 
@@ -247,6 +248,12 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     }
     return Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.ahrs_attitude_sigma *
                            params_.ahrs_attitude_sigma);
+  }
+
+  /// An initial state that no pose measurement has confirmed within acquisition_timeout.
+  bool unconfirmed(const Estimate& e) const {
+    return params_.acquisition_timeout > 0 &&
+           toSeconds(e.state.pose.stamp - e.last_fix) > params_.acquisition_timeout;
   }
 
   /// No pose fused for longer than lost_after, or lost_after_rejections gated out in a row.
