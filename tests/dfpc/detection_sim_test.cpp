@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
 #include "cdff/eval/draws.hpp"
 #include "simulated_views.hpp"
@@ -37,6 +38,50 @@ std::vector<eval::Draw> draws(std::size_t n) {
   return sets ? sets->evaluationDraws(n) : std::vector<eval::Draw>{};
 }
 
+/// What the detection made of `n` evaluation draws' frames.
+struct Tally {
+  std::size_t frames = 0, detected = 0, right = 0, wrong = 0, errors = 0;
+};
+
+/// Runs `detector` on the frames of the first `n` evaluation draws, one line each; `check_right`
+/// gets every frame detected right (within 1 % of the range and 2 degrees).
+Tally runDraws(
+    Detector& detector, const ViewOptions& options, std::size_t n,
+    const std::function<void(const SimulatedView&, const DetectionOutcome&)>& check_right) {
+  Tally t;
+  double nees_sum = 0, cpu_sum = 0;
+  for (const eval::Draw& draw : draws(n)) {
+    Result<SimulatedView> view = simulateView(options, draw.simulator_seed);
+    EXPECT_OK(view.status());
+    if (!view) return t;
+    Result<DetectionOutcome> r = detector.run(*view);
+    EXPECT_OK(r.status());
+    if (!r) return t;
+    ++t.frames;
+    t.errors += r->dfn_errors;
+    cpu_sum += r->cpu_s;
+    std::printf(
+        "draw %llu (%s, %.2f m): detected %d, error %.3f m %.2f deg, NEES %.1f, fitness %.2f, "
+        "confirmed %.2f, misfit %.2f, %.0f ms\n",
+        static_cast<unsigned long long>(draw.number), view->lighting.c_str(), view->range,
+        r->detected, r->position_error, r->angle_error / kDeg, r->nees, r->fitness, r->confirmed,
+        r->misfit, r->cpu_s * 1e3);
+    if (!r->detected) continue;
+    ++t.detected;
+    if (r->position_error <= 0.01 * view->range && r->angle_error <= 2 * kDeg) {
+      ++t.right;
+      nees_sum += r->nees;
+      check_right(*view, *r);
+    } else {
+      ++t.wrong;
+    }
+  }
+  std::printf("%zu frames: detected %zu, right %zu, wrong %zu; mean NEES %.1f; %.0f ms per frame\n",
+              t.frames, t.detected, t.right, t.wrong, t.right ? nees_sum / t.right : NAN,
+              t.frames ? cpu_sum / t.frames * 1e3 : NAN);
+  return t;
+}
+
 // Frames of the target at 4-8.5 m (the fixture's template ranges). The bounds are regression
 // bounds near today's figures (2026-12-05: 2 of 12 detected, both right within 1 % of the range
 // and 2 degrees; a third frame's pose, an exact half turn about the adapter ring's axis, is
@@ -48,44 +93,17 @@ TEST(DetectionSimulated, DetectsTheTargetUnderTheLibrarysLighting) {
   options.max_range = 8.5;
   Result<std::unique_ptr<Detector>> detector = Detector::create(settings());
   ASSERT_OK(detector.status());
-  std::size_t frames = 0, detected = 0, right = 0, wrong = 0, errors = 0;
-  double nees_sum = 0, cpu_sum = 0;
-  for (const eval::Draw& draw : draws(12)) {
-    Result<SimulatedView> view = simulateView(options, draw.simulator_seed);
-    ASSERT_OK(view.status());
-    Result<DetectionOutcome> r = (*detector)->run(*view);
-    ASSERT_OK(r.status());
-    ++frames;
-    errors += r->dfn_errors;
-    cpu_sum += r->cpu_s;
-    const bool within =
-        r->detected && r->position_error <= 0.01 * view->range && r->angle_error <= 2 * kDeg;
-    std::printf(
-        "draw %llu (%s, %.2f m): detected %d, error %.3f m %.2f deg, NEES %.1f, fitness %.2f, "
-        "confirmed %.2f, misfit %.2f, %.0f ms\n",
-        static_cast<unsigned long long>(draw.number), view->lighting.c_str(), view->range,
-        r->detected, r->position_error, r->angle_error / kDeg, r->nees, r->fitness, r->confirmed,
-        r->misfit, r->cpu_s * 1e3);
-    if (!r->detected) continue;
-    ++detected;
-    if (within) {
-      ++right;
-      nees_sum += r->nees;
-      // The same pose through the frame chain (rectified left -> left optical -> servicer).
-      EXPECT_EQ(r->pose.pose.parent_frame, view->truth.parent_frame);
-      EXPECT_LE((r->pose.pose.translation - view->truth.translation).norm(), 0.01 * view->range);
-      EXPECT_LE(angularDistance(r->pose.pose.rotation, view->truth.rotation), 2 * kDeg);
-      EXPECT_GT(r->pose.covariance(6, 6), 0.0);  // the twist is unknown, not exact
-    } else {
-      ++wrong;
-    }
-  }
-  std::printf("%zu frames: detected %zu, right %zu, wrong %zu; mean NEES %.1f; %.0f ms per frame\n",
-              frames, detected, right, wrong, right ? nees_sum / right : NAN,
-              frames ? cpu_sum / frames * 1e3 : NAN);
-  EXPECT_EQ(errors, 0u);
-  EXPECT_GE(right, 2u);
-  EXPECT_EQ(wrong, 0u);
+  const Tally t =
+      runDraws(**detector, options, 12, [](const SimulatedView& view, const DetectionOutcome& r) {
+        // The same pose through the frame chain (rectified left -> left optical -> servicer).
+        EXPECT_EQ(r.pose.pose.parent_frame, view.truth.parent_frame);
+        EXPECT_LE((r.pose.pose.translation - view.truth.translation).norm(), 0.01 * view.range);
+        EXPECT_LE(angularDistance(r.pose.pose.rotation, view.truth.rotation), 2 * kDeg);
+        EXPECT_GT(r.pose.covariance(6, 6), 0.0);  // the twist is unknown, not exact
+      });
+  EXPECT_EQ(t.errors, 0u);
+  EXPECT_GE(t.right, 2u);
+  EXPECT_EQ(t.wrong, 0u);
 }
 
 // Frames with the cameras turned away from the target (stars, the Earth, empty space): never a
@@ -133,40 +151,14 @@ TEST(DetectionTofSimulated, DetectsTheTargetInTheToFDepth) {
   options.max_range = 8.0;
   Result<std::unique_ptr<Detector>> detector = tofDetector();
   ASSERT_OK(detector.status());
-  std::size_t frames = 0, detected = 0, right = 0, wrong = 0, errors = 0;
-  double nees_sum = 0, cpu_sum = 0;
-  for (const eval::Draw& draw : draws(12)) {
-    Result<SimulatedView> view = simulateView(options, draw.simulator_seed);
-    ASSERT_OK(view.status());
-    Result<DetectionOutcome> r = (*detector)->run(*view);
-    ASSERT_OK(r.status());
-    ++frames;
-    errors += r->dfn_errors;
-    cpu_sum += r->cpu_s;
-    const bool within =
-        r->detected && r->position_error <= 0.01 * view->range && r->angle_error <= 2 * kDeg;
-    std::printf(
-        "draw %llu (%.2f m): detected %d, error %.3f m %.2f deg, NEES %.1f, fitness %.2f, "
-        "confirmed %.2f, misfit %.2f, %.0f ms\n",
-        static_cast<unsigned long long>(draw.number), view->range, r->detected, r->position_error,
-        r->angle_error / kDeg, r->nees, r->fitness, r->confirmed, r->misfit, r->cpu_s * 1e3);
-    if (!r->detected) continue;
-    ++detected;
-    if (within) {
-      ++right;
-      nees_sum += r->nees;
-      EXPECT_EQ(r->pose.pose.parent_frame, view->truth.parent_frame);
-      EXPECT_GT(r->pose.covariance(6, 6), 0.0);  // the twist is unknown, not exact
-    } else {
-      ++wrong;
-    }
-  }
-  std::printf("%zu frames: detected %zu, right %zu, wrong %zu; mean NEES %.1f; %.0f ms per frame\n",
-              frames, detected, right, wrong, right ? nees_sum / right : NAN,
-              frames ? cpu_sum / frames * 1e3 : NAN);
-  EXPECT_EQ(errors, 0u);
-  EXPECT_GE(right, 4u);
-  EXPECT_LE(wrong, 1u);
+  const Tally t =
+      runDraws(**detector, options, 12, [](const SimulatedView& view, const DetectionOutcome& r) {
+        EXPECT_EQ(r.pose.pose.parent_frame, view.truth.parent_frame);
+        EXPECT_GT(r.pose.covariance(6, 6), 0.0);  // the twist is unknown, not exact
+      });
+  EXPECT_EQ(t.errors, 0u);
+  EXPECT_GE(t.right, 4u);
+  EXPECT_LE(t.wrong, 1u);
 }
 
 // Depth maps with the ToF camera turned away from the target: never a detection.
