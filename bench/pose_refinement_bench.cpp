@@ -5,7 +5,8 @@
 //   draw N places the target (attitude uniform on SO(3), range log-uniform over [3, 16] m,
 //   centre in the middle half of the image, sun anywhere behind the camera's plane) from the
 //   simulator seed N, and the detection to refine from the draw's initial-error stream: the
-//   truth half-turned about the model's principal axis N mod 4 (0: not turned), then turned by
+//   truth moved by the model's near-symmetry N mod 4 (0: not moved; the procedural target's are
+//   its three half turns, registration::nearSymmetries), then turned by
 //   up to 15 degrees and moved by up to 10 % of the range (a correct detection's bounds). Two
 //   depths: `stereo` (the pair rendered by the simulator's renderer, StereoMatching/Sgbm) and
 //   `ray_cast` (ray-cast truth plus independent noise at the DFI's depth-noise setting).
@@ -37,6 +38,7 @@
 #include "cdff/egse/scenario.hpp"
 #include "cdff/eval/draws.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/opencv.hpp"
 #include "depth_fit.hpp"
@@ -65,7 +67,7 @@ struct Shared {
   egse::TargetModel target;
   std::unique_ptr<egse::RayCaster> caster;
   PointCloud model;
-  pose_refinement::ModelShape shape;
+  std::vector<Eigen::Isometry3d> symmetries;  // of the model (PoseRefinement's starts)
   CameraModel full = undistorted(egse::prosilicaGc1600h());
   CameraModel camera = cameraAfterPyrDown(undistorted(egse::prosilicaGc1600h()), 1);
 };
@@ -80,7 +82,7 @@ const Shared& shared() {
     out->model.frame_id = "target";
     registration::ModelIndex index;
     (void)index.update(out->model);
-    out->shape = pose_refinement::modelShape(index, 1000);
+    out->symmetries = registration::motionsOf(registration::nearSymmetries(index));
     return out;
   }();
   return *s;
@@ -109,7 +111,7 @@ Case caseOf(const eval::Draw& draw) {
       centre.normalized() * c.range - c.truth.linear() * s.target.boundingCentre();
   c.sun = Eigen::Vector3d(g(scene), g(scene), -std::abs(g(scene)) - 0.3).normalized();
   const std::size_t turn = draw.number % 4;
-  const Eigen::Isometry3d turned = pose_refinement::startsOf(c.truth, s.shape, true)[turn];
+  const Eigen::Isometry3d turned = pose_refinement::startsOf(c.truth, s.symmetries)[turn];
   const Eigen::Vector3d axis = Eigen::Vector3d(g(error), g(error), g(error)).normalized();
   const Eigen::Vector3d direction = Eigen::Vector3d(g(error), g(error), g(error)).normalized();
   const double angle = 15 * kDeg * u(error), shift = 0.10 * u(error) * c.range;

@@ -2,19 +2,21 @@
 // (tracking::AcquiringEdgeTracker, ModelBasedTracking/EdgeTracker's code); the converged poses
 // compared where their contours differ.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "EdgeRefinement.gen.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "cdff/tracking/acquiring_edge_tracker.hpp"
 #include "cdff/tracking/contours.hpp"
 #include "cdff/tracking/edge_search.hpp"
+#include "cdff/types/mesh.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace cdff::dfn {
@@ -36,40 +38,28 @@ struct Converged {
   std::vector<double> margin;  // per other pose: own support minus its, where they differ (NaN)
 };
 
-// Half turns about the model's principal axes through its centroid (model frame): the axes of
-// the area-weighted second moments of its faces. The surface's centroid and axes are those of
-// its large symmetric parts (a bus, its wings), which small parts (an antenna) barely move, so
-// that a half turn of one symmetric pose lands next to the other.
-std::vector<Eigen::Isometry3d> halfTurns(const PolygonModel& model) {
-  struct Triangle {
-    double area;
-    Eigen::Vector3d centroid;
-  };
-  std::vector<Triangle> triangles;
-  double total = 0;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+// The model's near-symmetries (model frame, x -> s x): registration::nearSymmetries on points
+// sampled uniformly over its faces (fan-triangulated; its lines, cylinders and circles are left
+// out), 20000 of them whatever its size.
+Result<std::vector<Eigen::Isometry3d>> nearSymmetriesOf(const PolygonModel& model,
+                                                        double min_overlap) {
+  std::vector<Eigen::Vector3f> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  for (const Eigen::Vector3d& p : model.points) vertices.push_back(p.cast<float>());
   for (const PolygonModel::Face& face : model.faces)
-    for (std::size_t k = 1; k + 1 < face.points.size(); ++k) {
-      const Eigen::Vector3d& a = model.points[face.points[0]];
-      const Eigen::Vector3d& b = model.points[face.points[k]];
-      const Eigen::Vector3d& c = model.points[face.points[k + 1]];
-      const Triangle t{0.5 * (b - a).cross(c - a).norm(), (a + b + c) / 3};
-      triangles.push_back(t);
-      total += t.area;
-      centre += t.area * t.centroid;
-    }
-  if (total <= 0) return {};
-  centre /= total;
-  Eigen::Matrix3d moments = Eigen::Matrix3d::Zero();
-  for (const Triangle& t : triangles)
-    moments += t.area * (t.centroid - centre) * (t.centroid - centre).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(moments);
-  std::vector<Eigen::Isometry3d> turns;
-  for (int i = 0; i < 3; ++i)
-    turns.push_back(Eigen::Translation3d(centre) *
-                    Eigen::AngleAxisd(M_PI, axes.eigenvectors().col(i).normalized()) *
-                    Eigen::Translation3d(-centre));
-  return turns;
+    for (std::size_t k = 1; k + 1 < face.points.size(); ++k)
+      triangles.push_back({face.points[0], face.points[k], face.points[k + 1]});
+  if (triangles.empty()) return std::vector<Eigen::Isometry3d>{};
+  TriangleMesh surface;
+  surface.vertices = Buffer<Eigen::Vector3f>::fromVector(std::move(vertices));
+  surface.triangles = Buffer<std::array<std::uint32_t, 3>>::fromVector(std::move(triangles));
+  Result<PointCloud> samples = sampleSurface(surface, 20'000, 1, SampleNormals::kFace);
+  if (!samples) return samples.status().withContext("the model's faces");
+  registration::ModelIndex index;
+  CDFF_RETURN_IF_ERROR(index.update(*samples).withContext("the model's faces"));
+  registration::SymmetryOptions options;
+  options.min_overlap = min_overlap;
+  return registration::motionsOf(registration::nearSymmetries(index, options));
 }
 
 }  // namespace
@@ -118,7 +108,10 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     Result<Image> grey = tracking::toGray8(image, "input 'image'");
     if (!grey) return grey.status();
     if (model.get() != prepared_) {
-      half_turns_ = halfTurns(*model);
+      Result<std::vector<Eigen::Isometry3d>> symmetries =
+          nearSymmetriesOf(*model, params_.min_symmetry_overlap);
+      if (!symmetries) return symmetries.status().withContext("input 'model'");
+      symmetries_ = std::move(symmetries).value();
       prepared_ = model.get();
     }
 
@@ -130,12 +123,12 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     for (int i = 0; i < count; ++i)
       CDFF_RETURN_IF_ERROR(trackFrom(detections.detections[i].pose, i, frame, converged));
     // A near-symmetric target converges onto whichever of its symmetric poses is nearest the
-    // start: each converged pose's half turns about the model's principal axes are tried too,
-    // so that the poses the comparison must tell apart are all there.
+    // start: each converged pose moved by the model's near-symmetries is tried too, so that the
+    // poses the comparison must tell apart are all there.
     const std::size_t found = converged.size();
     for (std::size_t k = 0; k < found; ++k) {
       const Transform pose = converged[k].result.reference_T_model;
-      for (const Eigen::Isometry3d& turn : half_turns_) {
+      for (const Eigen::Isometry3d& turn : symmetries_) {
         const Transform start = Transform::fromIsometry(pose.isometry() * turn, pose.parent_frame,
                                                         pose.child_frame, pose.stamp);
         CDFF_RETURN_IF_ERROR(trackFrom(start, converged[k].candidate, frame, converged));
@@ -307,7 +300,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
 
   std::shared_ptr<const PolygonModel> file_model_;
   const PolygonModel* prepared_ = nullptr;
-  std::vector<Eigen::Isometry3d> half_turns_;  // of the prepared model
+  std::vector<Eigen::Isometry3d> symmetries_;  // of the prepared model
   tracking::AcquiringEdgeTrackerOptions options_;
   tracking::AcquiringEdgeTracker tracker_;
 };

@@ -8,6 +8,7 @@
 
 #include "PoseRefinement.gen.hpp"
 #include "cdff/registration/fast_icp.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "cdff/registration/shared_model_cache.hpp"
 #include "depth_fit.hpp"
 
@@ -20,7 +21,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
   Status onConfigure() override {
     noise_ = {params_.depth_noise_constant, params_.depth_noise_quadratic};
     returns_ = {params_.min_amplitude};
-    shape_for_ = 0;
+    shape_for_ = 0;  // the symmetries follow symmetry_starts and min_symmetry_overlap
     return Status::ok();
   }
 
@@ -47,9 +48,9 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
       const Eigen::Isometry3d candidate = detections.detections[i].pose.isometry();
       // The starts of a candidate share its bounding centre, so its measured points.
       cropAbout(candidate, *depth, params_.max_points / 8);
-      for (const Eigen::Isometry3d& start : startsOf(candidate, shape_, params_.half_turn_starts)) {
-        // Template matches of a near-symmetric target are often half turns of one another: a
-        // start next to one already run would end in the same minimum.
+      for (const Eigen::Isometry3d& start : startsOf(candidate, symmetries_)) {
+        // Template matches of a near-symmetric target are often near-symmetric poses of one
+        // another: a start next to one already run would end in the same minimum.
         if (std::any_of(tried.begin(), tried.end(),
                         [&](const Eigen::Isometry3d& t) { return sameBasin(t, start); }))
           continue;
@@ -162,6 +163,12 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
                           model.intensity.span());
       shape_for_ = index_->builds;
       model_spacing_ = registration::modelSpacing(*index_);
+      symmetries_.clear();
+      if (params_.symmetry_starts) {
+        registration::SymmetryOptions symmetry;
+        symmetry.min_overlap = params_.min_symmetry_overlap;
+        symmetries_ = registration::motionsOf(registration::nearSymmetries(*index_, symmetry));
+      }
       registration_.configure(options(noise_.sigma(1.0), params_.max_iterations));
     }
     Result<registration::ModelPreparation> prepared = registration_.prepare(model);
@@ -240,6 +247,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
   std::shared_ptr<const registration::ModelIndex> index_;
   std::uint64_t shape_for_ = 0;
   ModelShape shape_;
+  std::vector<Eigen::Isometry3d> symmetries_;  // of the model, x -> s x (symmetry_starts)
   double model_spacing_ = 0.01;
   registration::FastIcp registration_;
   std::vector<Eigen::Vector3f> measured_;

@@ -4,7 +4,7 @@
 //
 // Tolerances: the detection's goal after refinement is 1 % of the range and 2 degrees; the
 // starts are what TemplateDetection gives (within 15 degrees and 10 % of the range) or such a
-// pose half-turned about one of the model's principal axes (the near-symmetry that template
+// pose half-turned about one of the model's three axes (the near-symmetry that template
 // matching cannot resolve).
 #include <gtest/gtest.h>
 
@@ -21,6 +21,7 @@
 #include "cdff/egse/rng.hpp"
 #include "cdff/egse/scenario.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/opencv.hpp"
 #include "depth_fit.hpp"
@@ -144,8 +145,8 @@ Errors refine(PoseRefinement& dfn, const Eigen::Isometry3d& truth,
 /// Of `draws` draws at ranges log-uniform over [4, 10] m (where the depth's noise, 3 to 18 cm,
 /// still shows the target's asymmetric parts: the adapter ring, the antenna), how many end
 /// within the goal (1 % of the range, 2 degrees) from a start that is the truth moved by up to
-/// `angle` and `shift` of the range, after a half turn about one principal axis when
-/// `half_turns`.
+/// `angle` and `shift` of the range, after a half turn about one of the model's axes (its
+/// near-symmetries) when `half_turns`.
 struct Outcome {
   int within_goal = 0;
   double mean_nees = 0;  // of the pose covariance, over the draws within the goal
@@ -161,14 +162,15 @@ Outcome withinGoal(int draws, std::uint32_t seed, double angle, double shift, bo
   std::uniform_real_distribution<double> u(0, 1);
   registration::ModelIndex index;
   EXPECT_TRUE(index.update(suite().model).isOk());
-  const pose_refinement::ModelShape shape = pose_refinement::modelShape(index, 1000);
+  const std::vector<Eigen::Isometry3d> symmetries =
+      registration::motionsOf(registration::nearSymmetries(index));
   auto dfn = make();
   Outcome out;
   for (int draw = 0; draw < draws; ++draw) {
     const double range = 4.0 * std::pow(10.0 / 4.0, u(rng));
     const Eigen::Isometry3d truth = drawTruth(rng, range);
     const std::size_t turn = half_turns ? 1 + static_cast<std::size_t>(draw % 3) : 0;
-    const Eigen::Isometry3d start = perturbed(pose_refinement::startsOf(truth, shape, true)[turn],
+    const Eigen::Isometry3d start = perturbed(pose_refinement::startsOf(truth, symmetries)[turn],
                                               angle * u(rng), shift * u(rng), rng);
     const Errors e = refine(*dfn, truth, {start}, seed * 100 + draw);
     const bool ok = e.angle_deg < 2.0 && e.position_fraction < 0.01;
@@ -197,7 +199,7 @@ TEST(PoseRefinementDepthIcp, TellsAHalfTurnedDetectionFromTheRightOne) {
 
 TEST(PoseRefinementDepthIcp, ChoosesTheRightCandidateAmongWrongOnes) {
   std::mt19937 rng(13);
-  auto dfn = make(", half_turn_starts: false");
+  auto dfn = make(", symmetry_starts: false");
   const Eigen::Isometry3d truth = drawTruth(rng, 8.0);
   const std::vector<Eigen::Isometry3d> starts = {perturbed(truth, 60 * kDeg, 0.05, rng),
                                                  perturbed(truth, 90 * kDeg, 0.05, rng),
@@ -223,21 +225,22 @@ TEST(PoseRefinementDepthIcp, APoseWithARivalThatFitsAsWellIsNotTrusted) {
   std::mt19937 rng(16);
   registration::ModelIndex index;
   ASSERT_TRUE(index.update(suite().model).isOk());
-  const pose_refinement::ModelShape shape = pose_refinement::modelShape(index, 1000);
+  const std::vector<Eigen::Isometry3d> symmetries =
+      registration::motionsOf(registration::nearSymmetries(index));
   const Eigen::Isometry3d truth = drawTruth(rng, 6.0);
   // One start: no rival.
-  auto alone = make(", half_turn_starts: false, min_rival_margin: 9");
+  auto alone = make(", symmetry_starts: false, min_rival_margin: 9");
   refine(*alone, truth, {truth}, 600);
   EXPECT_TRUE(std::isinf(*alone->out.rival_margin));
   // The truth and its three half turns: each converges where it started, the truth fits best.
-  const std::vector<Eigen::Isometry3d> starts = pose_refinement::startsOf(truth, shape, true);
-  auto lenient = make(", half_turn_starts: false, finalists: 4");
+  const std::vector<Eigen::Isometry3d> starts = pose_refinement::startsOf(truth, symmetries);
+  auto lenient = make(", symmetry_starts: false, finalists: 4");
   const Errors e = refine(*lenient, truth, starts, 600);
   EXPECT_LT(e.angle_deg, 2.0);
   const double margin = *lenient->out.rival_margin;
   EXPECT_GT(margin, 0.0);
   EXPECT_LT(margin, 9.0);
-  auto strict = make(fmt::format(", half_turn_starts: false, finalists: 4, min_rival_margin: {}",
+  auto strict = make(fmt::format(", symmetry_starts: false, finalists: 4, min_rival_margin: {}",
                                  std::nextafter(margin, 10.0)));
   strict->in.detections.set(detectionsAt(starts));
   strict->in.depth.set(depthOf(truth, 600));
@@ -277,8 +280,8 @@ TEST(PoseRefinementDepthIcp, ASurfaceTooDarkToReturnIsNoEvidenceAgainstThePose) 
     depth.image.stamp = 1000;
     double confirmed[2] = {0, 0}, misfit[2] = {0, 0};
     for (int told = 0; told < 2; ++told) {
-      auto dfn = make(told ? ", half_turn_starts: false, min_amplitude: 0.002"
-                           : ", half_turn_starts: false");
+      auto dfn = make(told ? ", symmetry_starts: false, min_amplitude: 0.002"
+                           : ", symmetry_starts: false");
       dfn->in.detections.set(detectionsAt({truth}));
       dfn->in.depth.set(depth);
       dfn->in.model.set(model);

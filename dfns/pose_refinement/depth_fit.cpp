@@ -125,17 +125,10 @@ ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples
   return s;
 }
 
-std::vector<Eigen::Isometry3d> startsOf(const Eigen::Isometry3d& candidate, const ModelShape& shape,
-                                        bool half_turns) {
+std::vector<Eigen::Isometry3d> startsOf(const Eigen::Isometry3d& candidate,
+                                        std::span<const Eigen::Isometry3d> symmetries) {
   std::vector<Eigen::Isometry3d> starts = {candidate};
-  if (!half_turns) return starts;
-  for (int axis = 0; axis < 3; ++axis) {
-    // x' = c + R (x - c) in the model frame, then the candidate.
-    Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
-    turn.linear() = Eigen::AngleAxisd(M_PI, shape.axes.col(axis)).toRotationMatrix();
-    turn.translation() = shape.centre - turn.linear() * shape.centre;
-    starts.push_back(candidate * turn);
-  }
+  for (const Eigen::Isometry3d& s : symmetries) starts.push_back(candidate * s);
   return starts;
 }
 

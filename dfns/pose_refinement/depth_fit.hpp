@@ -76,10 +76,10 @@ struct DepthReturn {
   }
 };
 
-/// The starts of a candidate camera_T_model: itself and, with `half_turns`, itself turned by
-/// 180 degrees about each principal axis through the bounding centre.
-std::vector<Eigen::Isometry3d> startsOf(const Eigen::Isometry3d& candidate, const ModelShape& shape,
-                                        bool half_turns);
+/// The starts of a candidate camera_T_model: itself and itself moved by each of `symmetries`
+/// (model_T_model motions x -> s x: the candidate times s).
+std::vector<Eigen::Isometry3d> startsOf(const Eigen::Isometry3d& candidate,
+                                        std::span<const Eigen::Isometry3d> symmetries);
 
 /// How well a pose explains the depth (the output ports' fitness, confirmed and misfit).
 struct Score {
