@@ -101,6 +101,7 @@ class PoseRefinementDepthIcp final : public PoseRefinementDepthIcpBase {
     out.rival_margin.set(rival_margin);
     out.refined.set(best.fit.score.fitness >= params_.min_fitness &&
                     best.fit.score.confirmed >= params_.min_confirmed &&
+                    (params_.max_misfit <= 0 || best.fit.score.misfit <= params_.max_misfit) &&
                     rival_margin >= params_.min_rival_margin);
     return Status::ok();
   }

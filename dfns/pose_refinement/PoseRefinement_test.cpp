@@ -251,6 +251,36 @@ TEST(PoseRefinementDepthIcp, APoseWithARivalThatFitsAsWellIsNotTrusted) {
   EXPECT_NEAR(*strict->out.rival_margin, margin, 1e-9);
 }
 
+// max_misfit: at the noise the depth has, a right pose's misfit is about 2 (each side's mean
+// (r/sigma)^2 about 1); told a noise three times smaller than the depth's, the same pose's misfit
+// is several times that, and the bound withholds it.
+TEST(PoseRefinementDepthIcp, APoseThatLeavesTheDepthUnexplainedIsNotTrusted) {
+  std::mt19937 rng(17);
+  for (int draw = 0; draw < 3; ++draw) {
+    const Eigen::Isometry3d truth = drawTruth(rng, 4.0 + 2.0 * draw);
+    double misfit[2] = {0, 0};
+    bool refined[2] = {false, false};
+    for (int understated = 0; understated < 2; ++understated) {
+      const double scale = understated ? 1.0 / 3.0 : 1.0;
+      auto dfn = make(
+          fmt::format(", symmetry_starts: false, min_fitness: 0, min_confirmed: 0, max_misfit: 3, "
+                      "depth_noise_constant: {}, depth_noise_quadratic: {}",
+                      kNoiseConstant * scale, kNoiseQuadratic * scale));
+      dfn->in.detections.set(detectionsAt({truth}));
+      dfn->in.depth.set(depthOf(truth, 700 + draw));
+      dfn->in.model.set(suite().model);
+      ASSERT_TRUE(dfn->process().isOk());
+      misfit[understated] = *dfn->out.misfit;
+      refined[understated] = *dfn->out.refined;
+    }
+    EXPECT_GT(misfit[0], 0.5) << "draw " << draw;
+    EXPECT_LT(misfit[0], 3.0) << "draw " << draw;
+    EXPECT_TRUE(refined[0]) << "draw " << draw;
+    EXPECT_GT(misfit[1], 3.0) << "draw " << draw;
+    EXPECT_FALSE(refined[1]) << "draw " << draw;
+  }
+}
+
 // A ToF camera gives no depth where the return (reflectivity x cos / range^2) is below its
 // threshold: beyond about 6 m the solar cells (reflectivity 0.12) and the adapter ring (0.1) of
 // the procedural target vanish. Told the threshold and the model's reflectivity (its intensity),
