@@ -82,6 +82,9 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     o.min_inlier_ratio = 0.1;  // a weak fit still competes; `refined` applies min_inlier_ratio
     options_.acquisition.restarts = 0;  // the candidates are the restarts
     prepared_ = nullptr;
+    // The file's model is prepared now, so that the first frame does not wait for it.
+    if (file_model_)
+      CDFF_RETURN_IF_ERROR(prepare(*file_model_).withContext("parameter 'model_file'"));
     return Status::ok();
   }
 
@@ -107,13 +110,8 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
           detections.frame_id, image.frame_id);
     Result<Image> grey = tracking::toGray8(image, "input 'image'");
     if (!grey) return grey.status();
-    if (model.get() != prepared_) {
-      Result<std::vector<Eigen::Isometry3d>> symmetries =
-          nearSymmetriesOf(*model, params_.min_symmetry_overlap);
-      if (!symmetries) return symmetries.status().withContext("input 'model'");
-      symmetries_ = std::move(symmetries).value();
-      prepared_ = model.get();
-    }
+    if (model.get() != prepared_)
+      CDFF_RETURN_IF_ERROR(prepare(*model).withContext("input 'model'"));
 
     const std::vector<tracking::CameraFrame> cameras = {
         {&*grey, *image.camera, Transform::identity(image.frame_id, image.frame_id)}};
@@ -296,6 +294,16 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     if (differing < static_cast<std::size_t>(params_.min_evidence_samples))
       return std::numeric_limits<double>::quiet_NaN();
     return (static_cast<double>(supported) - 0.5 * static_cast<double>(by_chance)) / differing;
+  }
+
+  /// The model's near-symmetries, once per model.
+  Status prepare(const PolygonModel& model) {
+    Result<std::vector<Eigen::Isometry3d>> symmetries =
+        nearSymmetriesOf(model, params_.min_symmetry_overlap);
+    if (!symmetries) return symmetries.status();
+    symmetries_ = std::move(symmetries).value();
+    prepared_ = &model;
+    return Status::ok();
   }
 
   std::shared_ptr<const PolygonModel> file_model_;
