@@ -1,6 +1,7 @@
 // PoseRefinement/DepthIcp on the procedural target seen by the stereo rig's left camera at half
 // resolution (812x617, where StereoMatching gives the detection's depth):
 // - speed: one depth map (evaluation draw 7, at 10.6 m), 1 and 10 candidates (4 starts each);
+//   the search for the model's near-symmetries, once per model (box and hexagonal targets);
 // - accuracy over the evaluation draws (data/evaluation/draws.yaml; CDFF_DRAW_SET, CDFF_DRAWS):
 //   draw N places the target (attitude uniform on SO(3), range log-uniform over [3, 16] m,
 //   centre in the middle half of the image, sun anywhere behind the camera's plane) from the
@@ -295,7 +296,25 @@ void BM_PoseRefinement_Accuracy(benchmark::State& state, bool stereo) {
   state.counters["ms_median"] = median(millis);
 }
 
+/// registration::nearSymmetries of a procedural target (0: the box satellite, 1: the hexagonal
+/// one) sampled 2 cm apart: what PoseRefinement and EdgeRefinement pay once per model.
+void BM_NearSymmetries(benchmark::State& state) {
+  const Result<egse::TargetModel> target =
+      state.range(0) == 0 ? egse::makeTargetSatellite() : egse::makeHexagonalSatellite();
+  if (!target) return state.SkipWithError(target.status().toString().c_str());
+  const auto points = static_cast<std::size_t>(target->surfaceArea() / (0.02 * 0.02));
+  Result<PointCloud> model = sampleSurface(target->mesh, points, 7);
+  if (!model) return state.SkipWithError(model.status().toString().c_str());
+  registration::ModelIndex index;
+  if (!index.update(*model)) return state.SkipWithError("cannot index the model");
+  std::size_t found = 0;
+  for (auto _ : state) found = registration::nearSymmetries(index).size();
+  state.counters["symmetries"] = static_cast<double>(found);
+  state.counters["model_points"] = static_cast<double>(points);
+}
+
 BENCHMARK(BM_PoseRefinement_Speed)->Arg(1)->Arg(10)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_NearSymmetries)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_PoseRefinement_Accuracy, stereo, true)
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
