@@ -84,7 +84,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     prepared_ = nullptr;
     // The file's model is prepared now, so that the first frame does not wait for it.
     if (file_model_)
-      CDFF_RETURN_IF_ERROR(prepare(*file_model_).withContext("parameter 'model_file'"));
+      CDFF_RETURN_IF_ERROR(prepare(file_model_).withContext("parameter 'model_file'"));
     return Status::ok();
   }
 
@@ -110,8 +110,7 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
           detections.frame_id, image.frame_id);
     Result<Image> grey = tracking::toGray8(image, "input 'image'");
     if (!grey) return grey.status();
-    if (model.get() != prepared_)
-      CDFF_RETURN_IF_ERROR(prepare(*model).withContext("input 'model'"));
+    if (model != prepared_) CDFF_RETURN_IF_ERROR(prepare(model).withContext("input 'model'"));
 
     const std::vector<tracking::CameraFrame> cameras = {
         {&*grey, *image.camera, Transform::identity(image.frame_id, image.frame_id)}};
@@ -296,18 +295,19 @@ class EdgeRefinementEdgeTracker final : public EdgeRefinementEdgeTrackerBase {
     return (static_cast<double>(supported) - 0.5 * static_cast<double>(by_chance)) / differing;
   }
 
-  /// The model's near-symmetries, once per model.
-  Status prepare(const PolygonModel& model) {
+  /// The model's near-symmetries, once per model (held, so that another model cannot take its
+  /// address and its symmetries).
+  Status prepare(const std::shared_ptr<const PolygonModel>& model) {
     Result<std::vector<Eigen::Isometry3d>> symmetries =
-        nearSymmetriesOf(model, params_.min_symmetry_overlap);
+        nearSymmetriesOf(*model, params_.min_symmetry_overlap);
     if (!symmetries) return symmetries.status();
     symmetries_ = std::move(symmetries).value();
-    prepared_ = &model;
+    prepared_ = model;
     return Status::ok();
   }
 
   std::shared_ptr<const PolygonModel> file_model_;
-  const PolygonModel* prepared_ = nullptr;
+  std::shared_ptr<const PolygonModel> prepared_;
   std::vector<Eigen::Isometry3d> symmetries_;  // of the prepared model
   tracking::AcquiringEdgeTrackerOptions options_;
   tracking::AcquiringEdgeTracker tracker_;
