@@ -4,8 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Eigenvalues>
-
 #include "cdff/types/depth_metres.hpp"
 
 namespace cdff::pose_refinement {
@@ -96,23 +94,9 @@ ModelShape modelShape(const registration::ModelIndex& index, std::size_t samples
   ModelShape s;
   const std::size_t n = index.points.size();
   if (n == 0) return s;
-  Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d high = -low, mean = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d p = index.points[i].vec().cast<double>();
-    low = low.cwiseMin(p);
-    high = high.cwiseMax(p);
-    mean += p;
-  }
-  mean /= static_cast<double>(n);
-  s.centre = (low + high) / 2;
-  s.radius = (high - low).norm() / 2;
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d d = index.points[i].vec().cast<double>() - mean;
-    covariance += d * d.transpose();
-  }
-  s.axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance).eigenvectors();
+  const registration::ModelBounds bounds = registration::modelBounds(index);
+  s.centre = bounds.centre();
+  s.radius = bounds.radius();
   const std::size_t keep = std::min(n, std::max<std::size_t>(samples, 1));
   for (std::size_t k = 0; k < keep; ++k) {
     s.points.push_back(index.points[k * n / keep].vec());

@@ -1,7 +1,7 @@
 #pragma once
 // What PoseRefinement/DepthIcp measures a pose against: the measured points near the target
-// (from a depth map), the model's shape (its bounding sphere, principal axes and a subsample
-// of its surface), and the two-sided score of a pose at the depth's noise.
+// (from a depth map), the model's shape (its bounding sphere and a subsample of its surface),
+// and the two-sided score of a pose at the depth's noise.
 
 #include <cmath>
 #include <cstddef>
@@ -42,13 +42,11 @@ Result<MeasuredDepth> measuredDepth(const DepthMap& map, const std::string& port
 void pointsNear(const MeasuredDepth& depth, const Eigen::Vector3d& centre, double radius,
                 std::size_t max_points, std::vector<Eigen::Vector3f>& out);
 
-/// The model's shape: bounding sphere (of its axis-aligned box), principal axes (columns, of its
-/// points' covariance), a strided subsample of its points and normals and that subsample's
-/// spacing.
+/// The model's shape: bounding sphere (of its axis-aligned box), a strided subsample of its
+/// points and normals and that subsample's spacing.
 struct ModelShape {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   double radius = 0;
-  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
   std::vector<Eigen::Vector3f> points, normals;
   std::vector<float> reflectivity;  // per subsample point; empty when the model has none
   double spacing = 0;               // m, between neighbouring subsample points

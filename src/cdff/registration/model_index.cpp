@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "cdff/registration/median.hpp"
@@ -48,6 +49,16 @@ double modelSpacing(const ModelIndex& index) {
     if (found.size() == 2) distances.push_back(std::sqrt(found[1].squared_distance));
   }
   return distances.empty() ? 0.01 : median(distances);
+}
+
+ModelBounds modelBounds(const ModelIndex& index) {
+  ModelBounds b{Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()),
+                Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity())};
+  for (const Point4f& p : index.points) {
+    b.low = b.low.cwiseMin(p.vec().cast<double>());
+    b.high = b.high.cwiseMax(p.vec().cast<double>());
+  }
+  return b;
 }
 
 Eigen::Vector3d modelCentroid(const ModelIndex& index) {

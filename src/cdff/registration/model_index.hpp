@@ -35,4 +35,12 @@ double modelSpacing(const ModelIndex& index);
 /// The mean of the model's points.
 Eigen::Vector3d modelCentroid(const ModelIndex& index);
 
+/// The axis-aligned box of the model's points (low > high when it has none).
+struct ModelBounds {
+  Eigen::Vector3d low, high;
+  Eigen::Vector3d centre() const { return (low + high) / 2; }
+  double radius() const { return (high - low).norm() / 2; }  // of the box's sphere
+};
+ModelBounds modelBounds(const ModelIndex& index);
+
 }  // namespace cdff::registration

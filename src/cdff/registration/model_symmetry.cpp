@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <numeric>
 
 #include <Eigen/Eigenvalues>
@@ -218,7 +217,8 @@ namespace {
 /// What the search measures the model by: its box, bounding radius, centroid, the overlap's
 /// tolerance and its surface samples (400 to score, 64 to search with).
 struct ModelGauge {
-  Eigen::Vector3d low, high, centroid;
+  ModelBounds bounds;
+  Eigen::Vector3d centroid;
   double radius = 0, tolerance = 0;
   Samples fine, coarse;
   std::vector<double> angles;  // 360 k / n degrees up to a half turn, each once
@@ -233,13 +233,8 @@ struct ModelGauge {
 
 ModelGauge gaugeOf(const ModelIndex& index, const SymmetryOptions& options) {
   ModelGauge g;
-  g.low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  g.high = -g.low;
-  for (const Point4f& p : index.points) {
-    g.low = g.low.cwiseMin(p.vec().cast<double>());
-    g.high = g.high.cwiseMax(p.vec().cast<double>());
-  }
-  g.radius = (g.high - g.low).norm() / 2;
+  g.bounds = modelBounds(index);
+  g.radius = g.bounds.radius();
   g.centroid = modelCentroid(index);
   g.tolerance = options.tolerance > 0 ? options.tolerance
                                       : std::max(2 * modelSpacing(index), 0.02 * g.radius);
@@ -262,8 +257,8 @@ struct PlacedTurn {
 /// placements, a fortieth); those that land well enough, best first.
 std::vector<PlacedTurn> placedTurns(const ModelIndex& index, const ModelGauge& g,
                                     double min_overlap) {
-  const SurfaceOccupancy wide(index, g.low, g.high, g.radius / 9);
-  const SurfaceOccupancy narrow(index, g.low, g.high, g.radius / 40);
+  const SurfaceOccupancy wide(index, g.bounds.low, g.bounds.high, g.radius / 9);
+  const SurfaceOccupancy narrow(index, g.bounds.low, g.bounds.high, g.radius / 40);
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   for (const Eigen::Vector3f& p : g.fine.points) {
     const Eigen::Vector3d d = p.cast<double>() - g.centroid;
