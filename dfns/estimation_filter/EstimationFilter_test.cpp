@@ -266,6 +266,28 @@ TEST(EstimationFilterExtendedKalman, AnUnconfirmedInitialStateIsLostAfterTheAcqu
   EXPECT_EQ(*timed->out.track_state, TrackState::kAcquiring);
 }
 
+// A DFPC that checks the tracked pose on a scan (SymmetryCheck) and finds a better one resets the
+// filter in the same call as that scan's registration arrives: the registration was made from
+// the replaced estimate, and while acquiring it would be taken as the new pose. The reset wins.
+TEST(EstimationFilterExtendedKalman, AMeasurementThatComesWithAResetIsNotUsed) {
+  auto ekf = make("{reacquire: true}");
+  ekf->in.initial_state.set(knownState());  // tracking from here
+  ASSERT_OK(ekf->process());
+  RigidBodyState reset = knownState();
+  reset.pose.stamp = 2'000'000;
+  reset.pose.rotation = expSO3(Eigen::Vector3d(0, 0, M_PI / 3)) * reset.pose.rotation;
+  PoseWithCovariance old_pose;  // the registration from the replaced estimate
+  old_pose.pose = knownState().pose;
+  old_pose.pose.stamp = 2'000'000;
+  old_pose.covariance = Matrix6d::Identity() * 1e-4;
+  ekf->in.initial_state.set(reset);
+  ekf->in.pose_measurement.set(old_pose);
+  ASSERT_OK(ekf->process());
+  EXPECT_LT(angularDistance(ekf->out.state->pose.rotation, reset.pose.rotation), 1e-9);
+  EXPECT_FALSE(*ekf->out.measurement_accepted);
+  EXPECT_EQ(*ekf->out.track_state, TrackState::kAcquiring);
+}
+
 TEST(EstimationFilterExtendedKalman, MeasurementsGatedOutInARowMakeTheTrackLost) {
   // The filter is confident in a state 0.5 m from where every measurement puts the target: one
   // of the two is wrong, and after lost_after_rejections of them in a row the track is LOST so

@@ -94,7 +94,16 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     }
     double nis = std::numeric_limits<double>::quiet_NaN();
     bool accepted = false;
-    if (has_measurement) CDFF_RETURN_IF_ERROR(fusePose(*in.pose_measurement, next, nis, accepted));
+    // A pose measured in the same call as a reset was made from the estimate the reset replaces
+    // (a DFPC that re-initialises its filter from a check of the scan the measurement came
+    // from): while acquiring it would be taken as the new pose and undo the reset.
+    if (has_measurement && has_initial)
+      warn(fmt::format(
+          "pose measurement at t = {} us not used: it came with an 'initial_state', which "
+          "replaces the estimate it was made from",
+          in.pose_measurement->pose.stamp));
+    else if (has_measurement)
+      CDFF_RETURN_IF_ERROR(fusePose(*in.pose_measurement, next, nis, accepted));
     if (has_attitude) {
       const PoseWithCovariance& z = *in.attitude_measurement;
       CDFF_RETURN_IF_ERROR(z.validate().withContext("input 'attitude_measurement'"));
