@@ -19,7 +19,9 @@
 #include "PointCloudFiltering.gen.hpp"
 #include "PointCloudMotionCompensation.gen.hpp"
 #include "Registration3D.gen.hpp"
+#include "SymmetryCheck.gen.hpp"
 #include "bench_support.hpp"
+#include "cdff/egse/procedural.hpp"
 #include "support/lidar.hpp"
 
 namespace {
@@ -319,6 +321,66 @@ void BM_FirstRegistration(benchmark::State& state, const char* dfi) {
 BENCHMARK_CAPTURE(BM_FirstRegistration, FastIcp, "FastIcp")->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_FirstRegistration, PclIcpPointToPlane, "PclIcpPointToPlane")
     ->Unit(benchmark::kMillisecond);
+
+/// SymmetryCheck/ScanMisfit (the LIDAR tracking DFPC's check of the tracked pose against the
+/// model's near-symmetric poses, every 0.5 s) on a VLP-16 scan of a procedural target at 8 m
+/// (0: the box satellite, 3 near-symmetries; 1: the hexagonal one, 11), both sampled 1 cm apart
+/// as the DFPC samples them: one check (`BM_SymmetryCheck`), and the near-symmetry search when
+/// the model arrives (`BM_SymmetryCheckModel`).
+struct SymmetryScene {
+  PointCloud model, scan;
+  Transform tracked;
+};
+
+const SymmetryScene& symmetryScene(int target) {
+  static std::map<int, SymmetryScene> scenes;
+  auto it = scenes.find(target);
+  if (it != scenes.end()) return it->second;
+  SymmetryScene s;
+  const Result<egse::TargetModel> mesh =
+      target == 0 ? egse::makeTargetSatellite() : egse::makeHexagonalSatellite();
+  auto sampler = bench::createConfigured<dfn::ModelPointCloud>("ModelPointCloud", "MeshSampler",
+                                                               "{point_spacing: 0.01}");
+  sampler->in.mesh.set(mesh->mesh);
+  (void)sampler->process();
+  s.model = *sampler->out.model;
+  const Eigen::Isometry3d truth = truthAt(8.0);
+  s.scan = testing::simulateScan(mesh->mesh, truth, {}, 1);
+  s.tracked = Transform::fromIsometry(truth, "lidar", "target", s.scan.stamp);
+  return scenes.emplace(target, std::move(s)).first->second;
+}
+
+void BM_SymmetryCheck(benchmark::State& state) {
+  const SymmetryScene& s = symmetryScene(static_cast<int>(state.range(0)));
+  auto check = bench::createConfigured<dfn::SymmetryCheck>("SymmetryCheck", "ScanMisfit",
+                                                           "{min_interval: 0}");
+  check->in.model.set(s.model);
+  check->in.sensor.set(testing::lidarInfo({}));
+  if (!check->process()) return state.SkipWithError("model preparation failed");
+  for (auto _ : state) {
+    check->in.source.set(s.scan);
+    check->in.pose.set(s.tracked);
+    if (!check->process()) return state.SkipWithError("check failed");
+  }
+  state.counters["symmetries"] = static_cast<double>(*check->out.symmetries);
+  state.counters["scan_points"] = static_cast<double>(s.scan.size());
+}
+BENCHMARK(BM_SymmetryCheck)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_SymmetryCheckModel(benchmark::State& state) {
+  const SymmetryScene& s = symmetryScene(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    auto check = bench::createConfigured<dfn::SymmetryCheck>("SymmetryCheck", "ScanMisfit");
+    // A copy: a new buffer, so that the shared model cache does not hand back the last index.
+    PointCloud model = s.model;
+    model.points = Buffer<Point4f>::fromVector(
+        std::vector<Point4f>(s.model.points.begin(), s.model.points.end()));
+    check->in.model.set(std::move(model));
+    if (!check->process()) return state.SkipWithError("model preparation failed");
+  }
+  state.counters["model_points"] = static_cast<double>(s.model.size());
+}
+BENCHMARK(BM_SymmetryCheckModel)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 }  // namespace
 

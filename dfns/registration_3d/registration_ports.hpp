@@ -14,20 +14,9 @@
 
 #include "Registration3D.gen.hpp"
 #include "cdff/registration/quality.hpp"
+#include "cdff/registration/scan_sensor.hpp"
 
 namespace cdff::dfn::registration3d {
-
-/// Checks the sensor's description, when given: valid, and of the scan's frame.
-inline Status checkSensor(const PointCloud& source, const LidarInfo* sensor) {
-  if (sensor == nullptr) return Status::ok();
-  CDFF_RETURN_IF_ERROR(sensor->validate().withContext("input 'sensor'"));
-  if (sensor->frame_id != source.frame_id)
-    return invalidInput(
-        "input 'sensor' describes the LIDAR of frame '{}' but input 'source' is in frame '{}'; "
-        "expected the description of the sensor that took the scan (the same frame)",
-        sensor->frame_id, source.frame_id);
-  return Status::ok();
-}
 
 /// Checks the scan, the sensor's description and the guess; returns the starting pose
 /// source_T_model.
@@ -35,7 +24,7 @@ inline Result<Eigen::Isometry3d> checkInputs(const PointCloud& source, const Poi
                                              const LidarInfo* sensor,
                                              const Transform* initial_guess) {
   CDFF_RETURN_IF_ERROR(source.validate("input 'source'"));
-  CDFF_RETURN_IF_ERROR(checkSensor(source, sensor));
+  CDFF_RETURN_IF_ERROR(cdff::registration::checkScanSensor(source, sensor));
   if (initial_guess == nullptr) return Eigen::Isometry3d::Identity();
   CDFF_RETURN_IF_ERROR(initial_guess->validate().withContext("input 'initial_guess'"));
   const bool parent_ok = initial_guess->parent_frame.empty() || source.frame_id.empty() ||
