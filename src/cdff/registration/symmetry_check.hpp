@@ -38,14 +38,14 @@ struct SymmetryCheckOptions {
   /// of the returns summed: a part that one pose explains and the other does not makes a
   /// difference that grows with the returns, noise one that grows with their square root.
   double min_significance = 30;
-  /// The least fraction of the tracked pose's summed misfit by which a rival must beat it: where
-  /// the parts that break the symmetry are out of view, poses that fit alike differ by a few
-  /// percent either way, check after check.
+  /// The least fraction of the tracked pose's summed misfit by which a rival must beat it: on
+  /// dense scans a small systematic difference between poses that fit alike (the target
+  /// overflowing the view, the model's sampling) adds up over many returns.
   double min_relative_advantage = 0.25;
   /// s: a check later than this after the previous one starts the sums anew (the track was
   /// interrupted: the poses summed may not be those of the same track).
   double timeout = 3.0;
-  int iterations = 15;                        // of each rival's ICP run
+  int iterations = 10;                        // of each rival's ICP run
   double distinct_angle = 10.0 * M_PI / 180;  // rad
   double inlier_distance = 0.1;               // m, the misfit's
   IcpOptions icp;                             // the rivals' runs
@@ -53,7 +53,7 @@ struct SymmetryCheckOptions {
 
 /// One check's outcome.
 struct SymmetryVerdict {
-  /// A rival that explains the last `scans` checks better than the tracked pose by the margin:
+  /// A rival that explains the last `scans` checks better than the tracked pose by both bounds:
   /// its pose (source_T_model) on this scan. The sums start anew after it.
   std::optional<Eigen::Isometry3d> better;
   /// The tracked pose's summed misfit minus the best rival's (positive: the rival explains the
