@@ -46,8 +46,8 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
         registration3d::guessPositionCovariance(source, in.guess_uncertainty.get());
     if (!position_covariance) return position_covariance.status();
     registration3d::selectSource(source, params_.max_source_points, points_);
-    Result<registration::Registration> result =
-        registration_.registerScan(points_, *guess, source.stamp, lasers(), *position_covariance);
+    Result<registration::Registration> result = registration_.registerScan(
+        points_, *guess, source.stamp, lasers_.of(in.sensor.get()), *position_covariance);
     if (!result) return result.status();
     const registration::Registration& r = *result;
     if (r.run.starved)
@@ -121,22 +121,9 @@ class Registration3DFastIcp final : public Registration3DFastIcpBase {
     registration_.configure(o);
   }
 
-  /// The sensor's distinct laser elevations, lowest first (none without `sensor`); sorted again
-  /// only when the elevations change (a description comes with every scan).
-  std::span<const double> lasers() {
-    const LidarInfo* sensor = in.sensor.get();
-    if (!sensor) return {};
-    if (sensor->elevations != lasers_of_) {
-      lasers_ = sensor->sortedElevations(registration::RingVisibility::kSameRing);
-      lasers_of_ = sensor->elevations;
-    }
-    return lasers_;
-  }
-
   registration::FastIcp registration_;
   std::vector<Eigen::Vector3f> points_;  // the scan points used; kept so as not to allocate
-  std::vector<double> lasers_of_;        // the elevations lasers_ was sorted from
-  std::vector<double> lasers_;
+  registration::LaserElevations lasers_;
   double kernel_floor_noise_ = 0;  // the range noise the kernel's floor was last set from
 };
 

@@ -14,7 +14,7 @@
 
 #include "Registration3D.gen.hpp"
 #include "cdff/registration/quality.hpp"
-#include "cdff/registration/scan_sensor.hpp"
+#include "cdff/registration/scan_inputs.hpp"
 
 namespace cdff::dfn::registration3d {
 
@@ -26,16 +26,8 @@ inline Result<Eigen::Isometry3d> checkInputs(const PointCloud& source, const Poi
   CDFF_RETURN_IF_ERROR(source.validate("input 'source'"));
   CDFF_RETURN_IF_ERROR(cdff::registration::checkScanSensor(source, sensor));
   if (initial_guess == nullptr) return Eigen::Isometry3d::Identity();
-  CDFF_RETURN_IF_ERROR(initial_guess->validate().withContext("input 'initial_guess'"));
-  const bool parent_ok = initial_guess->parent_frame.empty() || source.frame_id.empty() ||
-                         initial_guess->parent_frame == source.frame_id;
-  const bool child_ok = initial_guess->child_frame.empty() || model.frame_id.empty() ||
-                        initial_guess->child_frame == model.frame_id;
-  if (!parent_ok || !child_ok)
-    return invalidInput(
-        "input 'initial_guess' is {}_T_{}; expected source_T_model = {}_T_{} (the frames of "
-        "'source' and 'model')",
-        initial_guess->parent_frame, initial_guess->child_frame, source.frame_id, model.frame_id);
+  CDFF_RETURN_IF_ERROR(
+      cdff::registration::checkSourceTModel(*initial_guess, source, model, "initial_guess"));
   return initial_guess->isometry();
 }
 

@@ -13,7 +13,7 @@
 #include "cdff/registration/model_symmetry.hpp"
 #include "cdff/registration/quality.hpp"
 #include "cdff/registration/ring_visibility.hpp"
-#include "cdff/registration/scan_sensor.hpp"
+#include "cdff/registration/scan_inputs.hpp"
 #include "cdff/registration/shared_model_cache.hpp"
 #include "cdff/registration/symmetry_check.hpp"
 
@@ -53,7 +53,7 @@ class SymmetryCheckScanMisfit final : public SymmetryCheckScanMisfitBase {
           "input 'source' is not set; expected the scan the tracked 'pose' was registered on");
     const PointCloud& source = *in.source;
     CDFF_RETURN_IF_ERROR(source.validate("input 'source'"));
-    CDFF_RETURN_IF_ERROR(checkPose(*in.pose, source, *in.model));
+    CDFF_RETURN_IF_ERROR(registration::checkSourceTModel(*in.pose, source, *in.model, "pose"));
     const LidarInfo* sensor = in.sensor.get();
     CDFF_RETURN_IF_ERROR(registration::checkScanSensor(source, sensor));
     if (last_check_ && toSeconds(source.stamp - *last_check_) < params_.min_interval &&
@@ -65,7 +65,7 @@ class SymmetryCheckScanMisfit final : public SymmetryCheckScanMisfitBase {
     // Too few returns near the target to register a rival on: no check (the tracker's own
     // registration would have starved too).
     if (points_.size() < kMinReturns) return Status::ok();
-    const bool rings = visibility_.setScan(points_, viewpoint(), lasers(sensor));
+    const bool rings = visibility_.setScan(points_, viewpoint(), lasers_.of(sensor));
     auto misfit = [&](const Eigen::Isometry3d& pose) {
       const double visibility =
           rings ? visibility_.evaluate(*model_.index, spacing_, pose, 3.0 * params_.inlier_distance)
@@ -142,33 +142,8 @@ class SymmetryCheckScanMisfit final : public SymmetryCheckScanMisfitBase {
     for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
   }
 
-  static Status checkPose(const Transform& pose, const PointCloud& source,
-                          const PointCloud& model) {
-    CDFF_RETURN_IF_ERROR(pose.validate().withContext("input 'pose'"));
-    const bool parent_ok = pose.parent_frame.empty() || source.frame_id.empty() ||
-                           pose.parent_frame == source.frame_id;
-    const bool child_ok =
-        pose.child_frame.empty() || model.frame_id.empty() || pose.child_frame == model.frame_id;
-    if (!parent_ok || !child_ok)
-      return invalidInput(
-          "input 'pose' is {}_T_{}; expected source_T_model = {}_T_{} (the frames of 'source' "
-          "and 'model')",
-          pose.parent_frame, pose.child_frame, source.frame_id, model.frame_id);
-    return Status::ok();
-  }
-
   Eigen::Vector3f viewpoint() const {
     return Eigen::Vector3f(params_.viewpoint[0], params_.viewpoint[1], params_.viewpoint[2]);
-  }
-
-  /// The sensor's distinct laser elevations, lowest first (none without a description).
-  std::span<const double> lasers(const LidarInfo* sensor) {
-    if (sensor == nullptr) return {};
-    if (sensor->elevations != lasers_of_) {
-      lasers_ = sensor->sortedElevations(registration::RingVisibility::kSameRing);
-      lasers_of_ = sensor->elevations;
-    }
-    return lasers_;
   }
 
   /// The least returns a check registers on: the ICP's least correspondences
@@ -183,7 +158,7 @@ class SymmetryCheckScanMisfit final : public SymmetryCheckScanMisfitBase {
   std::vector<Eigen::Isometry3d> symmetries_;
   registration::ModelBounds bounds_;
   std::vector<Eigen::Vector3f> inside_, points_;
-  std::vector<double> lasers_of_, lasers_;
+  registration::LaserElevations lasers_;
 };
 
 CDFF_REGISTER_DFI(SymmetryCheckScanMisfit);

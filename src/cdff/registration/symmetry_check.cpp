@@ -22,9 +22,7 @@ void SymmetryCheck::setModel(const ModelSearch& model,
 }
 
 void SymmetryCheck::reset() {
-  differences_.clear();
-  tracked_misfits_.clear();
-  returns_.clear();
+  checks_.clear();
   last_ = 0;
 }
 
@@ -41,8 +39,7 @@ Result<SymmetryVerdict> SymmetryCheck::check(
     const std::function<double(const Eigen::Isometry3d&)>& misfit) {
   SymmetryVerdict verdict;
   if (symmetries_.empty()) return verdict;
-  if (!differences_.empty() && (stamp <= last_ || toSeconds(stamp - last_) > options_.timeout))
-    reset();
+  if (!checks_.empty() && (stamp <= last_ || toSeconds(stamp - last_) > options_.timeout)) reset();
   last_ = stamp;
 
   const double tracked_misfit = misfit(tracked);
@@ -61,35 +58,28 @@ Result<SymmetryVerdict> SymmetryCheck::check(
     rivals[k] = pose;
     difference[k] = misfit(pose) - tracked_misfit;
   }
-  differences_.push_back(std::move(difference));
-  tracked_misfits_.push_back(tracked_misfit);
-  returns_.push_back(points.size());
-  if (static_cast<int>(differences_.size()) > options_.scans) {
-    differences_.pop_front();
-    tracked_misfits_.pop_front();
-    returns_.pop_front();
-  }
+  checks_.push_back({std::move(difference), tracked_misfit, points.size()});
+  if (static_cast<int>(checks_.size()) > options_.scans) checks_.pop_front();
 
   std::vector<double> sums(symmetries_.size(), 0.0);
-  for (const std::vector<double>& d : differences_)
-    for (std::size_t k = 0; k < sums.size(); ++k) sums[k] += d[k];
   double tracked_sum = 0, returns = 0;
-  for (double m : tracked_misfits_) tracked_sum += m;
-  for (std::size_t n : returns_) returns += static_cast<double>(n);
+  for (const Check& c : checks_) {
+    for (std::size_t k = 0; k < sums.size(); ++k) sums[k] += c.differences[k];
+    tracked_sum += c.tracked_misfit;
+    returns += static_cast<double>(c.returns);
+  }
   const std::size_t best =
       static_cast<std::size_t>(std::min_element(sums.begin(), sums.end()) - sums.begin());
-  verdict.advantage = -sums[best];
-  verdict.significance = returns > 0 ? -sums[best] / std::sqrt(returns) : 0.0;
-  verdict.relative_advantage = tracked_sum > 0 ? -sums[best] / tracked_sum : 0.0;
-  verdict.scans = static_cast<int>(differences_.size());
+  const double advantage = -sums[best];
+  verdict.significance = returns > 0 ? advantage / std::sqrt(returns) : 0.0;
+  verdict.relative_advantage = tracked_sum > 0 ? advantage / tracked_sum : 0.0;
+  verdict.scans = static_cast<int>(checks_.size());
   // The rival must be distinct on this scan too (its pose is the one reported).
   if (verdict.scans >= options_.scans && verdict.significance >= options_.min_significance &&
       verdict.relative_advantage >= options_.min_relative_advantage &&
       angleBetween(rivals[best], tracked) >= options_.distinct_angle) {
     verdict.better = rivals[best];
-    const Timestamp last = last_;
-    reset();
-    last_ = last;
+    checks_.clear();
   }
   return verdict;
 }

@@ -56,11 +56,10 @@ struct SymmetryVerdict {
   /// A rival that explains the last `scans` checks better than the tracked pose by both bounds:
   /// its pose (source_T_model) on this scan. The sums start anew after it.
   std::optional<Eigen::Isometry3d> better;
-  /// The tracked pose's summed misfit minus the best rival's (positive: the rival explains the
-  /// scans better); NaN before the model has a near-symmetry.
-  double advantage = std::numeric_limits<double>::quiet_NaN();
-  /// The advantage over the square root of the returns of the checks summed, and as a fraction
-  /// of the tracked pose's summed misfit (NaN likewise).
+  /// The advantage, the tracked pose's summed misfit minus the best rival's (positive: the rival
+  /// explains the scans better), over the square root of the returns of the checks summed, and
+  /// as a fraction of the tracked pose's summed misfit; NaN before the model has a
+  /// near-symmetry.
   double significance = std::numeric_limits<double>::quiet_NaN();
   double relative_advantage = std::numeric_limits<double>::quiet_NaN();
   int scans = 0;  // checks summed
@@ -87,9 +86,13 @@ class SymmetryCheck {
   SymmetryCheckOptions options_;
   Icp icp_;
   std::vector<Eigen::Isometry3d> symmetries_;
-  std::deque<std::vector<double>> differences_;  // per check, per symmetry: rival - tracked
-  std::deque<double> tracked_misfits_;           // per check
-  std::deque<std::size_t> returns_;              // per check
+  /// One check's scores.
+  struct Check {
+    std::vector<double> differences;  // per symmetry: rival's misfit - tracked pose's
+    double tracked_misfit = 0;
+    std::size_t returns = 0;
+  };
+  std::deque<Check> checks_;  // the last `scans`, oldest first
   Timestamp last_ = 0;
 };
 
