@@ -16,15 +16,17 @@
 
 namespace cdff::registration {
 
-/// OK without a description (`sensor` null); else its validate(), and its frame the scan's.
-inline Status checkScanSensor(const PointCloud& source, const LidarInfo* sensor) {
+/// OK without a description (`sensor` null); else its validate(), and its frame the scan's
+/// (the input `scan_port`).
+inline Status checkScanSensor(const PointCloud& source, const LidarInfo* sensor,
+                              std::string_view scan_port = "source") {
   if (sensor == nullptr) return Status::ok();
   CDFF_RETURN_IF_ERROR(sensor->validate().withContext("input 'sensor'"));
   if (sensor->frame_id != source.frame_id)
     return invalidInput(
-        "input 'sensor' describes the LIDAR of frame '{}' but input 'source' is in frame '{}'; "
+        "input 'sensor' describes the LIDAR of frame '{}' but input '{}' is in frame '{}'; "
         "expected the description of the sensor that took the scan (the same frame)",
-        sensor->frame_id, source.frame_id);
+        sensor->frame_id, scan_port, source.frame_id);
   return Status::ok();
 }
 

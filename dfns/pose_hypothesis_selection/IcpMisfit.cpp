@@ -1,0 +1,221 @@
+// PoseHypothesisSelection/IcpMisfit: each hypothesis refined by the registration library's
+// point-to-plane ICP on the scene around it and scored by the misfit of FastIcp's hypothesis
+// confirmation (src/cdff/registration/misfit.hpp); this DFI derives the distances from the
+// model and the sensor, crops the scene and picks the pose.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "PoseHypothesisSelection.gen.hpp"
+#include "cdff/registration/icp.hpp"
+#include "cdff/registration/misfit.hpp"
+#include "cdff/registration/quality.hpp"
+#include "cdff/registration/ring_visibility.hpp"
+#include "cdff/registration/scan_inputs.hpp"
+#include "cdff/registration/shared_model_cache.hpp"
+
+namespace cdff::dfn {
+
+class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcpMisfitBase {
+ protected:
+  Status onConfigure() override {
+    model_.index.reset();
+    return Status::ok();
+  }
+
+  Status onProcess() override {
+    out.found.set(false);
+    out.chosen.set(-1);
+    out.fitness.set(kNaN);
+    out.visibility.set(kNaN);
+    out.margin.set(kNaN);
+    CDFF_RETURN_IF_ERROR(prepare(*in.model));
+    const PointCloud& scene = *in.scene;
+    CDFF_RETURN_IF_ERROR(scene.validate("input 'scene'"));
+    const LidarInfo* sensor = in.sensor.get();
+    CDFF_RETURN_IF_ERROR(registration::checkScanSensor(scene, sensor, "scene"));
+    const Detections& hypotheses = *in.hypotheses;
+    CDFF_RETURN_IF_ERROR(hypotheses.validate().withContext("input 'hypotheses'"));
+    if (!hypotheses.frame_id.empty() && !scene.frame_id.empty() &&
+        hypotheses.frame_id != scene.frame_id)
+      return invalidInput(
+          "input 'hypotheses' are in frame '{}' but input 'scene' is in frame '{}'; expected "
+          "poses of the model in the scene's frame",
+          hypotheses.frame_id, scene.frame_id);
+    if (hypotheses.detections.empty()) return Status::ok();
+
+    const Distances d = distances(sensor);
+    configureIcp(d);
+    const int count =
+        std::min<int>(params_.max_hypotheses, static_cast<int>(hypotheses.detections.size()));
+    std::vector<Trial> trials;
+    for (int i = 0; i < count; ++i) {
+      Result<Trial> trial = verify(scene, hypotheses.detections[i].pose.isometry(), sensor, d);
+      if (!trial) {
+        warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
+        continue;
+      }
+      trial->hypothesis = i;
+      trials.push_back(std::move(trial).value());
+    }
+    if (trials.empty()) return Status::ok();
+    pick(trials, d, scene);
+    return Status::ok();
+  }
+
+ private:
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+  /// The distances of this call, from the parameters or (0) from the model and the sensor.
+  struct Distances {
+    double inlier = 0, start = 0, crop = 0, distinct = 0;
+  };
+
+  /// One hypothesis refined and scored on its crop.
+  struct Trial {
+    int hypothesis = -1;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    registration::Quality quality;
+    double visibility = kNaN;
+    double evidence = -std::numeric_limits<double>::infinity();
+    std::size_t returns = 0;
+    bool passes = false;
+  };
+
+  Status prepare(const PointCloud& model) {
+    Result<std::shared_ptr<const registration::ModelIndex>> index =
+        registration::SharedModelCache::index(model, model_.index);
+    if (!index) return index.status().withContext("input 'model'");
+    if (*index == model_.index) return Status::ok();
+    model_.index = std::move(index).value();
+    model_.grid = registration::SharedModelCache::grid(*model_.index, {});
+    spacing_ = registration::modelSpacing(*model_.index);
+    bounds_ = registration::modelBounds(*model_.index);
+    return Status::ok();
+  }
+
+  Distances distances(const LidarInfo* sensor) const {
+    Distances d;
+    const double radius = bounds_.radius();
+    d.inlier =
+        params_.inlier_distance > 0
+            ? params_.inlier_distance
+            : std::max(2.0 * spacing_, 3.0 * (sensor != nullptr ? sensor->range_noise : spacing_));
+    d.start = params_.max_correspondence_distance > 0 ? params_.max_correspondence_distance
+                                                      : std::max(0.1 * radius, 2.0 * d.inlier);
+    d.start = std::max(d.start, d.inlier);
+    d.crop = radius + (params_.crop_margin > 0 ? params_.crop_margin : d.inlier);
+    d.distinct = params_.distinct_distance > 0 ? params_.distinct_distance : 0.1 * radius;
+    return d;
+  }
+
+  void configureIcp(const Distances& d) {
+    registration::IcpOptions o;
+    o.max_correspondence_distance = d.start;
+    o.min_correspondence_distance = d.inlier;
+    o.association.viewpoint = viewpoint();
+    icp_.configure(o);
+    icp_.setModel(model_);
+  }
+
+  Result<Trial> verify(const PointCloud& scene, const Eigen::Isometry3d& hypothesis,
+                       const LidarInfo* sensor, const Distances& d) {
+    cropAround(scene, hypothesis, d.crop);
+    Trial trial;
+    trial.returns = points_.size();
+    if (points_.size() < static_cast<std::size_t>(params_.min_returns)) {
+      trial.pose = hypothesis;
+      return trial;  // nothing there to confirm it
+    }
+    Result<registration::IcpRun> run = icp_.iterate(
+        points_, registration::IcpRun::startingAt(hypothesis, d.start), params_.iterations);
+    if (!run) return run.status();
+    trial.pose = run->pose;
+    trial.pose.linear() = Eigen::Quaterniond(run->pose.linear()).normalized().toRotationMatrix();
+    // The refined pose's own crop: the ICP may have moved the model onto returns the first crop
+    // cut.
+    cropAround(scene, trial.pose, d.crop);
+    trial.returns = points_.size();
+    if (points_.size() < static_cast<std::size_t>(params_.min_returns)) return trial;
+    trial.quality = registration::evaluate(points_, *model_.index, trial.pose, d.inlier,
+                                           params_.covariance_inflation);
+    if (sensor != nullptr && visibility_.setScan(points_, viewpoint(), lasers_.of(sensor)))
+      trial.visibility = visibility_.evaluate(*model_.index, spacing_, trial.pose, 3.0 * d.inlier);
+    // The misfit below that of explaining nothing (every return unmatched).
+    trial.evidence =
+        registration::kUnmatchedCost * static_cast<double>(points_.size()) -
+        registration::misfit(points_, *model_.index, trial.pose, d.inlier, trial.visibility);
+    trial.passes = trial.quality.fitness >= params_.min_fitness &&
+                   (std::isnan(trial.visibility) || trial.visibility >= params_.min_visibility);
+    return trial;
+  }
+
+  /// The passing trial with the most evidence onto the outputs, with its margin over the best
+  /// distinct passing rival; else the best-scored trial's fitness and visibility only.
+  void pick(const std::vector<Trial>& trials, const Distances& d, const PointCloud& scene) {
+    const Trial* best = nullptr;
+    const Trial* best_any = &trials.front();
+    for (const Trial& t : trials) {
+      if (t.evidence > best_any->evidence) best_any = &t;
+      if (t.passes && (best == nullptr || t.evidence > best->evidence)) best = &t;
+    }
+    if (best == nullptr) {
+      out.fitness.set(best_any->quality.fitness);
+      out.visibility.set(best_any->visibility);
+      return;
+    }
+    double rival = -std::numeric_limits<double>::infinity();
+    for (const Trial& t : trials)
+      if (t.passes && &t != best && !samePose(t.pose, best->pose, d))
+        rival = std::max(rival, t.evidence);
+    PoseWithCovariance pose;
+    pose.pose = Transform::fromIsometry(best->pose, scene.frame_id, in.model->frame_id,
+                                        in.hypotheses->stamp);
+    pose.pose.rotation.normalize();
+    pose.covariance = best->quality.covariance;
+    out.pose.set(std::move(pose));
+    out.found.set(true);
+    out.chosen.set(best->hypothesis);
+    out.fitness.set(best->quality.fitness);
+    out.visibility.set(best->visibility);
+    out.margin.set((best->evidence - rival) / std::sqrt(static_cast<double>(best->returns)));
+  }
+
+  bool samePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Distances& d) const {
+    const double angle = Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
+    const Eigen::Vector3d centre = bounds_.centre();
+    return angle < params_.distinct_angle && ((a * centre) - (b * centre)).norm() < d.distinct;
+  }
+
+  /// The scene's returns within `radius` of the model's bounding-box centre at `pose`, evenly
+  /// thinned to max_points, into points_.
+  void cropAround(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius) {
+    const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
+    const float r2 = static_cast<float>(radius * radius);
+    inside_.clear();
+    for (const Point4f& p : scene.points)
+      if ((p.vec() - centre).squaredNorm() <= r2) inside_.push_back(p.vec());
+    const std::size_t n = inside_.size();
+    const std::size_t keep = std::min<std::size_t>(n, static_cast<std::size_t>(params_.max_points));
+    points_.clear();
+    for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
+  }
+
+  Eigen::Vector3f viewpoint() const {
+    return Eigen::Vector3f(params_.viewpoint[0], params_.viewpoint[1], params_.viewpoint[2]);
+  }
+
+  registration::Icp icp_;
+  registration::ModelSearch model_;
+  double spacing_ = 0.01;
+  registration::ModelBounds bounds_;
+  registration::RingVisibility visibility_;
+  registration::LaserElevations lasers_;
+  std::vector<Eigen::Vector3f> inside_, points_;
+};
+
+CDFF_REGISTER_DFI(PoseHypothesisSelectionIcpMisfit);
+
+}  // namespace cdff::dfn
