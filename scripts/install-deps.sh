@@ -15,6 +15,8 @@ packages=(
   visp-images-data
   # tests, benchmarks, bindings
   libgtest-dev libgmock-dev libbenchmark-dev pybind11-dev python3-dev python3-yaml
+  # peers measured in the benchmarks (Open3D: global registration)
+  libopen3d-dev
 )
 
 # Only for `make fuzz` (scripts/install-deps.sh fuzz): clang with libFuzzer and its sanitizers.

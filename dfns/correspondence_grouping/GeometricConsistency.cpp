@@ -20,7 +20,8 @@ class CorrespondenceGroupingGeometricConsistency final
       grouping::publish({}, matches.size(), *in.scene, *in.model, out);
       return Status::ok();
     }
-    const grouping::Scale scale = grouping::scaleOf(*in.scene, *in.model);
+    model_scale_.update(*in.model);
+    const grouping::Scale scale = grouping::scaleOf(*in.scene, model_scale_);
     const Result<double> consensus_size = grouping::sizeParameter(
         "consensus_size", params_.consensus_size, 4.0 * scale.spacing, scale);
     if (!consensus_size) return consensus_size.status();
@@ -50,6 +51,9 @@ class CorrespondenceGroupingGeometricConsistency final
                       matches.size(), *in.scene, *in.model, out);
     return Status::ok();
   }
+
+ private:
+  grouping::ModelScale model_scale_;
 };
 
 CDFF_REGISTER_DFI(CorrespondenceGroupingGeometricConsistency);

@@ -68,7 +68,8 @@ class CorrespondenceGroupingHough3D final : public CorrespondenceGroupingHough3D
       grouping::publish({}, matches.size(), *in.scene, *in.model, out);
       return Status::ok();
     }
-    const grouping::Scale scale = grouping::scaleOf(*in.scene, *in.model);
+    model_scale_.update(*in.model);
+    const grouping::Scale scale = grouping::scaleOf(*in.scene, model_scale_);
     const Result<double> bin_size =
         grouping::sizeParameter("bin_size", params_.bin_size,
                                 std::max(4.0 * scale.spacing, scale.model_extent / 30.0), scale);
@@ -85,7 +86,7 @@ class CorrespondenceGroupingHough3D final : public CorrespondenceGroupingHough3D
     std::vector<grouping::Cluster> clusters;
     CDFF_RETURN_IF_ERROR(grouping::catchingPcl("Hough grouping", [&]() -> Status {
       const ReferenceFrames::Ptr model_frames =
-          referenceFrames(model_keypoints, *in.model, *lrf_radius);
+          modelFrames(model_keypoints, *in.model, *lrf_radius);
       const ReferenceFrames::Ptr scene_frames =
           referenceFrames(scene_keypoints, *in.scene, *lrf_radius);
       // A correspondence votes through both keypoints' frames: without one it cannot vote.
@@ -133,6 +134,26 @@ class CorrespondenceGroupingHough3D final : public CorrespondenceGroupingHough3D
   }
 
  private:
+  /// The model keypoints' frames, fitted again only for other keypoints, another model cloud or
+  /// another radius: the model comes once and is grouped against every scene.
+  ReferenceFrames::Ptr modelFrames(const std::vector<Eigen::Vector3f>& keypoints,
+                                   const PointCloud& model, double radius) {
+    if (!model_frames_ || !model.points.sharesMemoryWith(frames_surface_) ||
+        keypoints != frames_keypoints_ || radius != frames_radius_) {
+      model_frames_ = referenceFrames(keypoints, model, radius);
+      frames_surface_ = model.points;
+      frames_keypoints_ = keypoints;
+      frames_radius_ = radius;
+    }
+    return model_frames_;
+  }
+
+  grouping::ModelScale model_scale_;
+  ReferenceFrames::Ptr model_frames_;
+  Buffer<Point4f> frames_surface_;  // the model cloud they were fitted on (kept alive)
+  std::vector<Eigen::Vector3f> frames_keypoints_;
+  double frames_radius_ = 0;
+
   /// Ok when PCL's Hough grid for these votes holds at most kMaxHoughBins bins. A vote lies in
   /// the scene keypoints' bounding box grown by the model keypoints' largest distance to their
   /// centroid (the length of a vote), whatever the reference frames.

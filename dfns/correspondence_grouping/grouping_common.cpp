@@ -206,12 +206,18 @@ Status checkInputs(const CorrespondenceGrouping::Inputs& in, bool need_normals, 
   return Status::ok();
 }
 
-Scale scaleOf(const PointCloud& scene, const PointCloud& model) {
+void ModelScale::update(const PointCloud& model) {
+  if (!points_.empty() && model.points.sharesMemoryWith(points_)) return;
   const auto xyz = model.xyzMatrix();
+  extent = static_cast<double>((xyz.rowwise().maxCoeff() - xyz.rowwise().minCoeff()).norm());
+  spacing = spacingOf(model);
+  points_ = model.points;
+}
+
+Scale scaleOf(const PointCloud& scene, const ModelScale& model) {
   Scale scale;
-  scale.model_extent =
-      static_cast<double>((xyz.rowwise().maxCoeff() - xyz.rowwise().minCoeff()).norm());
-  scale.spacing = std::max(spacingOf(scene), spacingOf(model));
+  scale.model_extent = model.extent;
+  scale.spacing = std::max(spacingOf(scene), model.spacing);
   return scale;
 }
 

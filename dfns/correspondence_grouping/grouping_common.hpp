@@ -39,7 +39,18 @@ struct Scale {
   double spacing = 0;
   double model_extent = 0;
 };
-Scale scaleOf(const PointCloud& scene, const PointCloud& model);
+/// The model's part of a Scale, computed once per model cloud (its point buffer): a model
+/// comes once and is grouped against every scene.
+class ModelScale {
+ public:
+  /// The extent and point spacing of `model`, again only when it is another cloud.
+  void update(const PointCloud& model);
+  double extent = 0, spacing = 0;
+
+ private:
+  Buffer<Point4f> points_;  // the cloud they were computed for (kept alive: its address is unique)
+};
+Scale scaleOf(const PointCloud& scene, const ModelScale& model);
 
 /// A size parameter: `given` when positive (an error when larger than the model's extent), else
 /// `derived`.

@@ -46,22 +46,23 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
           hypotheses.frame_id, scene.frame_id);
     if (hypotheses.detections.empty()) return Status::ok();
 
-    const Distances d = distances(sensor);
-    configureIcp(d);
     const int count =
         std::min<int>(params_.max_hypotheses, static_cast<int>(hypotheses.detections.size()));
     std::vector<Trial> trials;
     for (int i = 0; i < count; ++i) {
-      Result<Trial> trial = verify(scene, hypotheses.detections[i].pose.isometry(), sensor, d);
+      const Eigen::Isometry3d hypothesis = hypotheses.detections[i].pose.isometry();
+      const Distances d = distances(sensor, hypothesis);
+      Result<Trial> trial = verify(scene, hypothesis, sensor, d);
       if (!trial) {
         warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
         continue;
       }
       trial->hypothesis = i;
+      trial->distances = d;
       trials.push_back(std::move(trial).value());
     }
     if (trials.empty()) return Status::ok();
-    pick(trials, d, scene);
+    pick(trials, scene);
     return Status::ok();
   }
 
@@ -82,6 +83,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     double evidence = -std::numeric_limits<double>::infinity();
     std::size_t returns = 0;
     bool passes = false;
+    Distances distances;
   };
 
   Status prepare(const PointCloud& model) {
@@ -96,13 +98,24 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     return Status::ok();
   }
 
-  Distances distances(const LidarInfo* sensor) const {
+  /// The range noise (1 sigma) at `range` from the sensor's description or the parameters; the
+  /// model's point spacing when neither states one.
+  double rangeNoise(const LidarInfo* sensor, double range) const {
+    if (sensor != nullptr) return sensor->range_noise;
+    if (params_.noise_constant > 0 || params_.noise_quadratic > 0)
+      return params_.noise_constant + params_.noise_quadratic * range * range;
+    return spacing_;
+  }
+
+  /// The distances for a hypothesis: from the parameters, or (0) from the model and the range
+  /// noise at the hypothesis's range.
+  Distances distances(const LidarInfo* sensor, const Eigen::Isometry3d& hypothesis) const {
     Distances d;
     const double radius = bounds_.radius();
-    d.inlier =
-        params_.inlier_distance > 0
-            ? params_.inlier_distance
-            : std::max(2.0 * spacing_, 3.0 * (sensor != nullptr ? sensor->range_noise : spacing_));
+    const double range = (hypothesis * bounds_.centre() - viewpoint().cast<double>()).norm();
+    d.inlier = params_.inlier_distance > 0
+                   ? params_.inlier_distance
+                   : std::max(2.0 * spacing_, 3.0 * rangeNoise(sensor, range));
     d.start = params_.max_correspondence_distance > 0 ? params_.max_correspondence_distance
                                                       : std::max(0.1 * radius, 2.0 * d.inlier);
     d.start = std::max(d.start, d.inlier);
@@ -111,20 +124,17 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     return d;
   }
 
-  void configureIcp(const Distances& d) {
+  Result<Trial> verify(const PointCloud& scene, const Eigen::Isometry3d& hypothesis,
+                       const LidarInfo* sensor, const Distances& d) {
+    cropAround(scene, hypothesis, d.crop);
+    Trial trial;
+    trial.returns = points_.size();
     registration::IcpOptions o;
     o.max_correspondence_distance = d.start;
     o.min_correspondence_distance = d.inlier;
     o.association.viewpoint = viewpoint();
     icp_.configure(o);
     icp_.setModel(model_);
-  }
-
-  Result<Trial> verify(const PointCloud& scene, const Eigen::Isometry3d& hypothesis,
-                       const LidarInfo* sensor, const Distances& d) {
-    cropAround(scene, hypothesis, d.crop);
-    Trial trial;
-    trial.returns = points_.size();
     if (points_.size() < static_cast<std::size_t>(params_.min_returns)) {
       trial.pose = hypothesis;
       return trial;  // nothing there to confirm it
@@ -154,7 +164,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
 
   /// The passing trial with the most evidence onto the outputs, with its margin over the best
   /// distinct passing rival; else the best-scored trial's fitness and visibility only.
-  void pick(const std::vector<Trial>& trials, const Distances& d, const PointCloud& scene) {
+  void pick(const std::vector<Trial>& trials, const PointCloud& scene) {
     const Trial* best = nullptr;
     const Trial* best_any = &trials.front();
     for (const Trial& t : trials) {
@@ -168,7 +178,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     }
     double rival = -std::numeric_limits<double>::infinity();
     for (const Trial& t : trials)
-      if (t.passes && &t != best && !samePose(t.pose, best->pose, d))
+      if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances))
         rival = std::max(rival, t.evidence);
     PoseWithCovariance pose;
     pose.pose = Transform::fromIsometry(best->pose, scene.frame_id, in.model->frame_id,

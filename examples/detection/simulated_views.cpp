@@ -1,5 +1,6 @@
 #include "simulated_views.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -34,6 +35,10 @@ constexpr const char* kPair = "/chaser/stereo/pair";
 constexpr const char* kTofDepth = "/chaser/tof/depth";
 constexpr const char* kTofMounting = "/chaser/tf/tof_optical";
 constexpr const char* kTofTruth = "/truth/tof/target_pose";
+constexpr const char* kLidarScan = "/chaser/lidar/points";
+constexpr const char* kLidarInfo = "/chaser/lidar/info";
+constexpr const char* kLidarMounting = "/chaser/tf/lidar";
+constexpr const char* kLidarTruth = "/truth/lidar/target_pose";
 
 std::string vec3(const Eigen::Vector3d& v) {
   return fmt::format("[{:.17g}, {:.17g}, {:.17g}]", v.x(), v.y(), v.z());
@@ -62,6 +67,29 @@ Timestamp stampOf(const Transform& v) {
 }
 Timestamp stampOf(const DepthMap& v) {
   return v.image.stamp;
+}
+Timestamp stampOf(const PointCloud& v) {
+  return v.stamp;
+}
+Timestamp stampOf(const LidarInfo& v) {
+  return v.stamp;
+}
+
+// Fraction of `points` (target frame) within the LIDAR's lasers' elevations and ranges.
+double fractionInLidarView(const PointCloud& points, const Eigen::Isometry3d& lidar_T_target,
+                           const egse::LidarSpec& lidar) {
+  if (points.size() == 0 || lidar.elevations.empty()) return 0;
+  const auto [low, high] = std::minmax_element(lidar.elevations.begin(), lidar.elevations.end());
+  std::size_t inside = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d p = lidar_T_target * points.points[i].vec().cast<double>();
+    const double elevation = std::atan2(p.z(), p.head<2>().norm());
+    const double range = p.norm();
+    if (elevation >= *low && elevation <= *high && range >= lidar.min_range &&
+        range <= lidar.max_range)
+      ++inside;
+  }
+  return static_cast<double>(inside) / points.size();
 }
 
 // The first `T` on `channel` (stamped `stamp`, or any when `stamp` < 0).
@@ -123,11 +151,12 @@ Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t see
       pitch = (2 * unit(rng) - 1) * 60.0;
     }
     const bool tof = options.source == DepthSource::kTof;
+    const bool lidar = options.source == DepthSource::kLidar;
     std::vector<std::string> overrides = {
-        "sensors.lidar.enabled=false",
+        lidar ? "sensors.lidar.enabled=true" : "sensors.lidar.enabled=false",
         tof ? "sensors.tof.enabled=true" : "sensors.tof.enabled=false",
-        tof ? "sensors.camera_left.enabled=false" : "sensors.camera_left.enabled=true",
-        tof ? "sensors.camera_right.enabled=false" : "sensors.camera_right.enabled=true",
+        tof || lidar ? "sensors.camera_left.enabled=false" : "sensors.camera_left.enabled=true",
+        tof || lidar ? "sensors.camera_right.enabled=false" : "sensors.camera_right.enabled=true",
         "sensors.imu.enabled=false",
         fmt::format("servicer.trajectory={{type: hold, position: {}}}",
                     vec3(range * line_of_sight)),
@@ -138,9 +167,43 @@ Result<SimulatedView> simulateView(const ViewOptions& options, std::uint64_t see
     overrides.insert(overrides.begin(), options.overrides.begin(), options.overrides.end());
     Result<egse::Scenario> scenario = egse::loadScenario(*file, overrides);
     if (!scenario) return scenario.status().withContext(fmt::format("frame seed {}", seed));
+    // A LIDAR scan is published one revolution after it starts.
     Result<std::unique_ptr<egse::Simulator>> sim =
-        egse::Simulator::create(*scenario, seed, /*duration=*/0.01);
+        egse::Simulator::create(*scenario, seed, /*duration=*/lidar ? 0.15 : 0.01);
     if (!sim) return sim.status();
+    if (lidar) {
+      const egse::SensorConfig* sensor = (*sim)->scenario().sensor("lidar");
+      if (!sensor) return invalidInput("scenario '{}' has no lidar", lighting);
+      Result<PointCloud> samples = sampleSurface((*sim)->target().mesh, 1000, seed);
+      if (!samples) return samples.status();
+      const double in_view =
+          fractionInLidarView(*samples, (*sim)->sensorTtarget(*sensor, 0.0), sensor->lidar);
+      if (with_target ? in_view < options.min_in_view : in_view > 0) continue;
+      egse::MemorySink sink;
+      CDFF_RETURN_IF_ERROR((*sim)->run(sink));
+      const PointCloud* scan = payloadAt<PointCloud>(sink, kLidarScan, -1);
+      if (!scan) return notFound("frame seed {}: the simulation gave no {}", seed, kLidarScan);
+      const LidarInfo* info = payloadAt<LidarInfo>(sink, kLidarInfo, scan->stamp);
+      const Transform* mounting = payloadAt<Transform>(sink, kLidarMounting, -1);
+      const Transform* sensor_truth = truthPose(sink, kLidarTruth, scan->stamp);
+      if (!info || !mounting || !sensor_truth)
+        return notFound("frame seed {}: the simulation lacks {}, {} or the truth at {} us", seed,
+                        kLidarInfo, kLidarMounting, scan->stamp);
+      SimulatedView view;
+      view.source = DepthSource::kLidar;
+      view.scan = *scan;
+      view.lidar = *info;
+      view.camera_mounting = *mounting;
+      Result<Transform> truth = mounting->compose(*sensor_truth);
+      if (!truth) return truth.status();
+      view.truth = *truth;
+      view.truth.stamp = scan->stamp;
+      view.camera_truth = *sensor_truth;
+      view.lighting = lighting;
+      view.range = sensor_truth->translation.norm();
+      view.target_in_view = with_target;
+      return view;
+    }
     if (tof) {
       const egse::SensorConfig* sensor = (*sim)->scenario().sensor("tof");
       if (!sensor) return invalidInput("scenario '{}' has no tof", lighting);

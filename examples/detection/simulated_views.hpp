@@ -15,6 +15,8 @@
 
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/lidar_info.hpp"
+#include "cdff/types/point_cloud.hpp"
 #include "cdff/types/status.hpp"
 
 namespace cdff::detection_demo {
@@ -23,6 +25,7 @@ namespace cdff::detection_demo {
 enum class DepthSource {
   kStereo,  // the Prosilica pair (camera_left, camera_right): dfpcs/detection.yaml
   kTof,     // the ToF camera (tof): dfpcs/detection_tof.yaml
+  kLidar,   // the LIDAR (lidar): one revolution's scan, for the 3D model detection
 };
 
 struct ViewOptions {
@@ -33,7 +36,8 @@ struct ViewOptions {
                                        "under_illuminated",  "tumbling_target"};
   double min_range = 2.0, max_range = 17.0;  // m, camera to the target's bounding centre
   /// Fraction of the target's surface (area-weighted samples, occlusion ignored) that must
-  /// project into the left image (the ToF camera's).
+  /// project into the left image (the ToF camera's; the LIDAR's: lie within its lasers'
+  /// elevations and range).
   double min_in_view = 0.8;
   /// Scenario "dotted.key=value" overrides of every frame (e.g. another target:
   /// "target.procedural.kind=hexagonal").
@@ -43,12 +47,15 @@ struct ViewOptions {
 struct SimulatedView {
   DepthSource source = DepthSource::kStereo;
   StereoImagePair pair;  // kStereo: as the simulator's cameras give it (distorted, unrectified)
-  DepthMap depth;        // kTof: the ToF camera's depth map
+  DepthMap depth;        // kTof: the ToF camera's depth map (with its calibration)
+  PointCloud scan;       // kLidar: the scan, in the LIDAR's frame
+  LidarInfo lidar;       // kLidar: the LIDAR's description
   /// The detecting sensor's mounting: servicer_T_camera_left_optical
-  /// (/chaser/tf/camera_left_optical), or servicer_T_tof_optical (/chaser/tf/tof_optical).
+  /// (/chaser/tf/camera_left_optical), servicer_T_tof_optical (/chaser/tf/tof_optical) or
+  /// servicer_T_lidar (/chaser/tf/lidar).
   Transform camera_mounting;
   Transform truth;         // servicer_T_target (/truth/target_pose), at the frame's stamp
-  Transform camera_truth;  // camera_left_optical_T_target, or tof_optical_T_target
+  Transform camera_truth;  // camera_left_optical_T_target, tof_optical_T_target or lidar_T_target
   std::string lighting;    // the scenario it was lit as
   double range = 0;        // m, the sensor to the target's bounding centre
   bool target_in_view = true;
