@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "cdff/types/kd_tree.hpp"
+#include "cdff/types/point_spacing.hpp"
 
 namespace cdff::dfn::grouping {
 namespace {
@@ -14,13 +14,6 @@ namespace {
 /// A normal is accepted as unit when its norm is within this of 1: float normals from any
 /// estimator are unit to ~1e-6, one never normalised is off by far more.
 constexpr float kUnitNormTolerance = 1e-3f;
-/// The spacing is estimated from the distance to the 8th nearest other point: for a regular grid
-/// and for random samples alike, r8 sqrt(pi/8) is the pitch s within 10 % (the nearest
-/// neighbour of random samples is about s/2, of a grid s).
-constexpr int kSpacingNeighbours = 8;
-/// At most this many points, at a regular stride, are queried: the median of 4096 samples is
-/// within a few percent of the whole cloud's, at a cost independent of its size.
-constexpr std::size_t kSpacingSamples = 4096;
 /// Refits of a cluster's pose to its inliers; the inlier set is stable after 2 or 3.
 constexpr int kRefits = 5;
 
@@ -52,25 +45,6 @@ Status checkFrames(const Features3D& features, const char* features_port, const 
       "input '{}' is in frame '{}' but input '{}' in frame '{}'; expected the keypoints in "
       "their surface's frame",
       features_port, features.frame_id, surface_port, surface.frame_id);
-}
-
-/// The point spacing s of a cloud (see kSpacingNeighbours); 0 when its points coincide.
-double spacingOf(const PointCloud& cloud) {
-  if (cloud.size() < 2) return 0;
-  const KdTree3f tree(std::span<const Point4f>(cloud.points.data(), cloud.size()));
-  const int k = static_cast<int>(std::min<std::size_t>(kSpacingNeighbours, cloud.size() - 1));
-  const std::size_t stride = std::max<std::size_t>(1, cloud.size() / kSpacingSamples);
-  std::vector<KdTree3f::Neighbour> found;
-  std::vector<float> distances;
-  for (std::size_t i = 0; i < cloud.size(); i += stride) {
-    tree.kNearest(cloud.points[i].vec(), k + 1, found);  // the first is the point itself
-    if (static_cast<int>(found.size()) == k + 1)
-      distances.push_back(std::sqrt(found.back().squared_distance));
-  }
-  if (distances.empty()) return 0;
-  auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
-  std::nth_element(distances.begin(), middle, distances.end());
-  return *middle * std::sqrt(M_PI / k);
 }
 
 /// The rigid transform (no scale) that best maps the pairs' model keypoints onto their scene
@@ -210,14 +184,14 @@ void ModelScale::update(const PointCloud& model) {
   if (!points_.empty() && model.points.sharesMemoryWith(points_)) return;
   const auto xyz = model.xyzMatrix();
   extent = static_cast<double>((xyz.rowwise().maxCoeff() - xyz.rowwise().minCoeff()).norm());
-  spacing = spacingOf(model);
+  spacing = pointSpacing(model);
   points_ = model.points;
 }
 
 Scale scaleOf(const PointCloud& scene, const ModelScale& model) {
   Scale scale;
   scale.model_extent = model.extent;
-  scale.spacing = std::max(spacingOf(scene), model.spacing);
+  scale.spacing = std::max(pointSpacing(scene), model.spacing);
   return scale;
 }
 

@@ -1,8 +1,8 @@
 // FeaturesDescription3D: descriptors of the procedural target's surface are invariant to a rigid
 // motion (each keypoint's moved descriptor is nearest its own, also with range noise) and to
-// scale (the derived radius follows the resolution); the derived radius is the stated multiple
-// of the resolution; keypoints without support are left out with a warning; bad inputs and
-// parameters are reported with the port or parameter, the value and what was expected.
+// scale (the derived radius follows the point spacing); the derived radius is the stated
+// multiple of the point spacing; keypoints without support are left out with a warning; bad inputs
+// and parameters are reported with the port or parameter, the value and what was expected.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -25,7 +25,7 @@ namespace {
 struct ShotName {
   static constexpr const char* name = "Shot";
   static constexpr int length = 352;
-  static constexpr double radius_per_resolution = 15.0;  // as stated in the description
+  static constexpr double radius_per_spacing = 10.0;  // as stated in the description
   // Shares of keypoints whose moved descriptor is nearest their own (see the tests' comments).
   static constexpr double own_after_motion = 0.80;   // measured 0.884 to 0.896
   static constexpr double own_with_noise = 0.50;     // measured 0.58 to 0.64
@@ -34,7 +34,7 @@ struct ShotName {
 struct FpfhName {
   static constexpr const char* name = "Fpfh";
   static constexpr int length = 33;
-  static constexpr double radius_per_resolution = 10.0;
+  static constexpr double radius_per_spacing = 5.0;
   static constexpr double own_after_motion = 0.45;   // measured 0.552 to 0.556
   static constexpr double own_with_noise = 0.08;     // measured 0.11 to 0.13
   static constexpr double own_after_scaling = 0.85;  // measured 0.938
@@ -54,8 +54,8 @@ constexpr std::size_t kSurfacePoints = 20'000;
 constexpr std::size_t kKeypointStride = 40;  // 500 keypoints
 
 /// The simulator's target satellite sampled uniformly by area with its face normals: ~15 m^2,
-/// so 20 000 points are ~2.7 cm apart (a resolution, median nearest-neighbour distance, of
-/// about 1.3 cm for random sampling).
+/// so 20 000 points are ~2.7 cm apart (their point spacing; the median nearest-neighbour
+/// distance of a random sampling is about half that, 1.3 cm).
 const PointCloud& targetSurface() {
   static const PointCloud surface = [] {
     const TriangleMesh mesh = egse::makeTargetSatellite().value().mesh;
@@ -225,11 +225,11 @@ TYPED_TEST(FeaturesDescription3DTest, DescriptorsAreInvariantToARigidMotion) {
   }
 }
 
-// 1 mm of isotropic noise on the moved surface (8 % of its 1.3 cm resolution, a good short-range
-// scanner's), normals exact: the support's points move, so the histograms change a little,
-// enough on this self-similar target (flat faces, two identical wings) to make another keypoint
-// nearer for many keypoints. Measured over 3 motions: Shot 58 to 64 %, Fpfh 11 to 13 % (its 33
-// bins hold less of the shape than SHOT's 352); chance would be 0.2 % (1 of 500).
+// 1 mm of isotropic noise on the moved surface (8 % of its 1.3 cm nearest-neighbour distance, a
+// good short-range scanner's), normals exact: the support's points move, so the histograms change a
+// little, enough on this self-similar target (flat faces, two identical wings) to make another
+// keypoint nearer for many keypoints. Measured over 3 motions: Shot 58 to 64 %, Fpfh 11 to 13 %
+// (its 33 bins hold less of the shape than SHOT's 352); chance would be 0.2 % (1 of 500).
 TYPED_TEST(FeaturesDescription3DTest, DescriptorsStayDistinctiveUnderRangeNoise) {
   auto dfn = this->make();
   for (std::uint32_t seed : {1u, 2u, 3u}) {
@@ -273,26 +273,25 @@ TEST(FeaturesDescription3DFpfh, ARigidMotionMovesOnlyAntiparallelNormalsAcrossTh
   }
 }
 
-TYPED_TEST(FeaturesDescription3DTest, DerivedRadiusIsTheStatedMultipleOfTheResolution) {
+TYPED_TEST(FeaturesDescription3DTest, DerivedRadiusIsTheStatedMultipleOfThePointSpacing) {
   const PointCloud& surface = targetSurface();
   const Features3D keypoints = keypointsOf(surface, kKeypointStride);
-  const double resolution = description::resolution(surface, KdTree3f(surface.points.span()));
-  // 20 000 random points on ~15 m^2: median nearest-neighbour distance
-  // sqrt(ln 2 / (pi density)) = 1.3 cm.
-  EXPECT_NEAR(resolution, 0.013, 0.002);
+  const double spacing = pointSpacing(surface);
+  // 20 000 random points on ~15 m^2: a pitch of sqrt(15 / 20 000) = 2.7 cm.
+  EXPECT_NEAR(spacing, 0.027, 0.003);
   auto derived = this->make();
   auto explicit_radius =
-      this->make(fmt::format("{{radius: {}}}", TypeParam::radius_per_resolution * resolution));
+      this->make(fmt::format("{{radius: {}}}", TypeParam::radius_per_spacing * spacing));
   const Features3D a = describe(*derived, keypoints, surface);
   const Features3D b = describe(*explicit_radius, keypoints, surface);
   ASSERT_EQ(a.descriptors.data.size(), b.descriptors.data.size());
   EXPECT_EQ(
       std::memcmp(a.descriptors.data.data(), b.descriptors.data.data(), a.descriptors.data.size()),
       0)
-      << "the default radius is not " << TypeParam::radius_per_resolution << " x " << resolution;
+      << "the default radius is not " << TypeParam::radius_per_spacing << " x " << spacing;
 }
 
-// The same target 10 times larger: its resolution, so the derived radius, is 10 times larger,
+// The same target 10 times larger: its point spacing, so the derived radius, is 10 times larger,
 // and both descriptors are normalised by their radius (SHOT's sectors, FPFH's angles), so they
 // are the same up to rounding (median change measured 1.5e-6 and 2.2e-6 of the typical
 // distance between keypoints). Rounding flips a few keypoints as under a motion (a support
@@ -417,12 +416,13 @@ TYPED_TEST(FeaturesDescription3DTest, BadInputsAreReported) {
   dfn->in.keypoints.set(long_normal);
   testing::expectRejected(*dfn, "input 'keypoints' keypoint 0 has a normal of norm 0.5");
 
-  // The derived radius needs two distinct points.
+  // The derived radius needs a sampled surface (points with 8 distinct neighbours).
   PointCloud one_point = smallPatch();
   one_point.points = Buffer<Point4f>::fromVector(std::vector<Point4f>(100, {0.05f, 0.05f, 1}));
   dfn->in.keypoints.set(good_keypoints);
   dfn->in.surface.set(one_point);
-  testing::expectRejected(*dfn, "input 'surface' has no two distinct points (100 points)");
+  testing::expectRejected(*dfn,
+                          "input 'surface' has no point with 8 distinct neighbours (100 points)");
 
   // What was rejected did not stop the next call.
   dfn->in.surface.set(smallPatch());

@@ -11,9 +11,9 @@ namespace cdff::dfn {
 
 class FeaturesDescription3DFpfh final : public FeaturesDescription3DFpfhBase {
  public:
-  /// FPFH's support radius is this many times the surface's resolution when not given: about
-  /// five grid spacings, the usual choice, and over twice the normals' own neighbourhood.
-  static constexpr double kRadiusPerResolution = 10.0;
+  /// FPFH's support radius is this many point spacings when not given: about five, the usual
+  /// choice, and over twice the normals' own neighbourhood.
+  static constexpr double kRadiusPerSpacing = 5.0;
   static constexpr int kLength = 33;
 
  protected:
@@ -26,7 +26,7 @@ class FeaturesDescription3DFpfh final : public FeaturesDescription3DFpfhBase {
       return Status::ok();
     }
     Result<description::Support> support =
-        description::prepare(keypoints, *in.surface, params_.radius, kRadiusPerResolution);
+        description::prepare(keypoints, *in.surface, params_.radius, kRadiusPerSpacing);
     if (!support) return support.status();
     std::vector<float> descriptors;
     CDFF_RETURN_IF_ERROR(description::guarded("PCL's FPFH estimation", [&]() -> Status {

@@ -12,9 +12,9 @@ namespace cdff::dfn {
 
 class FeaturesDescription3DShot final : public FeaturesDescription3DShotBase {
  public:
-  /// SHOT's support radius is this many times the surface's resolution when not given (the
-  /// choice of the SHOT paper, in mesh resolutions).
-  static constexpr double kRadiusPerResolution = 15.0;
+  /// SHOT's support radius is this many point spacings when not given: about 300 surface points
+  /// (pi 10^2) for the statistics of its 352 bins.
+  static constexpr double kRadiusPerSpacing = 10.0;
   static constexpr int kLength = 352;
 
  protected:
@@ -27,7 +27,7 @@ class FeaturesDescription3DShot final : public FeaturesDescription3DShotBase {
       return Status::ok();
     }
     Result<description::Support> support =
-        description::prepare(keypoints, *in.surface, params_.radius, kRadiusPerResolution);
+        description::prepare(keypoints, *in.surface, params_.radius, kRadiusPerSpacing);
     if (!support) return support.status();
     double lrf_radius = support->radius;
     if (params_.lrf_radius > 0) {

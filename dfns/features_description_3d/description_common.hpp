@@ -1,6 +1,6 @@
 #pragma once
 // Shared by the FeaturesDescription3D DFIs, without PCL: the input checks, the support radius
-// (given, or derived from the surface's resolution), each keypoint's normal, and the output
+// (given, or derived from the surface's point spacing), each keypoint's normal, and the output
 // (the keypoints whose descriptor is finite).
 
 #include <algorithm>
@@ -15,17 +15,13 @@
 
 #include "FeaturesDescription3D.gen.hpp"
 #include "cdff/types/kd_tree.hpp"
+#include "cdff/types/point_spacing.hpp"
 
 namespace cdff::dfn::description {
 
 /// A normal is accepted as unit when its norm is within this of 1: float normals from any
 /// estimator are unit to ~1e-6, while a normal that was never normalised is off by far more.
 inline constexpr float kUnitNormTolerance = 1e-3f;
-/// The resolution is the median nearest-neighbour distance over at most this many surface
-/// points, taken at a regular stride: the median of 2 000 samples is within a few percent of
-/// the whole cloud's, at a cost independent of the cloud's size.
-inline constexpr std::size_t kResolutionSamples = 2000;
-
 /// Checks the keypoints: finite positions, and normals that are unit or zero (unknown).
 inline Status checkKeypoints(const Features3D& keypoints) {
   for (std::size_t i = 0; i < keypoints.size(); ++i) {
@@ -82,34 +78,10 @@ inline double extent(const PointCloud& surface) {
   return static_cast<double>((xyz.rowwise().maxCoeff() - xyz.rowwise().minCoeff()).norm());
 }
 
-/// The surface's resolution: the median distance of a point to its nearest other point, m.
-/// Coincident points (distance 0, e.g. a merged cloud) are not counted; 0 when no two points
-/// are distinct. The median, not PCL's usual mean, so that a few isolated points do not move it.
-inline double resolution(const PointCloud& surface, const KdTree3f& tree) {
-  const std::size_t stride = std::max<std::size_t>(1, surface.size() / kResolutionSamples);
-  std::vector<KdTree3f::Neighbour> nearest;
-  std::vector<float> distances;
-  distances.reserve(surface.size() / stride + 1);
-  for (std::size_t i = 0; i < surface.size(); i += stride) {
-    // The nearest other point: the first of the two nearest that is not at distance 0.
-    tree.kNearest(surface.points[i].vec(), 2, nearest);
-    for (const KdTree3f::Neighbour& n : nearest) {
-      if (n.squared_distance > 0.0f) {
-        distances.push_back(std::sqrt(n.squared_distance));
-        break;
-      }
-    }
-  }
-  if (distances.empty()) return 0.0;
-  auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
-  std::nth_element(distances.begin(), middle, distances.end());
-  return static_cast<double>(*middle);
-}
-
 /// What both DFIs work from once the inputs are checked.
 struct Support {
   double radius = 0;                              // m, of the descriptor's support
-  double resolution = 0;                          // m, of the surface (0 when not needed)
+  double spacing = 0;                             // m, of the surface (0 when not needed)
   double extent = 0;                              // m, the surface's bounding-box diagonal
   std::vector<Eigen::Vector3f> keypoint_normals;  // one unit normal per keypoint
 };
@@ -119,13 +91,14 @@ inline Status checkRadius(const char* parameter, double value, double extent) {
   if (value > extent)
     return invalidParameter(
         "parameter '{}' = {} m is larger than the extent of input 'surface' (its bounding box's "
-        "diagonal, {} m); expected at most {} m, or 0 to derive it from the surface's resolution",
+        "diagonal, {} m); expected at most {} m, or 0 to derive it from the surface's point "
+        "spacing",
         parameter, value, extent, extent);
   return Status::ok();
 }
 
 /// Checks both inputs and works out the support radius: `radius` when positive, else
-/// `multiple` times the surface's resolution. Call only with at least one keypoint.
+/// `multiple` times the surface's point spacing. Call only with at least one keypoint.
 inline Result<Support> prepare(const Features3D& keypoints, const PointCloud& surface,
                                double radius, double multiple) {
   CDFF_RETURN_IF_ERROR(checkSurface(surface, keypoints));
@@ -136,13 +109,14 @@ inline Result<Support> prepare(const Features3D& keypoints, const PointCloud& su
     CDFF_RETURN_IF_ERROR(checkRadius("radius", radius, support.extent));
     support.radius = radius;
   } else {
-    support.resolution = resolution(surface, tree);
-    if (support.resolution <= 0)
+    support.spacing = pointSpacing(surface);
+    if (support.spacing <= 0)
       return invalidInput(
-          "input 'surface' has no two distinct points ({} points); expected at least two, to "
-          "derive parameter 'radius' = 0 from their spacing (or set a positive radius)",
+          "input 'surface' has no point with 8 distinct neighbours ({} points); expected a "
+          "sampled surface, to derive parameter 'radius' = 0 from its point spacing (or set a "
+          "positive radius)",
           surface.size());
-    support.radius = multiple * support.resolution;
+    support.radius = multiple * support.spacing;
   }
   // A keypoint without a normal takes its nearest surface point's: the surface it describes.
   support.keypoint_normals.reserve(keypoints.size());

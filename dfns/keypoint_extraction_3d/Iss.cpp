@@ -39,7 +39,7 @@ class KeypointExtraction3DIss final : public KeypointExtraction3DIssBase {
           cloud, fmt::format("it has fewer points than min_neighbors = {}", params_.min_neighbors));
     double salient_radius = params_.salient_radius;
     if (salient_radius == 0) {
-      const double spacing = keypoints::pointSpacing(cloud);
+      const double spacing = pointSpacing(cloud);
       if (spacing == 0)
         return noKeypoint(cloud,
                           "it has too few distinct points to derive the point spacing from "

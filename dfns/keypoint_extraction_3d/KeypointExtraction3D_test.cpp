@@ -94,8 +94,8 @@ TEST(KeypointExtraction3D, PointSpacingIsThePitchForAGridAndForRandomSamples) {
       grid.emplace_back(0.01f * i, 0.01f * j, 2.0f);
       random.emplace_back(u(rng), u(rng), 2.0f);
     }
-  EXPECT_NEAR(keypoints::pointSpacing(PointCloud::fromXyz(grid)), 0.01, 0.0015);
-  EXPECT_NEAR(keypoints::pointSpacing(PointCloud::fromXyz(random)), 0.01, 0.0015);
+  EXPECT_NEAR(pointSpacing(PointCloud::fromXyz(grid)), 0.01, 0.0015);
+  EXPECT_NEAR(pointSpacing(PointCloud::fromXyz(random)), 0.01, 0.0015);
 }
 
 // ---------------------------------------------------------------------------------------------

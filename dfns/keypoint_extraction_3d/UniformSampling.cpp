@@ -33,7 +33,7 @@ class KeypointExtraction3DUniformSampling final : public KeypointExtraction3DUni
     if (voxel > 0) {
       CDFF_RETURN_IF_ERROR(keypoints::checkRadiusAgainstExtent("radius", voxel, extent));
     } else {
-      const double spacing = keypoints::pointSpacing(cloud);
+      const double spacing = pointSpacing(cloud);
       if (spacing == 0) {
         warn(fmt::format(
             "input 'cloud' has too few distinct points ({}) to derive the point spacing from "

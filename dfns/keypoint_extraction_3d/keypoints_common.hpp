@@ -13,6 +13,7 @@
 
 #include "KeypointExtraction3D.gen.hpp"
 #include "cdff/types/kd_tree.hpp"
+#include "cdff/types/point_spacing.hpp"
 
 namespace cdff::dfn::keypoints {
 
@@ -32,34 +33,6 @@ inline Extent extentOf(const PointCloud& cloud) {
     extent.max = extent.max.cwiseMax(p.vec());
   }
   return extent;
-}
-
-/// The cloud's point spacing s: the pitch of its sampling, sqrt(surface area per point),
-/// estimated from the distance r8 to the 8th nearest other point as s = r8 sqrt(pi / 8) (on a
-/// surface of density 1/s^2, a disc of radius r8 holds 8 points). The 8th neighbour rather than
-/// the nearest because it gives the same s, within 10 %, for a regular grid (the nearest is then
-/// s) and for random samples (the nearest is then about s/2): a radius that follows s holds
-/// about the same number of points whatever the sampling. The median over the points, so that
-/// outliers and a scan's sparse rim do not move it; at most `max_samples` points, evenly spread
-/// over the cloud's order, are queried (the median of 4096 is within a few percent of the full
-/// one, at a fixed cost of about 1 ms). 0 when no point has 8 distinct others (a tiny cloud, or
-/// all points coincide).
-inline double pointSpacing(const PointCloud& cloud, std::size_t max_samples = 4096) {
-  constexpr int kNeighbours = 8;
-  const KdTree3f tree(cloud.points.span());
-  const std::size_t step = std::max<std::size_t>(1, cloud.size() / max_samples);
-  std::vector<KdTree3f::Neighbour> found;
-  std::vector<float> distances;
-  distances.reserve(cloud.size() / step + 1);
-  for (std::size_t i = 0; i < cloud.size(); i += step) {
-    tree.kNearest(cloud.points[i].vec(), kNeighbours + 1, found);  // the point itself first
-    if (found.size() == kNeighbours + 1 && found.back().squared_distance > 0)
-      distances.push_back(std::sqrt(found.back().squared_distance));
-  }
-  if (distances.empty()) return 0;
-  auto middle = distances.begin() + static_cast<std::ptrdiff_t>(distances.size() / 2);
-  std::nth_element(distances.begin(), middle, distances.end());
-  return *middle * std::sqrt(M_PI / kNeighbours);
 }
 
 /// An explicit radius must not exceed the cloud's extent: a larger one holds the whole cloud in
