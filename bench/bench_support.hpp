@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,25 @@ std::unique_ptr<Dfn> createConfigured(const std::string& dfn, const std::string&
   auto node = dfn::Registry::instance().createAs<Dfn>(dfn, dfi);
   if (!node || !node.value()->configure(YAML::Load(yaml))) return nullptr;
   return std::move(node).value();
+}
+
+/// The first simulator seed of a benchmark's frames: the evaluation seeds (data/evaluation/
+/// draws.yaml: 900001 on), or with CDFF_DRAW_SET=tuning the tuning ones (1 on), which the
+/// parameters may be tuned on.
+inline std::uint64_t firstSeed() {
+  const char* set = std::getenv("CDFF_DRAW_SET");
+  return set && std::string(set) == "tuning" ? 1 : 900001;
+}
+
+/// The ';'-separated items of an environment variable (none when unset).
+inline std::vector<std::string> splitEnvironment(const char* name) {
+  std::vector<std::string> out;
+  const char* value = std::getenv(name);
+  if (!value) return out;
+  std::stringstream in(value);
+  for (std::string item; std::getline(in, item, ';');)
+    if (!item.empty()) out.push_back(item);
+  return out;
 }
 
 /// The draws an accuracy benchmark runs, from the environment: CDFF_DRAW_SET=evaluation (the

@@ -40,22 +40,8 @@ namespace cdff::detection_demo {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-// The evaluation seeds (data/evaluation/draws.yaml: 900001 on), or with CDFF_DRAW_SET=tuning the
-// tuning ones (1 on), which the parameters may be tuned on.
-std::uint64_t firstSeed() {
-  const char* set = std::getenv("CDFF_DRAW_SET");
-  return set && std::string(set) == "tuning" ? 1 : 900001;
-}
-
-std::vector<std::string> splitEnvironment(const char* name) {
-  std::vector<std::string> out;
-  const char* value = std::getenv(name);
-  if (!value) return out;
-  std::stringstream in(value);
-  for (std::string item; std::getline(in, item, ';');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
+using bench::firstSeed;
+using bench::splitEnvironment;
 
 DepthSource depthSource() {
   const char* source = std::getenv("CDFF_DETECTION_SOURCE");

@@ -59,20 +59,8 @@ double cpuSeconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-std::uint64_t firstSeed() {
-  const char* set = std::getenv("CDFF_DRAW_SET");
-  return set && std::string(set) == "tuning" ? 1 : 900001;
-}
-
-std::vector<std::string> splitEnvironment(const char* name) {
-  std::vector<std::string> out;
-  const char* value = std::getenv(name);
-  if (!value) return out;
-  std::stringstream in(value);
-  for (std::string item; std::getline(in, item, ';');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
+using bench::firstSeed;
+using bench::splitEnvironment;
 
 int framesFromEnvironment() {
   const char* v = std::getenv("CDFF_FRAMES");
