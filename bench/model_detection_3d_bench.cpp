@@ -4,6 +4,8 @@
 // view (examples/detection/simulated_views.hpp); frame k has the seed 900001 + k (the evaluation
 // seeds; CDFF_DRAW_SET=tuning: 1 + k). On the same clouds, in the same run:
 //
+//   Ours     GlobalRegistration3D/PointPairVoting with its defaults (every size from the model's
+//            diameter), then PoseHypothesisSelection/IcpMisfit as below.
 //   Pcl      the seed's pipeline of DFNs: NormalsEstimation/Pca on the scene,
 //            KeypointExtraction3D/UniformSampling, FeaturesDescription3D/Shot (BOARD frames),
 //            FeaturesMatching3D/KdTreeFlann, CorrespondenceGrouping/Hough3D, then
@@ -18,9 +20,11 @@
 // supports 2-5 k (CDFF_KEYPOINT_PARTS, CDFF_SUPPORT, CDFF_RATIO, CDFF_MAX_DISTANCE,
 // CDFF_GROUPING=GeometricConsistency override them).
 //
-// Counters: correct (found, within 5 % of the range and 5 degrees), wrong (found, not correct),
-// the CPU per frame of each stage (one thread: run with OMP_NUM_THREADS=1 for Open3D), the
-// model's preparation once. Environment: CDFF_DRAW_SET, CDFF_FRAMES (200), CDFF_VERBOSE=1 (one
+// Counters per pipeline: correct (found, within 5 % of the range and 5 degrees), wrong (found,
+// not correct; Open3D always returns a pose), the CPU per frame of each stage (one thread: run
+// with OMP_NUM_THREADS=1 for Open3D), the PCL model's preparation once (ours prepares its model
+// on the first frame, inside that frame's time). Environment: CDFF_DRAW_SET, CDFF_FRAMES (200),
+// CDFF_PIPELINES (';'-separated among ours, pcl, open3d; all by default), CDFF_VERBOSE=1 (one
 // line per frame, with the hypothesis nearest the truth and what the selection makes of the truth
 // itself), CDFF_VIEW_SET (scenario overrides, ';'-separated).
 #include <cmath>
@@ -35,6 +39,7 @@
 #include "CorrespondenceGrouping.gen.hpp"
 #include "FeaturesDescription3D.gen.hpp"
 #include "FeaturesMatching3D.gen.hpp"
+#include "GlobalRegistration3D.gen.hpp"
 #include "KeypointExtraction3D.gen.hpp"
 #include "NormalsEstimation.gen.hpp"
 #include "PoseHypothesisSelection.gen.hpp"
@@ -116,6 +121,105 @@ struct Model {
   double radius = 0;
 };
 
+/// The hypotheses' verification, the same in both pipelines: with the ToF camera's range noise
+/// when the scenes are its points (`tof`), with the LIDAR's description passed per scan.
+std::unique_ptr<dfn::PoseHypothesisSelection> createSelection(const egse::TofSpec* tof) {
+  const char* extra = std::getenv("CDFF_SELECTION");  // more parameters, "key: value, ..."
+  std::string parameters = tof ? fmt::format("noise_constant: {}, noise_quadratic: {}",
+                                             tof->noise_constant, tof->noise_quadratic)
+                               : "";
+  if (extra) parameters += (parameters.empty() ? "" : ", ") + std::string(extra);
+  return bench::createConfigured<dfn::PoseHypothesisSelection>("PoseHypothesisSelection",
+                                                               "IcpMisfit", "{" + parameters + "}");
+}
+
+/// Runs `select` on `hypotheses`; the refined pose when one passes.
+Result<std::optional<Eigen::Isometry3d>> selectPose(dfn::PoseHypothesisSelection& select,
+                                                    const Detections& hypotheses,
+                                                    const PointCloud& scene,
+                                                    const PointCloud& model,
+                                                    const SimulatedView& view, bool lidar) {
+  select.in.hypotheses.set(hypotheses);
+  select.in.scene.set(scene);
+  select.in.model.set(model);
+  if (lidar)
+    select.in.sensor.set(view.lidar);
+  else
+    select.in.sensor.clear();
+  CDFF_RETURN_IF_ERROR(select.process().withContext("selection"));
+  if (!*select.out.found) return std::optional<Eigen::Isometry3d>{};
+  return std::optional<Eigen::Isometry3d>{select.out.pose->pose.isometry()};
+}
+
+/// The smallest attitude error among `hypotheses` (degrees): whether any was near the truth.
+double nearestHypothesisDegrees(const Detections& hypotheses, const Transform& truth) {
+  double nearest = 180;
+  for (const Detection& d : hypotheses.detections) {
+    const Eigen::Isometry3d h = d.pose.isometry(), t = truth.isometry();
+    const double angle = Eigen::AngleAxisd(h.linear().transpose() * t.linear()).angle();
+    nearest = std::min(nearest, angle / kDeg);
+  }
+  return nearest;
+}
+
+/// Our pipeline: GlobalRegistration3D/PointPairVoting (every size from the model's diameter,
+/// the scene's normals fitted, turned towards the sensor at the scene's origin), then the same
+/// verification as the seed's pipeline.
+class OurPipeline {
+ public:
+  static Result<OurPipeline> create(bool lidar, const egse::TofSpec* tof) {
+    OurPipeline p;
+    const char* overrides = std::getenv("CDFF_OURS");
+    p.register_ = bench::createConfigured<dfn::GlobalRegistration3D>(
+        "GlobalRegistration3D", "PointPairVoting", overrides ? overrides : "{}");
+    p.select_ = createSelection(tof);
+    if (!p.register_ || !p.select_)
+      return invalidParameter("a DFN of our pipeline did not configure");
+    p.lidar_ = lidar;
+    return p;
+  }
+
+  struct Outcome {
+    std::optional<Eigen::Isometry3d> pose;  // scene_T_model
+    double registration_s = 0, selection_s = 0;
+    std::size_t hypotheses = 0;
+    double nearest_hypothesis_deg = 180;
+    double fitness = 0, visibility = 0, margin = 0;
+    int chosen = -1;
+    bool ambiguous = false;
+  };
+
+  Result<Outcome> detect(const PointCloud& scene, const PointCloud& model,
+                         const SimulatedView& view) {
+    Outcome o;
+    double t = cpuSeconds();
+    register_->in.scene.set(scene);
+    register_->in.model.set(model);
+    CDFF_RETURN_IF_ERROR(register_->process().withContext("global registration"));
+    o.registration_s = cpuSeconds() - t;
+    o.hypotheses = register_->out.hypotheses->detections.size();
+    o.nearest_hypothesis_deg =
+        nearestHypothesisDegrees(*register_->out.hypotheses, view.camera_truth);
+    t = cpuSeconds();
+    Result<std::optional<Eigen::Isometry3d>> pose =
+        selectPose(*select_, *register_->out.hypotheses, scene, model, view, lidar_);
+    if (!pose) return pose.status();
+    o.pose = *pose;
+    o.selection_s = cpuSeconds() - t;
+    o.fitness = *select_->out.fitness;
+    o.visibility = *select_->out.visibility;
+    o.margin = *select_->out.margin;
+    o.chosen = *select_->out.chosen;
+    o.ambiguous = *select_->out.ambiguous;
+    return o;
+  }
+
+ private:
+  std::unique_ptr<dfn::GlobalRegistration3D> register_;
+  std::unique_ptr<dfn::PoseHypothesisSelection> select_;
+  bool lidar_ = false;
+};
+
 /// The seed's pipeline, its DFNs configured once.
 class PclPipeline {
  public:
@@ -142,11 +246,7 @@ class PclPipeline {
                    : bench::createConfigured<dfn::CorrespondenceGrouping>(
                          "CorrespondenceGrouping", "Hough3D",
                          fmt::format("{{bin_size: {}, lrf_radius: {}}}", s.bin, s.lrf));
-    p.select_ = bench::createConfigured<dfn::PoseHypothesisSelection>(
-        "PoseHypothesisSelection", "IcpMisfit",
-        tof ? fmt::format("{{noise_constant: {}, noise_quadratic: {}}}", tof->noise_constant,
-                          tof->noise_quadratic)
-            : "{}");
+    p.select_ = createSelection(tof);
     if (!p.normals_ || !p.keypoints_ || !p.describe_ || !p.match_ || !p.group_ || !p.select_)
       return invalidParameter("a DFN of the PCL pipeline did not configure");
     p.lidar_ = lidar;
@@ -171,7 +271,9 @@ class PclPipeline {
     double fitness = 0, truth_fitness = 0;
   };
 
-  Result<Outcome> detect(const PointCloud& scene, const Model& model, const SimulatedView& view) {
+  /// `diagnose`: also score the truth itself (outside the stage times).
+  Result<Outcome> detect(const PointCloud& scene, const Model& model, const SimulatedView& view,
+                         bool diagnose) {
     Outcome o;
     o.scene_points = scene.size();
     double t = cpuSeconds();
@@ -214,31 +316,24 @@ class PclPipeline {
     group_->in.model.set(model.cloud);
     CDFF_RETURN_IF_ERROR(group_->process().withContext("grouping"));
     o.hypotheses = group_->out.hypotheses->detections.size();
-    for (const Detection& d : group_->out.hypotheses->detections) {
-      const Eigen::Isometry3d h = d.pose.isometry(), t = view.camera_truth.isometry();
-      const double angle = Eigen::AngleAxisd(h.linear().transpose() * t.linear()).angle();
-      o.nearest_hypothesis_deg = std::min(o.nearest_hypothesis_deg, angle / kDeg);
-    }
+    o.nearest_hypothesis_deg = nearestHypothesisDegrees(*group_->out.hypotheses, view.camera_truth);
     lap("grouping");
-    select_->in.hypotheses.set(*group_->out.hypotheses);
-    select_->in.scene.set(scene);
-    select_->in.model.set(model.cloud);
-    if (lidar_)
-      select_->in.sensor.set(view.lidar);
-    else
-      select_->in.sensor.clear();
-    CDFF_RETURN_IF_ERROR(select_->process().withContext("selection"));
-    if (*select_->out.found) o.pose = select_->out.pose->pose.isometry();
+    Result<std::optional<Eigen::Isometry3d>> pose =
+        selectPose(*select_, *group_->out.hypotheses, scene, model.cloud, view, lidar_);
+    if (!pose) return pose.status();
+    o.pose = *pose;
     o.fitness = *select_->out.fitness;
+    lap("selection");
+    if (!diagnose) return o;
     // What the selection makes of the truth itself: the best any hypothesis could score.
     Detections truth = *group_->out.hypotheses;
-    truth.detections.assign(1, Detection{view.camera_truth, 1.0});
+    truth.detections.assign(1, Detection{});
+    truth.detections[0].pose = view.camera_truth;
     truth.detections[0].pose.parent_frame = scene.frame_id;
     truth.detections[0].pose.child_frame = model.cloud.frame_id;
     select_->in.hypotheses.set(truth);
     CDFF_RETURN_IF_ERROR(select_->process());
     o.truth_fitness = *select_->out.fitness;
-    lap("selection");
     return o;
   }
 
@@ -250,6 +345,22 @@ class PclPipeline {
   std::unique_ptr<dfn::CorrespondenceGrouping> group_;
   std::unique_ptr<dfn::PoseHypothesisSelection> select_;
   bool lidar_ = false;
+};
+
+/// The pipelines run (CDFF_PIPELINES, ';'-separated among ours, pcl, open3d; all by default).
+struct Pipelines {
+  bool ours = true, pcl = true, open3d = true;
+  static Pipelines fromEnvironment() {
+    const std::vector<std::string> names = splitEnvironment("CDFF_PIPELINES");
+    if (names.empty()) return {};
+    Pipelines p{false, false, false};
+    for (const std::string& name : names) {
+      p.ours = p.ours || name == "ours";
+      p.pcl = p.pcl || name == "pcl";
+      p.open3d = p.open3d || name == "open3d";
+    }
+    return p;
+  }
 };
 
 /// Within 5 % of the range and 5 degrees of the truth (the correct pose).
@@ -305,9 +416,15 @@ void runFrames(benchmark::State& state, DepthSource source) {
   bench::Open3dSettings o3d;
   o3d.voxel = model.scales.keypoints;
 
-  int pcl_correct = 0, pcl_wrong = 0, o3d_correct = 0, o3d_wrong = 0, used = 0;
+  Result<OurPipeline> ours = OurPipeline::create(lidar, !lidar && tof ? &tof->tof : nullptr);
+  if (!ours) return state.SkipWithError(ours.status().toString().c_str());
+  const Pipelines run = Pipelines::fromEnvironment();
+
+  int ours_correct = 0, ours_wrong = 0, pcl_correct = 0, pcl_wrong = 0, o3d_correct = 0,
+      o3d_wrong = 0, used = 0;
   std::map<std::string, double> cpu;
-  double o3d_features = 0, o3d_ransac = 0, points = 0, right_matches = 0;
+  double ours_registration = 0, ours_selection = 0, o3d_features = 0, o3d_ransac = 0, points = 0,
+         right_matches = 0;
   for (auto _ : state) {
     for (int k = 0; k < frames; ++k) {
       const std::uint64_t seed = firstSeed() + static_cast<std::uint64_t>(k);
@@ -318,59 +435,87 @@ void runFrames(benchmark::State& state, DepthSource source) {
       if (scene->size() < 20) continue;  // nothing to detect on (counted as not used)
       ++used;
       points += static_cast<double>(scene->size());
-      Result<PclPipeline::Outcome> r = pcl->detect(*scene, model, *view);
-      if (!r) return state.SkipWithError(r.status().toString().c_str());
-      for (const auto& [stage, s] : r->cpu_s) cpu[stage] += s;
-      const bool pcl_ok = r->pose && correct(*r->pose, view->camera_truth);
-      pcl_correct += pcl_ok;
-      pcl_wrong += r->pose && !pcl_ok;
-      if (r->matches > 0)
-        right_matches += static_cast<double>(r->right_matches) / static_cast<double>(r->matches);
-      const bench::Open3dResult peer =
-          bench::open3dGlobalRegistration(*scene, model.cloud, o3d, static_cast<unsigned>(seed));
-      o3d_features += peer.cpu_features_s;
-      o3d_ransac += peer.cpu_ransac_s;
-      const bool o3d_ok = correct(peer.scene_T_model, view->camera_truth);
-      o3d_correct += o3d_ok;
-      o3d_wrong += !o3d_ok;
-      if (verbose)
-        std::fprintf(
-            stderr,
-            "seed %llu %.1f m %zu points: pcl %s (%zu keypoints, %zu matches (%zu right), %zu "
-            "hypotheses, nearest %.0f deg, fitness %.2f, at the truth %.2f, %.0f ms) open3d %s "
-            "(fitness %.2f, %.0f ms)\n",
-            static_cast<unsigned long long>(seed), view->range, r->scene_points,
-            !r->pose ? "none"
-            : pcl_ok ? "correct"
-                     : "WRONG",
-            r->keypoints, r->matches, r->right_matches, r->hypotheses, r->nearest_hypothesis_deg,
-            r->fitness, r->truth_fitness,
-            1e3 *
-                [&] {
-                  double s = 0;
-                  for (const auto& [_, v] : r->cpu_s) s += v;
-                  return s;
-                }(),
-            o3d_ok ? "correct" : "wrong", peer.fitness,
-            1e3 * (peer.cpu_features_s + peer.cpu_ransac_s));
+      std::string line =
+          fmt::format("seed {} {:.1f} m {} points:", seed, view->range, scene->size());
+      auto verdict = [&](const std::optional<Eigen::Isometry3d>& pose, int& right, int& wrong) {
+        const bool ok = pose && correct(*pose, view->camera_truth);
+        right += ok;
+        wrong += pose && !ok;
+        if (!pose) return std::string("none");
+        const Eigen::Isometry3d t = view->camera_truth.isometry();
+        return fmt::format(
+            "{} {:.2f} m {:.1f} deg", ok ? "correct" : "WRONG",
+            (pose->translation() - t.translation()).norm(),
+            Eigen::AngleAxisd(pose->linear().transpose() * t.linear()).angle() / kDeg);
+      };
+      if (run.ours) {
+        Result<OurPipeline::Outcome> r = ours->detect(*scene, model.cloud, *view);
+        if (!r) return state.SkipWithError(r.status().toString().c_str());
+        ours_registration += r->registration_s;
+        ours_selection += r->selection_s;
+        line += fmt::format(
+            " ours {}{} ({} hypotheses, nearest {:.0f} deg, chosen {}, fitness {:.2f}, visibility "
+            "{:.2f}, margin {:.1f}, {:.0f} ms)",
+            verdict(r->pose, ours_correct, ours_wrong), r->ambiguous ? " ambiguous" : "",
+            r->hypotheses, r->nearest_hypothesis_deg, r->chosen, r->fitness, r->visibility,
+            r->margin, 1e3 * (r->registration_s + r->selection_s));
+      }
+      if (run.pcl) {
+        Result<PclPipeline::Outcome> r = pcl->detect(*scene, model, *view, verbose);
+        if (!r) return state.SkipWithError(r.status().toString().c_str());
+        double total = 0;
+        for (const auto& [stage, s] : r->cpu_s) {
+          cpu[stage] += s;
+          total += s;
+        }
+        if (r->matches > 0)
+          right_matches += static_cast<double>(r->right_matches) / static_cast<double>(r->matches);
+        line += fmt::format(
+            " pcl {} ({} keypoints, {} matches ({} right), {} hypotheses, nearest {:.0f} deg, "
+            "fitness {:.2f}, at the truth {:.2f}, {:.0f} ms)",
+            verdict(r->pose, pcl_correct, pcl_wrong), r->keypoints, r->matches, r->right_matches,
+            r->hypotheses, r->nearest_hypothesis_deg, r->fitness, r->truth_fitness, 1e3 * total);
+      }
+      if (run.open3d) {
+        const bench::Open3dResult peer =
+            bench::open3dGlobalRegistration(*scene, model.cloud, o3d, static_cast<unsigned>(seed));
+        o3d_features += peer.cpu_features_s;
+        o3d_ransac += peer.cpu_ransac_s;
+        // Open3D always returns a pose: a wrong one is reported as found.
+        line += fmt::format(" open3d {} (fitness {:.2f}, {:.0f} ms)",
+                            verdict(peer.scene_T_model, o3d_correct, o3d_wrong), peer.fitness,
+                            1e3 * (peer.cpu_features_s + peer.cpu_ransac_s));
+      }
+      if (verbose) std::fprintf(stderr, "%s\n", line.c_str());
     }
   }
   const double n = std::max(1, used);
   state.counters["frames"] = used;
   state.counters["scene_points"] = points / n;
-  state.counters["pcl_correct"] = pcl_correct / n;
-  state.counters["pcl_wrong"] = pcl_wrong / n;
-  state.counters["pcl_right_matches"] = right_matches / n;
-  double total = 0;
-  for (const auto& [stage, s] : cpu) {
-    state.counters["pcl_ms_" + stage] = 1e3 * s / n;
-    total += s;
+  if (run.ours) {
+    state.counters["ours_correct"] = ours_correct / n;
+    state.counters["ours_wrong"] = ours_wrong / n;
+    state.counters["ours_ms_registration"] = 1e3 * ours_registration / n;
+    state.counters["ours_ms_selection"] = 1e3 * ours_selection / n;
+    state.counters["ours_ms"] = 1e3 * (ours_registration + ours_selection) / n;
   }
-  state.counters["pcl_ms"] = 1e3 * total / n;
-  state.counters["open3d_correct"] = o3d_correct / n;
-  state.counters["open3d_wrong"] = o3d_wrong / n;
-  state.counters["open3d_ms_features"] = 1e3 * o3d_features / n;
-  state.counters["open3d_ms_ransac"] = 1e3 * o3d_ransac / n;
+  if (run.pcl) {
+    state.counters["pcl_correct"] = pcl_correct / n;
+    state.counters["pcl_wrong"] = pcl_wrong / n;
+    state.counters["pcl_right_matches"] = right_matches / n;
+    double total = 0;
+    for (const auto& [stage, s] : cpu) {
+      state.counters["pcl_ms_" + stage] = 1e3 * s / n;
+      total += s;
+    }
+    state.counters["pcl_ms"] = 1e3 * total / n;
+  }
+  if (run.open3d) {
+    state.counters["open3d_correct"] = o3d_correct / n;
+    state.counters["open3d_wrong"] = o3d_wrong / n;
+    state.counters["open3d_ms_features"] = 1e3 * o3d_features / n;
+    state.counters["open3d_ms_ransac"] = 1e3 * o3d_ransac / n;
+  }
 }
 
 void BM_ModelDetection3D_Lidar(benchmark::State& state) {

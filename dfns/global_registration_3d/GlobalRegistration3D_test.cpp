@@ -122,29 +122,28 @@ Rates measure(const std::string& dfi, const testing::ScanOptions& scan, double n
 }
 
 // Dense ToF-like scans of both targets at 3-8 m, 10 random attitudes each. Measured: a correct
-// hypothesis (5 % of range, 5 deg, before any refinement) listed in 18 of 20 draws, first in 15;
-// the misses are two box-satellite draws whose hypotheses are all off by more than 5 degrees
-// (the 12 degree bins and the scene normals' bending at the bus edges), the seconds usually a
-// near-symmetric pose (the wings mirrored) that PoseHypothesisSelection tells apart. Asserted one
-// draw below each.
+// hypothesis (5 % of range, 5 deg, before any refinement) listed in 20 of 20 draws, first in 15;
+// the first is otherwise usually a near-symmetric pose (the wings mirrored) that
+// PoseHypothesisSelection tells apart. Asserted one draw below each.
 TEST(GlobalRegistration3DPointPairVoting, DenseScansListTheTarget) {
   const Rates r = measure("PointPairVoting", denseScan(), 3.0, 8.0, 10, 1);
   EXPECT_EQ(r.draws, 20);
-  EXPECT_GE(r.listed, 17);
+  EXPECT_GE(r.listed, 19);
   EXPECT_GE(r.first, 14);
 }
 
 // Sparse VLP-16 scans (16 rings, 2 deg apart: 17-35 cm between rings at 5-10 m) at 5-10 m.
-// Weaker, as expected: measured listed in 15 of 20 draws, first in 8 (a ring alone is a line, so
-// fewer scene points get a normal, 40-160 of them). Asserted one below.
+// Measured: listed in 20 of 20 draws, first in 13 (a ring alone is a line: its points' normals
+// come from grown neighbourhoods that reach the next ring, and fewer agree). Asserted one below.
 TEST(GlobalRegistration3DPointPairVoting, SparseScansListTheTargetMostOfTheTime) {
   const Rates r = measure("PointPairVoting", {}, 5.0, 10.0, 10, 50);
   EXPECT_EQ(r.draws, 20);
-  EXPECT_GE(r.listed, 14);
+  EXPECT_GE(r.listed, 19);
+  EXPECT_GE(r.first, 12);
 }
 
 // OpenCV's detector runs on the same scenes without error, but its hypotheses are not correct
-// (measured: a correct one listed in 1 of 20 dense draws, 0 of 20 sparse; translations often
+// (measured: a correct one listed in 0 of 20 dense draws, 0 of 20 sparse; translations often
 // within 10 cm, rotations 90-180 deg off; see the report). Only what holds is asserted.
 TEST(GlobalRegistration3DOpenCvPpf, DenseScansRunAndAreReported) {
   const Rates r = measure("OpenCvPpf", denseScan(), 3.0, 8.0, 10, 1);
@@ -185,7 +184,8 @@ TEST(GlobalRegistration3DPointPairVoting, ASceneWithoutTheTargetGetsFewerVotes) 
 
 // The budget is 0.2 s per scene of 20k points against a model of 5k on one core: the
 // time per scene after the first call (which prepares the model) is printed for both DFIs and
-// asserted within the budget for ours (measured 12-16 ms; model preparation 80-95 ms).
+// asserted within the budget for ours (measured 46 ms with every downsampled point a reference;
+// model preparation 90 ms).
 TEST(GlobalRegistration3D, TimingOnATwentyThousandPointScene) {
   const Target& target = targets().front();
   const Eigen::Isometry3d truth = truthAt(5.2, 5);

@@ -115,6 +115,9 @@ class GlobalRegistration3DOpenCvPpf final : public GlobalRegistration3DOpenCvPpf
       std::vector<cv::ppf_match_3d::Pose3DPtr> results;
       detector_->match(oriented, results, 1.0 / params_.reference_stride, again);
       for (const cv::ppf_match_3d::Pose3DPtr& r : results) {
+        // The library also returns the poses of references no pair voted for; as
+        // PointPairVoting, fewer than three agreeing votes is no pose.
+        if (r->numVotes < 3) continue;
         global_registration::Cluster c;
         Eigen::Matrix4d m;
         for (int i = 0; i < 4; ++i)

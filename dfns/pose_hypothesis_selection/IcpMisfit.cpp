@@ -11,6 +11,7 @@
 #include "PoseHypothesisSelection.gen.hpp"
 #include "cdff/registration/icp.hpp"
 #include "cdff/registration/misfit.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "cdff/registration/quality.hpp"
 #include "cdff/registration/ring_visibility.hpp"
 #include "cdff/registration/scan_inputs.hpp"
@@ -31,6 +32,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     out.fitness.set(kNaN);
     out.visibility.set(kNaN);
     out.margin.set(kNaN);
+    out.ambiguous.set(false);
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
     CDFF_RETURN_IF_ERROR(scene.validate("input 'scene'"));
@@ -48,26 +50,54 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
 
     const int count =
         std::min<int>(params_.max_hypotheses, static_cast<int>(hypotheses.detections.size()));
-    std::vector<Trial> trials;
+    // Coarse: every hypothesis briefly, on a thinned crop.
+    const Effort coarse{std::max(params_.min_returns, params_.max_points / kCoarseThinning),
+                        std::max(1, params_.iterations / kCoarseIterationShare)};
+    std::vector<Trial> rough;
     for (int i = 0; i < count; ++i) {
       const Eigen::Isometry3d hypothesis = hypotheses.detections[i].pose.isometry();
       const Distances d = distances(sensor, hypothesis);
-      Result<Trial> trial = verify(scene, hypothesis, sensor, d);
+      Result<Trial> trial = verify(scene, hypothesis, sensor, d, coarse);
       if (!trial) {
         warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
         continue;
       }
       trial->hypothesis = i;
       trial->distances = d;
+      rough.push_back(std::move(trial).value());
+    }
+    // Fine: the best distinct coarse results, from where they ended, on the full crop.
+    std::stable_sort(rough.begin(), rough.end(),
+                     [](const Trial& a, const Trial& b) { return a.evidence > b.evidence; });
+    const Effort fine{params_.max_points, params_.iterations};
+    std::vector<Trial> trials;
+    std::vector<Eigen::Isometry3d> started;
+    for (const Trial& r : rough) {
+      if (static_cast<int>(started.size()) >= params_.refined_hypotheses) break;
+      if (std::any_of(started.begin(), started.end(),
+                      [&](const Eigen::Isometry3d& s) { return samePose(s, r.pose, r.distances); }))
+        continue;
+      started.push_back(r.pose);
+      Result<Trial> trial = verify(scene, r.pose, sensor, r.distances, fine);
+      if (!trial) continue;
+      trial->hypothesis = r.hypothesis;
+      trial->distances = r.distances;
       trials.push_back(std::move(trial).value());
     }
     if (trials.empty()) return Status::ok();
+    addSymmetricRivals(scene, sensor, trials);
     pick(trials, scene);
     return Status::ok();
   }
 
  private:
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  /// The coarse pass refines every hypothesis on an eighth of max_points (at least min_returns)
+  /// for a third of the iterations: enough to move a hypothesis within a voting bin into its
+  /// basin and to rank it (a wrong one stays far from the scene's returns); the fine pass then
+  /// costs a full run for refined_hypotheses only.
+  static constexpr int kCoarseThinning = 8;
+  static constexpr int kCoarseIterationShare = 3;
 
   /// The distances of this call, from the parameters or (0) from the model and the sensor.
   struct Distances {
@@ -95,7 +125,41 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     model_.grid = registration::SharedModelCache::grid(*model_.index, {});
     spacing_ = registration::modelSpacing(*model_.index);
     bounds_ = registration::modelBounds(*model_.index);
+    symmetries_.clear();
+    if (params_.symmetry_rivals) {
+      registration::SymmetryOptions symmetry;
+      symmetry.min_overlap = params_.min_symmetry_overlap;
+      symmetries_ = registration::motionsOf(registration::nearSymmetries(*model_.index, symmetry));
+    }
     return Status::ok();
+  }
+
+  /// The best passing trial's near-symmetric poses (the model turned by each of its
+  /// near-symmetries), verified as the hypotheses are: a voting or a correspondence grouping
+  /// often proposes one of them and not the other, and the margin must count the rival the
+  /// scene may fit as well.
+  void addSymmetricRivals(const PointCloud& scene, const LidarInfo* sensor,
+                          std::vector<Trial>& trials) {
+    const Trial* best = nullptr;
+    for (const Trial& t : trials)
+      if (t.passes && (best == nullptr || t.evidence > best->evidence)) best = &t;
+    if (best == nullptr) return;
+    const Eigen::Isometry3d pose = best->pose;
+    const int hypothesis = best->hypothesis;
+    const std::size_t verified = trials.size();
+    for (const Eigen::Isometry3d& motion : symmetries_) {
+      const Eigen::Isometry3d rival = pose * motion;
+      const Distances d = distances(sensor, rival);
+      const bool known = std::any_of(trials.begin(), trials.begin() + verified,
+                                     [&](const Trial& t) { return samePose(t.pose, rival, d); });
+      if (known) continue;  // already refined from a hypothesis of its own
+      Result<Trial> trial =
+          verify(scene, rival, sensor, d, {params_.max_points, params_.iterations});
+      if (!trial) continue;  // a crop too small to refine: no rival there
+      trial->hypothesis = hypothesis;
+      trial->distances = d;
+      trials.push_back(std::move(trial).value());
+    }
   }
 
   /// The range noise (1 sigma) at `range` from the sensor's description or the parameters; the
@@ -124,9 +188,14 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     return d;
   }
 
+  /// How hard a hypothesis is refined: the crop's returns kept, the ICP's iterations.
+  struct Effort {
+    int points = 0, iterations = 0;
+  };
+
   Result<Trial> verify(const PointCloud& scene, const Eigen::Isometry3d& hypothesis,
-                       const LidarInfo* sensor, const Distances& d) {
-    cropAround(scene, hypothesis, d.crop);
+                       const LidarInfo* sensor, const Distances& d, const Effort& effort) {
+    cropAround(scene, hypothesis, d.crop, effort.points);
     Trial trial;
     trial.returns = points_.size();
     registration::IcpOptions o;
@@ -140,13 +209,13 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       return trial;  // nothing there to confirm it
     }
     Result<registration::IcpRun> run = icp_.iterate(
-        points_, registration::IcpRun::startingAt(hypothesis, d.start), params_.iterations);
+        points_, registration::IcpRun::startingAt(hypothesis, d.start), effort.iterations);
     if (!run) return run.status();
     trial.pose = run->pose;
     trial.pose.linear() = Eigen::Quaterniond(run->pose.linear()).normalized().toRotationMatrix();
     // The refined pose's own crop: the ICP may have moved the model onto returns the first crop
     // cut.
-    cropAround(scene, trial.pose, d.crop);
+    cropAround(scene, trial.pose, d.crop, effort.points);
     trial.returns = points_.size();
     if (points_.size() < static_cast<std::size_t>(params_.min_returns)) return trial;
     trial.quality = registration::evaluate(points_, *model_.index, trial.pose, d.inlier,
@@ -180,17 +249,21 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     for (const Trial& t : trials)
       if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances))
         rival = std::max(rival, t.evidence);
+    const double margin = (best->evidence - rival) / std::sqrt(static_cast<double>(best->returns));
+
+    out.fitness.set(best->quality.fitness);
+    out.visibility.set(best->visibility);
+    out.margin.set(margin);
     PoseWithCovariance pose;
     pose.pose = Transform::fromIsometry(best->pose, scene.frame_id, in.model->frame_id,
                                         in.hypotheses->stamp);
     pose.pose.rotation.normalize();
     pose.covariance = best->quality.covariance;
     out.pose.set(std::move(pose));
-    out.found.set(true);
     out.chosen.set(best->hypothesis);
-    out.fitness.set(best->quality.fitness);
-    out.visibility.set(best->visibility);
-    out.margin.set((best->evidence - rival) / std::sqrt(static_cast<double>(best->returns)));
+    const bool ambiguous = margin < params_.min_margin;
+    out.ambiguous.set(ambiguous);
+    out.found.set(!ambiguous);
   }
 
   bool samePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Distances& d) const {
@@ -200,15 +273,15 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   }
 
   /// The scene's returns within `radius` of the model's bounding-box centre at `pose`, evenly
-  /// thinned to max_points, into points_.
-  void cropAround(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius) {
+  /// thinned to `most` of them, into points_.
+  void cropAround(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius, int most) {
     const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
     const float r2 = static_cast<float>(radius * radius);
     inside_.clear();
     for (const Point4f& p : scene.points)
       if ((p.vec() - centre).squaredNorm() <= r2) inside_.push_back(p.vec());
     const std::size_t n = inside_.size();
-    const std::size_t keep = std::min<std::size_t>(n, static_cast<std::size_t>(params_.max_points));
+    const std::size_t keep = std::min<std::size_t>(n, static_cast<std::size_t>(most));
     points_.clear();
     for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
   }
@@ -221,6 +294,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   registration::ModelSearch model_;
   double spacing_ = 0.01;
   registration::ModelBounds bounds_;
+  std::vector<Eigen::Isometry3d> symmetries_;  // the model's near-symmetries (model frame)
   registration::RingVisibility visibility_;
   registration::LaserElevations lasers_;
   std::vector<Eigen::Vector3f> inside_, points_;

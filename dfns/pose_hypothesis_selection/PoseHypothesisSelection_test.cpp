@@ -9,6 +9,7 @@
 
 #include "PoseHypothesisSelection.gen.hpp"
 #include "cdff/egse/procedural.hpp"
+#include "cdff/registration/model_symmetry.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
@@ -36,6 +37,21 @@ PointCloud modelOf(const TriangleMesh& mesh) {
   return std::move(cloud).value();
 }
 
+/// The error of `pose` from the nearest of `truth` and its near-symmetric poses (the model's
+/// near-symmetries, registration::nearSymmetries as the DFI finds them): what a scene that does
+/// not tell a near-symmetric pair apart leaves.
+testing::PoseError errorUpToSymmetry(const Eigen::Isometry3d& pose, const Eigen::Isometry3d& truth,
+                                     const PointCloud& model) {
+  registration::ModelIndex index;
+  EXPECT_TRUE(index.update(model).isOk());
+  testing::PoseError best = testing::poseError(pose, truth);
+  for (const Eigen::Isometry3d& s : registration::motionsOf(registration::nearSymmetries(index))) {
+    const testing::PoseError e = testing::poseError(pose, truth * s);
+    if (e.rotation < best.rotation) best = e;
+  }
+  return best;
+}
+
 std::vector<Target> targets() {
   std::vector<Target> t;
   TriangleMesh box = egse::makeTargetSatellite().value().mesh;
@@ -56,8 +72,11 @@ Detections hypothesesAt(const std::vector<Eigen::Isometry3d>& poses) {
   Detections d;
   d.stamp = 1'000'000;
   d.frame_id = "lidar";
-  for (const Eigen::Isometry3d& p : poses)
-    d.detections.push_back({Transform::fromIsometry(p, "lidar", "target", d.stamp), 0.5});
+  for (const Eigen::Isometry3d& p : poses) {
+    Detection& detection = d.detections.emplace_back();
+    detection.pose = Transform::fromIsometry(p, "lidar", "target", d.stamp);
+    detection.similarity = 0.5;
+  }
   return d;
 }
 
@@ -72,8 +91,12 @@ void setInputs(PoseHypothesisSelection& node, const Target& target, const PointC
 // The right hypothesis (the truth moved by what a Hough bin leaves: 5 cm, 3 deg) is chosen among
 // one far off the target and one turned by 60 degrees, and refined to what one scan at 8 m
 // supports: the tracker's figures at this range (0.5 deg, 2 cm at p95 over scans,
-// docs/lidar-tracking.md) doubled for a single scan's registration.
+// docs/lidar-tracking.md) doubled for a single scan's registration. The turn by 60 degrees is a
+// near-symmetry of the hexagonal target, and a half turn of the box target is verified as a
+// rival: a scan that does not tell them apart may leave the pose ambiguous (not found), but the
+// pose is the truth or its twin, and a pose found is the truth.
 TEST(PoseHypothesisSelectionIcpMisfit, TheHypothesisNearTheTruthIsChosenAndRefined) {
+  int found = 0;
   for (const Target& target : targets()) {
     for (std::uint32_t seed = 1; seed <= 4; ++seed) {
       SCOPED_TRACE(target.name + " draw " + std::to_string(seed));
@@ -87,20 +110,27 @@ TEST(PoseHypothesisSelectionIcpMisfit, TheHypothesisNearTheTruthIsChosenAndRefin
       setInputs(*node, target, scan,
                 {far_off, turned, testing::perturb(truth, 0.05, 3 * kDeg, seed)});
       ASSERT_OK(node->process());
-      ASSERT_TRUE(*node->out.found);
-      EXPECT_EQ(*node->out.chosen, 2);
-      const testing::PoseError e = testing::poseError(node->out.pose->pose.isometry(), truth);
+      ASSERT_TRUE(node->out.pose.hasValue());
+      EXPECT_NE(*node->out.chosen, 0);
+      EXPECT_NE(*node->out.found, *node->out.ambiguous);
+      const Eigen::Isometry3d pose = node->out.pose->pose.isometry();
+      const testing::PoseError e = *node->out.found ? testing::poseError(pose, truth)
+                                                    : errorUpToSymmetry(pose, truth, target.model);
       EXPECT_LT(e.rotation, 1.0 * kDeg);
       EXPECT_LT(e.translation, 0.04);
       EXPECT_GT(*node->out.fitness, 0.9);
       EXPECT_GT(*node->out.visibility, 0.8);
-      EXPECT_GT(*node->out.margin, 0.0);
+      EXPECT_GE(*node->out.margin, 0.0);
+      found += *node->out.found;
     }
   }
+  std::printf("found in %d of 8 draws\n", found);  // measured: 8
+  EXPECT_GE(found, 7);
 }
 
 // A dense scan without the sensor's description (a ToF camera's or a reconstruction's points):
-// no visibility term, the right pose still chosen and refined closer (many more returns).
+// no visibility term, the right pose (or, when the view shows nothing that breaks the box
+// target's symmetry, its twin, ambiguous) refined closer (many more returns).
 TEST(PoseHypothesisSelectionIcpMisfit, ADenseSceneWithoutASensorDescriptionWorksToo) {
   const Target target = targets().front();
   testing::ScanOptions dense;
@@ -116,12 +146,67 @@ TEST(PoseHypothesisSelectionIcpMisfit, ADenseSceneWithoutASensorDescriptionWorks
     far_off.translation() += Eigen::Vector3d(0, -4.0, 0);
     setInputs(*node, target, scan, {far_off, testing::perturb(truth, 0.05, 3 * kDeg, seed)}, false);
     ASSERT_OK(node->process());
-    ASSERT_TRUE(*node->out.found);
+    ASSERT_TRUE(node->out.pose.hasValue());
     EXPECT_EQ(*node->out.chosen, 1);
     EXPECT_TRUE(std::isnan(*node->out.visibility));
-    const testing::PoseError e = testing::poseError(node->out.pose->pose.isometry(), truth);
+    const Eigen::Isometry3d pose = node->out.pose->pose.isometry();
+    const testing::PoseError e = *node->out.found ? testing::poseError(pose, truth)
+                                                  : errorUpToSymmetry(pose, truth, target.model);
     EXPECT_LT(e.rotation, 0.5 * kDeg);
     EXPECT_LT(e.translation, 0.02);
+  }
+}
+
+// A near-symmetric twin is verified even when no hypothesis proposes it: given only the box
+// target's pose turned by one of its near-symmetries, the truth is found among the twins, and
+// the two are compared (a finite margin). On a VLP-16 scan at 8 m the parts that break the
+// symmetry decide; on a dense scan as noisy as a ToF camera at 7 m (7.7 cm) they drown in the
+// noise, and the pose is withheld (ambiguous) rather than a coin toss. With min_margin 0 the
+// better one is taken whatever its edge.
+TEST(PoseHypothesisSelectionIcpMisfit, NearSymmetricTwinsAreComparedAndAmbiguityIsReported) {
+  const Target target = targets().front();
+  registration::ModelIndex index;
+  ASSERT_OK(index.update(target.model));
+  const std::vector<Eigen::Isometry3d> symmetries =
+      registration::motionsOf(registration::nearSymmetries(index));
+  ASSERT_FALSE(symmetries.empty());
+  testing::ScanOptions tof;
+  tof.rings = 120;
+  tof.azimuth_step = 0.1 * kDeg;
+  tof.range_noise = 0.004 + 0.0015 * 7.0 * 7.0;
+  for (const bool dense : {false, true}) {
+    int found = 0, ambiguous = 0;
+    for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+      SCOPED_TRACE(std::string(dense ? "dense" : "sparse") + " draw " + std::to_string(seed));
+      const Eigen::Isometry3d truth = truthAt(dense ? 7.0 : 8.0, seed);
+      const PointCloud scan = testing::simulateScan(
+          target.mesh, truth, dense ? tof : testing::ScanOptions{}, 500 + seed);
+      const std::vector<Eigen::Isometry3d> twin{truth * symmetries.front()};
+      const std::string noise = dense ? "noise_constant: 0.004, noise_quadratic: 0.0015" : "";
+      auto strict = make("{" + noise + "}");
+      setInputs(*strict, target, scan, twin, !dense);
+      ASSERT_OK(strict->process());
+      ASSERT_TRUE(strict->out.pose.hasValue());
+      EXPECT_TRUE(std::isfinite(*strict->out.margin));
+      EXPECT_EQ(*strict->out.ambiguous, *strict->out.margin < 2.0);
+      ambiguous += *strict->out.ambiguous;
+      found += *strict->out.found;
+      if (*strict->out.found) {
+        EXPECT_LT(testing::poseError(strict->out.pose->pose.isometry(), truth).rotation,
+                  2.5 * kDeg);
+      }
+      auto lenient = make("{min_margin: 0" + (dense ? ", " + noise : std::string()) + "}");
+      setInputs(*lenient, target, scan, twin, !dense);
+      ASSERT_OK(lenient->process());
+      EXPECT_TRUE(*lenient->out.found);
+      EXPECT_FALSE(*lenient->out.ambiguous);
+    }
+    std::printf("%s: found %d, ambiguous %d of 4 draws\n", dense ? "dense" : "sparse", found,
+                ambiguous);
+    // Measured: sparse found in 4 of 4; dense found in 3, ambiguous in 1.
+    if (!dense) {
+      EXPECT_GE(found, 3);
+    }
   }
 }
 
@@ -143,9 +228,12 @@ TEST(PoseHypothesisSelectionIcpMisfit, TheStatedRangeNoiseSetsTheInlierDistance)
     auto described = make("{noise_constant: 0.004, noise_quadratic: 0.0015}");
     setInputs(*described, target, scan, hypotheses, false);
     ASSERT_OK(described->process());
-    ASSERT_TRUE(*described->out.found);
+    ASSERT_TRUE(described->out.pose.hasValue());  // passes (found, or ambiguous with a twin)
     EXPECT_GT(*described->out.fitness, 0.95);
-    const testing::PoseError e = testing::poseError(described->out.pose->pose.isometry(), truth);
+    const Eigen::Isometry3d pose = described->out.pose->pose.isometry();
+    const testing::PoseError e = *described->out.found
+                                     ? testing::poseError(pose, truth)
+                                     : errorUpToSymmetry(pose, truth, target.model);
     // One such scan turns the pose by up to 1.9 degrees about its least constrained axis (0.2
     // to 1.9 over the draws): within half the 5 degrees of a correct detection.
     EXPECT_LT(e.rotation, 2.5 * kDeg);
@@ -154,6 +242,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, TheStatedRangeNoiseSetsTheInlierDistance)
     setInputs(*untold, target, scan, hypotheses, false);
     ASSERT_OK(untold->process());
     EXPECT_FALSE(*untold->out.found);
+    EXPECT_FALSE(untold->out.pose.hasValue());
     EXPECT_LT(*untold->out.fitness, 0.85);
   }
 }
@@ -223,7 +312,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, BadInputsAreReported) {
 
   // Still works afterwards.
   ASSERT_OK(node->process());
-  EXPECT_TRUE(*node->out.found);
+  EXPECT_TRUE(node->out.pose.hasValue());
 }
 
 }  // namespace
