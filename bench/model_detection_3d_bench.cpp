@@ -5,7 +5,10 @@
 // seeds; CDFF_DRAW_SET=tuning: 1 + k). On the same clouds, in the same run:
 //
 //   Ours     GlobalRegistration3D/PointPairVoting with its defaults (every size from the model's
-//            diameter), then PoseHypothesisSelection/IcpMisfit as below.
+//            diameter), then PoseHypothesisSelection/IcpMisfit as below; a ToF scene that the
+//            cloud leaves ambiguous (a near-symmetric twin fits it as well) is decided on the
+//            depth map by PoseRefinement/DepthIcp (dfpcs/detection_tof.yaml's settings), whose
+//            free-space term tells the twins apart.
 //   Pcl      the seed's pipeline of DFNs: NormalsEstimation/Pca on the scene,
 //            KeypointExtraction3D/UniformSampling, FeaturesDescription3D/Shot (BOARD frames),
 //            FeaturesMatching3D/KdTreeFlann, CorrespondenceGrouping/Hough3D, then
@@ -43,7 +46,9 @@
 #include "KeypointExtraction3D.gen.hpp"
 #include "NormalsEstimation.gen.hpp"
 #include "PoseHypothesisSelection.gen.hpp"
+#include "PoseRefinement.gen.hpp"
 #include "bench_support.hpp"
+#include "cdff/egse/model.hpp"
 #include "cdff/egse/procedural.hpp"
 #include "cdff/egse/scenario.hpp"
 #include "cdff/egse/simulator.hpp"
@@ -175,6 +180,17 @@ class OurPipeline {
     p.select_ = createSelection(tof);
     if (!p.register_ || !p.select_)
       return invalidParameter("a DFN of our pipeline did not configure");
+    if (tof) {
+      // The ToF detection's refinement on the depth map (dfpcs/detection_tof.yaml's settings,
+      // the noise and the return threshold from the camera's description).
+      p.refine_ = bench::createConfigured<dfn::PoseRefinement>(
+          "PoseRefinement", "DepthIcp",
+          fmt::format("{{candidates: 20, finalists: 6, depth_noise_constant: {}, "
+                      "depth_noise_quadratic: {}, missing_depth_cost: 9, min_amplitude: {}, "
+                      "min_rival_margin: 0.4, max_misfit: 3}}",
+                      tof->noise_constant, tof->noise_quadratic, tof->min_amplitude));
+      if (!p.refine_) return invalidParameter("PoseRefinement did not configure");
+    }
     p.lidar_ = lidar;
     return p;
   }
@@ -187,6 +203,8 @@ class OurPipeline {
     double fitness = 0, visibility = 0, margin = 0;
     int chosen = -1;
     bool ambiguous = false;
+    // ToF, when the cloud is ambiguous: the depth refinement's time and rival margin.
+    double depth_s = 0, depth_margin = 0;
   };
 
   Result<Outcome> detect(const PointCloud& scene, const PointCloud& model,
@@ -211,12 +229,25 @@ class OurPipeline {
     o.margin = *select_->out.margin;
     o.chosen = *select_->out.chosen;
     o.ambiguous = *select_->out.ambiguous;
+    // A ToF scene the cloud leaves ambiguous: the depth map decides (free space: the twin that
+    // puts surface where the camera sees nothing or something farther loses).
+    if (refine_ && o.ambiguous) {
+      t = cpuSeconds();
+      refine_->in.detections.set(*register_->out.hypotheses);
+      refine_->in.depth.set(view.depth);
+      refine_->in.model.set(model);
+      CDFF_RETURN_IF_ERROR(refine_->process().withContext("depth refinement"));
+      if (*refine_->out.refined) o.pose = refine_->out.pose->pose.isometry();
+      o.depth_margin = *refine_->out.rival_margin;
+      o.depth_s = cpuSeconds() - t;
+    }
     return o;
   }
 
  private:
   std::unique_ptr<dfn::GlobalRegistration3D> register_;
   std::unique_ptr<dfn::PoseHypothesisSelection> select_;
+  std::unique_ptr<dfn::PoseRefinement> refine_;
   bool lidar_ = false;
 };
 
@@ -390,10 +421,9 @@ void runFrames(benchmark::State& state, DepthSource source) {
   if (!sim) return state.SkipWithError(sim.status().toString().c_str());
   const TriangleMesh& mesh = (*sim)->target().mesh;
   Model model;
-  Result<PointCloud> sampled = sampleSurface(
-      mesh, static_cast<std::size_t>(mesh.surfaceArea() / (0.02 * 0.02)), 1, SampleNormals::kFace);
-  if (!sampled) return state.SkipWithError(sampled.status().toString().c_str());
-  model.cloud = std::move(sampled).value();
+  // With the materials' reflectivity as intensity: where a ToF camera returns no depth.
+  model.cloud = egse::samplePointCloud(
+      (*sim)->target(), static_cast<std::size_t>(mesh.surfaceArea() / (0.02 * 0.02)), 1);
   model.cloud.frame_id = "target";
   Eigen::Vector3f low = model.cloud.points[0].vec(), high = low;
   for (const Point4f& p : model.cloud.points) {
@@ -420,6 +450,8 @@ void runFrames(benchmark::State& state, DepthSource source) {
   if (!ours) return state.SkipWithError(ours.status().toString().c_str());
   const Pipelines run = Pipelines::fromEnvironment();
 
+  int ours_ambiguous = 0;
+  double ours_depth = 0;
   int ours_correct = 0, ours_wrong = 0, pcl_correct = 0, pcl_wrong = 0, o3d_correct = 0,
       o3d_wrong = 0, used = 0;
   std::map<std::string, double> cpu;
@@ -453,12 +485,19 @@ void runFrames(benchmark::State& state, DepthSource source) {
         if (!r) return state.SkipWithError(r.status().toString().c_str());
         ours_registration += r->registration_s;
         ours_selection += r->selection_s;
+        ours_ambiguous += r->ambiguous;
         line += fmt::format(
             " ours {}{} ({} hypotheses, nearest {:.0f} deg, chosen {}, fitness {:.2f}, visibility "
             "{:.2f}, margin {:.1f}, {:.0f} ms)",
             verdict(r->pose, ours_correct, ours_wrong), r->ambiguous ? " ambiguous" : "",
             r->hypotheses, r->nearest_hypothesis_deg, r->chosen, r->fitness, r->visibility,
             r->margin, 1e3 * (r->registration_s + r->selection_s));
+        if (r->ambiguous && view->source == DepthSource::kTof) {
+          ours_depth += r->depth_s;
+          line += fmt::format(" (ambiguous: the depth refinement {}, margin {:.2f}, {:.0f} ms)",
+                              r->pose ? "decided" : "did not decide", r->depth_margin,
+                              1e3 * r->depth_s);
+        }
       }
       if (run.pcl) {
         Result<PclPipeline::Outcome> r = pcl->detect(*scene, model, *view, verbose);
@@ -497,7 +536,9 @@ void runFrames(benchmark::State& state, DepthSource source) {
     state.counters["ours_wrong"] = ours_wrong / n;
     state.counters["ours_ms_registration"] = 1e3 * ours_registration / n;
     state.counters["ours_ms_selection"] = 1e3 * ours_selection / n;
-    state.counters["ours_ms"] = 1e3 * (ours_registration + ours_selection) / n;
+    state.counters["ours_ambiguous"] = ours_ambiguous / n;
+    if (source == DepthSource::kTof) state.counters["ours_ms_depth"] = 1e3 * ours_depth / n;
+    state.counters["ours_ms"] = 1e3 * (ours_registration + ours_selection + ours_depth) / n;
   }
   if (run.pcl) {
     state.counters["pcl_correct"] = pcl_correct / n;
