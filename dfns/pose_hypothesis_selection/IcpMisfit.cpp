@@ -4,8 +4,10 @@
 // model and the sensor, crops the scene and picks the pose.
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "PoseHypothesisSelection.gen.hpp"
@@ -23,15 +25,26 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
  protected:
   Status onConfigure() override {
     model_.index.reset();
+    window_.clear();
     return Status::ok();
   }
 
   Status onProcess() override {
+    const Status status = verify();
+    // A call where no hypothesis passed (no pose output) ends the window.
+    if (!status.isOk() || !out.pose.hasValue()) window_.clear();
+    return status;
+  }
+
+  /// One call's verification and the decision over the window of calls.
+  Status verify() {
+    out.pose.clear();  // set again only when a hypothesis passes
     out.found.set(false);
     out.chosen.set(-1);
     out.fitness.set(kNaN);
     out.visibility.set(kNaN);
     out.margin.set(kNaN);
+    out.relative_margin.set(kNaN);
     out.ambiguous.set(false);
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
@@ -245,25 +258,86 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       out.visibility.set(best_any->visibility);
       return;
     }
-    double rival = -std::numeric_limits<double>::infinity();
+    const Trial* rival = nullptr;
     for (const Trial& t : trials)
-      if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances))
-        rival = std::max(rival, t.evidence);
-    const double margin = (best->evidence - rival) / std::sqrt(static_cast<double>(best->returns));
+      if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances) &&
+          (rival == nullptr || t.evidence > rival->evidence))
+        rival = &t;
+    decide(*best, rival, scene);
+  }
 
-    out.fitness.set(best->quality.fitness);
-    out.visibility.set(best->visibility);
+  /// The candidate over the last `confirmations` calls: this call's best pose and its rival are
+  /// recorded as the candidate's and its rival's (or the other way round when this call's rival
+  /// is the candidate: the same pose, moved little since the last call); a best pose that is
+  /// neither starts the window anew. The sums decide: the margin is the candidate's evidence
+  /// less its rival's, summed, over the square root of the summed returns; the relative margin
+  /// 1 less the ratio of their summed misfits per return. A window whose rival has summed more
+  /// evidence swaps the two.
+  void decide(const Trial& best, const Trial* rival, const PointCloud& scene) {
+    auto misfitPerReturn = [](const Trial& t) {
+      return (registration::kUnmatchedCost * static_cast<double>(t.returns) - t.evidence) /
+             std::max<double>(1.0, static_cast<double>(t.returns));
+    };
+    const bool continues_best =
+        !window_.empty() && samePose(window_.back().candidate, best.pose, best.distances);
+    const bool continues_rival = !continues_best && rival != nullptr && !window_.empty() &&
+                                 samePose(window_.back().candidate, rival->pose, rival->distances);
+    if (!continues_best && !continues_rival) window_.clear();
+    const Trial& mine = continues_rival ? *rival : best;
+    const Trial* other = continues_rival ? &best : rival;
+    Record r;
+    r.candidate = mine.pose;
+    r.rival_pose = other ? std::optional<Eigen::Isometry3d>(other->pose) : std::nullopt;
+    r.evidence = mine.evidence - (other ? other->evidence : 0.0);
+    r.misfit = misfitPerReturn(mine);
+    r.rival_misfit = other ? misfitPerReturn(*other) : 0.0;
+    r.returns = static_cast<double>(mine.returns);
+    r.has_rival = other != nullptr;
+    window_.push_back(r);
+    if (static_cast<int>(window_.size()) > params_.confirmations) window_.pop_front();
+
+    double evidence = 0, misfit = 0, rival_misfit = 0, returns = 0;
+    bool any_rival = false;
+    for (const Record& w : window_) {
+      if (!w.has_rival) continue;
+      any_rival = true;
+      evidence += w.evidence;
+      misfit += w.misfit;
+      rival_misfit += w.rival_misfit;
+      returns += w.returns;
+    }
+    const Trial* chosen = &mine;
+    if (any_rival && evidence < 0 && other != nullptr) {
+      // The rival has explained the window better: it is the candidate from now on.
+      for (Record& w : window_)
+        if (w.rival_pose) {
+          std::swap(w.candidate, *w.rival_pose);
+          w.evidence = -w.evidence;
+          std::swap(w.misfit, w.rival_misfit);
+        }
+      evidence = -evidence;
+      std::swap(misfit, rival_misfit);
+      chosen = other;
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    const double margin = any_rival ? evidence / std::sqrt(std::max(returns, 1.0)) : inf;
+    const double relative = any_rival ? 1.0 - misfit / std::max(rival_misfit, 1e-12) : inf;
+
+    out.fitness.set(chosen->quality.fitness);
+    out.visibility.set(chosen->visibility);
     out.margin.set(margin);
+    out.relative_margin.set(relative);
     PoseWithCovariance pose;
-    pose.pose = Transform::fromIsometry(best->pose, scene.frame_id, in.model->frame_id,
+    pose.pose = Transform::fromIsometry(chosen->pose, scene.frame_id, in.model->frame_id,
                                         in.hypotheses->stamp);
     pose.pose.rotation.normalize();
-    pose.covariance = best->quality.covariance;
+    pose.covariance = chosen->quality.covariance;
     out.pose.set(std::move(pose));
-    out.chosen.set(best->hypothesis);
-    const bool ambiguous = margin < params_.min_margin;
-    out.ambiguous.set(ambiguous);
-    out.found.set(!ambiguous);
+    out.chosen.set(chosen->hypothesis);
+    const bool decided = margin >= params_.min_margin && relative >= params_.min_relative_margin;
+    const bool enough = static_cast<int>(window_.size()) >= params_.confirmations;
+    out.ambiguous.set(!decided);
+    out.found.set(decided && enough);
   }
 
   bool samePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Distances& d) const {
@@ -295,6 +369,16 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   double spacing_ = 0.01;
   registration::ModelBounds bounds_;
   std::vector<Eigen::Isometry3d> symmetries_;  // the model's near-symmetries (model frame)
+  /// One call's comparison of the candidate with its best distinct rival.
+  struct Record {
+    Eigen::Isometry3d candidate = Eigen::Isometry3d::Identity();
+    std::optional<Eigen::Isometry3d> rival_pose;
+    double evidence = 0;                  // the candidate's less the rival's
+    double misfit = 0, rival_misfit = 0;  // per return
+    double returns = 0;                   // the candidate's crop
+    bool has_rival = false;
+  };
+  std::deque<Record> window_;  // the last `confirmations` calls
   registration::RingVisibility visibility_;
   registration::LaserElevations lasers_;
   std::vector<Eigen::Vector3f> inside_, points_;

@@ -137,19 +137,13 @@ Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_
   return dfpc::Dfpc::create(*spec);
 }
 
-Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message> messages,
-                             const RigidBodyState& initial, double settle_s,
-                             const GraphEdit& edit) {
+namespace {
+
+/// Runs the graph over `messages`, evaluating the pose products from `from` on.
+Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc::Message> messages,
+                                      Timestamp from, const GraphEdit& edit) {
   Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file, edit);
   if (!graph) return graph.status();
-  // The initial state comes just before the scan it was made for (and the LIDAR description
-  // that comes with the scan).
-  auto at = std::find_if(messages.begin(), messages.end(), [&](const dfpc::Message& m) {
-    return m.stamp >= initial.pose.stamp &&
-           (m.channel == "/chaser/lidar/points" || m.channel == "/chaser/lidar/info");
-  });
-  messages.insert(
-      at, dfpc::Message::of("/cdff/lidar_tracking/initial_state", initial.pose.stamp, initial));
   dfpc::MemorySink sink;
   dfpc::OrchestratorOptions options;
   options.sink = &sink;
@@ -164,7 +158,6 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
   TrackingResult result;
   result.events = sink.events();
   result.products = sink.messages();
-  const Timestamp from = initial.pose.stamp + fromSeconds(settle_s);
   std::vector<eval::EstimateSample> estimates;
   for (const dfpc::Message& m : sink.messages("/cdff/lidar_tracking/pose"))
     if (const RigidBodyState* s = m.as<RigidBodyState>(); s && m.stamp >= from)
@@ -185,6 +178,30 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
   if (!evaluation) return evaluation.status();
   result.evaluation = std::move(evaluation).value();
   return result;
+}
+
+}  // namespace
+
+Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message> messages,
+                             const RigidBodyState& initial, double settle_s,
+                             const GraphEdit& edit) {
+  // The initial state comes just before the scan it was made for (and the LIDAR description
+  // that comes with the scan).
+  auto at = std::find_if(messages.begin(), messages.end(), [&](const dfpc::Message& m) {
+    return m.stamp >= initial.pose.stamp &&
+           (m.channel == "/chaser/lidar/points" || m.channel == "/chaser/lidar/info");
+  });
+  messages.insert(
+      at, dfpc::Message::of("/cdff/lidar_tracking/initial_state", initial.pose.stamp, initial));
+  return runAndEvaluate(run, std::move(messages), initial.pose.stamp + fromSeconds(settle_s), edit);
+}
+
+Result<TrackingResult> trackWithoutPrior(const SimulatedRun& run,
+                                         std::vector<dfpc::Message> messages, double settle_s,
+                                         const GraphEdit& edit) {
+  if (run.scans.empty()) return invalidInput("the simulated run has no scan");
+  return runAndEvaluate(run, std::move(messages), run.scans.front().stamp + fromSeconds(settle_s),
+                        edit);
 }
 
 std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r) {

@@ -83,6 +83,12 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
                              const RigidBodyState& initial, double settle_s,
                              const GraphEdit& edit = {});
 
+/// Runs the DFPC over `messages` with no initial state at all (it must find the target itself),
+/// evaluating the pose products from `settle_s` after the first scan on.
+Result<TrackingResult> trackWithoutPrior(const SimulatedRun& run,
+                                         std::vector<dfpc::Message> messages, double settle_s,
+                                         const GraphEdit& edit = {});
+
 /// The track state reported with each pose product: the EKF's step publishes both, the pose
 /// first, so the n-th pose product goes with the n-th track_state product.
 std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r);
