@@ -1,8 +1,8 @@
 // LIDAR tracking with no prior (issue 19): dfpcs/lidar_tracking.yaml given no initial state at
-// all finds the target itself (`detect`: GlobalRegistration3D/PointPairVoting, `verify`:
-// PoseHypothesisSelection/IcpMisfit), `acquire` confirms the detection over the next scans, and
-// the track is TRACKING within 2 s of scans; no pose more than 5 % of the range or 5 degrees
-// off is ever reported TRACKING. On the CI draws of the evaluation set (data/evaluation/
+// all finds the target itself (`global_search`: GlobalRegistration3D/PointPairVoting,
+// `global_verify`: PoseHypothesisSelection/IcpMisfit), `acquire` confirms the detection over the
+// next scans, and the track is TRACKING within 2 s of scans; no pose more than 5 % of the range or
+// 5 degrees off is ever reported TRACKING. On the CI draws of the evaluation set (data/evaluation/
 // draws.yaml: each its own simulator seed, so its own scan noise and, on the tumbling target,
 // its own dropped scans) of the tumbling target, the mid-range approach and the close range.
 // The goal holds on the mid-range approach; on the tumbling target at 15 m and at close range
