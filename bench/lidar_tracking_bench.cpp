@@ -3,6 +3,10 @@
 // direction but the target's) through the Orchestrator: the EKF's prediction ticks since the
 // previous scan, crop and voxel grid, FastIcp, the frame change and the EKF correction. The
 // scans are fed in order, as in a run; the DFPC is started again (untimed) when they run out.
+//
+// BM_ModelTracking3dStep: dfpcs/model_tracking_3d.yaml on the same scans, started with no
+// initial state: each scan searched with no prior (GlobalRegistration3D/PointPairVoting), the
+// clusters verified (PoseHypothesisSelection/IcpMisfit) and the decided pose fused by the EKF.
 #include <benchmark/benchmark.h>
 
 #include <optional>
@@ -29,9 +33,12 @@ struct Tracker {
   std::size_t next = 0;  // next message of the run
 };
 
-// A started DFPC that has processed the calibration, the initial state and the first second.
-std::optional<Tracker> startTracker(const SimulatedRun& run) {
-  Result<std::unique_ptr<dfpc::Dfpc>> graph = lidar_tracking::loadGraph(run.mesh_file);
+// A started DFPC (dfpcs/<graph>.yaml) that has processed the calibration, the initial state
+// (lidar_tracking only) and the first second.
+std::optional<Tracker> startTracker(const SimulatedRun& run,
+                                    const std::string& graph_name = "lidar_tracking") {
+  Result<std::unique_ptr<dfpc::Dfpc>> graph =
+      lidar_tracking::loadGraph(run.mesh_file, {}, graph_name);
   if (!graph) return std::nullopt;
   Tracker t;
   t.orchestrator = std::make_unique<dfpc::Orchestrator>(dfpc::OrchestratorOptions{});
@@ -40,7 +47,7 @@ std::optional<Tracker> startTracker(const SimulatedRun& run) {
   const Timestamp first = run.scans.front().stamp;
   const RigidBodyState initial =
       lidar_tracking::perturbedInitialState(run.truth, first, 0.10, 10.0 * M_PI / 180.0, 7);
-  bool initialised = false;
+  bool initialised = graph_name != "lidar_tracking";  // the others start with no prior
   for (; t.next < run.messages.size(); ++t.next) {
     const dfpc::Message& m = run.messages[t.next];
     if (m.stamp > first + fromSeconds(1.0)) break;
@@ -55,10 +62,10 @@ std::optional<Tracker> startTracker(const SimulatedRun& run) {
   return t;
 }
 
-void BM_LidarTrackingStep(benchmark::State& state) {
+void trackingSteps(benchmark::State& state, const std::string& graph) {
   const SimulatedRun& run = simulated();
   if (run.scans.empty()) return state.SkipWithError("simulation failed");
-  std::optional<Tracker> tracker = startTracker(run);
+  std::optional<Tracker> tracker = startTracker(run, graph);
   if (!tracker) return state.SkipWithError("the DFPC did not start");
   std::size_t points = 0, scans = 0;
   for (auto _ : state) {
@@ -67,7 +74,7 @@ void BM_LidarTrackingStep(benchmark::State& state) {
     while (!scanned) {
       if (tracker->next >= run.messages.size()) {
         state.PauseTiming();
-        tracker = startTracker(run);
+        tracker = startTracker(run, graph);
         state.ResumeTiming();
         if (!tracker) return state.SkipWithError("the DFPC did not restart");
       }
@@ -82,7 +89,16 @@ void BM_LidarTrackingStep(benchmark::State& state) {
   }
   state.counters["scan_points"] = benchmark::Counter(static_cast<double>(points) / scans);
 }
+
+void BM_LidarTrackingStep(benchmark::State& state) {
+  trackingSteps(state, "lidar_tracking");
+}
 BENCHMARK(BM_LidarTrackingStep)->Unit(benchmark::kMillisecond)->Iterations(800);
+
+void BM_ModelTracking3dStep(benchmark::State& state) {
+  trackingSteps(state, "model_tracking_3d");
+}
+BENCHMARK(BM_ModelTracking3dStep)->Unit(benchmark::kMillisecond)->Iterations(200);
 
 }  // namespace
 }  // namespace cdff

@@ -119,7 +119,7 @@ std::vector<std::string> settingsFromEnvironment(const char* name) {
 }
 
 Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
-                                              const GraphEdit& edit) {
+                                              const GraphEdit& edit, const std::string& graph) {
   // CDFF_GRAPH_SET: NODE.PARAM=VALUE settings (as `cdff run --set`), for the benchmark's runs on
   // the tuning draws.
   const std::vector<std::string> settings = settingsFromEnvironment("CDFF_GRAPH_SET");
@@ -128,7 +128,7 @@ Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_
   const char* graph_file = std::getenv("CDFF_LIDAR_GRAPH");
   Result<dfpc::GraphSpec> spec =
       dfpc::loadGraphFile(graph_file ? std::string(graph_file)
-                                     : std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml",
+                                     : std::string(CDFF_SOURCE_DIR) + "/dfpcs/" + graph + ".yaml",
                           settings);
   if (!spec) return spec.status().withContext("CDFF_GRAPH_SET");
   for (dfpc::InstanceSpec& instance : spec->instances)
@@ -141,8 +141,9 @@ namespace {
 
 /// Runs the graph over `messages`, evaluating the pose products from `from` on.
 Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc::Message> messages,
-                                      Timestamp from, const GraphEdit& edit) {
-  Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file, edit);
+                                      Timestamp from, const GraphEdit& edit,
+                                      const std::string& graph_name = "lidar_tracking") {
+  Result<std::unique_ptr<dfpc::Dfpc>> graph = loadGraph(run.mesh_file, edit, graph_name);
   if (!graph) return graph.status();
   dfpc::MemorySink sink;
   dfpc::OrchestratorOptions options;
@@ -156,10 +157,12 @@ Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc:
   if (!summary) return summary.status();
 
   TrackingResult result;
+  result.graph = graph_name;
+  const std::string products = "/cdff/" + graph_name + "/";
   result.events = sink.events();
   result.products = sink.messages();
   std::vector<eval::EstimateSample> estimates;
-  for (const dfpc::Message& m : sink.messages("/cdff/lidar_tracking/pose"))
+  for (const dfpc::Message& m : sink.messages(products + "pose"))
     if (const RigidBodyState* s = m.as<RigidBodyState>(); s && m.stamp >= from)
       estimates.push_back({s->pose, true, std::nullopt, s->covariance.topLeftCorner<6, 6>()});
   for (const PointCloud& scan : run.scans)
@@ -168,7 +171,7 @@ Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc:
   // reports false; a gated-out measurement too; an AHRS sample, at its own stamp, is not a scan).
   std::set<Timestamp> scan_stamps;
   for (const PointCloud& scan : run.scans) scan_stamps.insert(scan.stamp);
-  for (const dfpc::Message& m : sink.messages("/cdff/lidar_tracking/accepted"))
+  for (const dfpc::Message& m : sink.messages(products + "accepted"))
     if (const bool* fused = m.as<bool>();
         fused && *fused && m.stamp >= from && scan_stamps.erase(m.stamp))
       ++result.accepted;
@@ -198,19 +201,19 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
 
 Result<TrackingResult> trackWithoutPrior(const SimulatedRun& run,
                                          std::vector<dfpc::Message> messages, double settle_s,
-                                         const GraphEdit& edit) {
+                                         const GraphEdit& edit, const std::string& graph) {
   if (run.scans.empty()) return invalidInput("the simulated run has no scan");
   return runAndEvaluate(run, std::move(messages), run.scans.front().stamp + fromSeconds(settle_s),
-                        edit);
+                        edit, graph);
 }
 
 std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r) {
   std::vector<Transform> poses;
   std::vector<std::string> states;
   for (const dfpc::Message& m : r.products) {
-    if (m.channel == "/cdff/lidar_tracking/pose")
+    if (m.channel == "/cdff/" + r.graph + "/pose")
       if (const RigidBodyState* s = m.as<RigidBodyState>()) poses.push_back(s->pose);
-    if (m.channel == "/cdff/lidar_tracking/track_state")
+    if (m.channel == "/cdff/" + r.graph + "/track_state")
       if (const TrackState* s = m.as<TrackState>()) states.push_back(std::string(toString(*s)));
   }
   std::vector<std::pair<Transform, std::string>> out;

@@ -64,9 +64,11 @@ using GraphEdit = std::function<void(dfpc::GraphSpec&)>;
 /// CDFF_GRAPH_SET="NODE.PARAM=VALUE;..." or CDFF_SCENARIO_SET="KEY=VALUE;...".
 std::vector<std::string> settingsFromEnvironment(const char* name);
 
-/// The graph, loaded from dfpcs/lidar_tracking.yaml, with its model read from `mesh_file`.
+/// The graph, loaded from dfpcs/<graph>.yaml (lidar_tracking.yaml unless told), with its model
+/// read from `mesh_file`.
 Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_file,
-                                              const GraphEdit& edit = {});
+                                              const GraphEdit& edit = {},
+                                              const std::string& graph = "lidar_tracking");
 
 struct TrackingResult {
   eval::PoseEvaluation evaluation;  // the pose products after `settle_s`
@@ -74,7 +76,8 @@ struct TrackingResult {
   std::size_t accepted = 0;         // of those, fused by the EKF
   double tracked_fraction = 0;      // accepted / scans
   std::vector<dfpc::Event> events;
-  std::vector<dfpc::Message> products;  // every product of the run
+  std::vector<dfpc::Message> products;   // every product of the run
+  std::string graph = "lidar_tracking";  // the DFPC: its products are on /cdff/<graph>/...
 };
 
 /// Runs the DFPC over `messages` (plus the initial state), evaluating from `settle_s` after the
@@ -83,11 +86,12 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
                              const RigidBodyState& initial, double settle_s,
                              const GraphEdit& edit = {});
 
-/// Runs the DFPC over `messages` with no initial state at all (it must find the target itself),
-/// evaluating the pose products from `settle_s` after the first scan on.
+/// Runs the DFPC dfpcs/<graph>.yaml over `messages` with no initial state at all (it must find
+/// the target itself), evaluating the pose products from `settle_s` after the first scan on.
 Result<TrackingResult> trackWithoutPrior(const SimulatedRun& run,
                                          std::vector<dfpc::Message> messages, double settle_s,
-                                         const GraphEdit& edit = {});
+                                         const GraphEdit& edit = {},
+                                         const std::string& graph = "lidar_tracking");
 
 /// The track state reported with each pose product: the EKF's step publishes both, the pose
 /// first, so the n-th pose product goes with the n-th track_state product.
