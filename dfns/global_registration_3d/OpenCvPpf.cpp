@@ -183,12 +183,8 @@ class GlobalRegistration3DOpenCvPpf final : public GlobalRegistration3DOpenCvPpf
     global_registration::VoxelRuns runs;
     global_registration::downsampleWithNormals(model, static_cast<float>(sizes_.step), runs,
                                                downsampled);
-    if (downsampled.size() < kFewestModelPoints)
-      return invalidInput(
-          "input 'model' has {} points after downsampling to {:.4g} m (parameter 'sampling' = {} "
-          "of its {:.4g} m diameter); expected at least {}: lower 'sampling' or give a denser "
-          "model",
-          downsampled.size(), sizes_.step, params_.sampling, sizes_.diameter, kFewestModelPoints);
+    CDFF_RETURN_IF_ERROR(global_registration::checkDownsampledModel(
+        downsampled.size(), kFewestModelPoints, sizes_, params_.sampling));
     const global_registration::ModelExtent extent = global_registration::extentOf(model);
     const Eigen::Vector3f sides = extent.max - extent.min;
     if (sides.minCoeff() <= 0)

@@ -289,12 +289,8 @@ class GlobalRegistration3DPointPairVoting final : public GlobalRegistration3DPoi
     model_centre_ = extent.centre();
     std::vector<Oriented> points;
     downsampleWithNormals(model, static_cast<float>(sizes_.step), runs_, points);
-    if (points.size() < kFewestModelPoints)
-      return invalidInput(
-          "input 'model' has {} points after downsampling to {:.4g} m (parameter 'sampling' = {} "
-          "of its {:.4g} m diameter); expected at least {}: lower 'sampling' or give a denser "
-          "model",
-          points.size(), sizes_.step, params_.sampling, sizes_.diameter, kFewestModelPoints);
+    CDFF_RETURN_IF_ERROR(global_registration::checkDownsampledModel(
+        points.size(), kFewestModelPoints, sizes_, params_.sampling));
     if (points.size() > kMostModelPoints)
       return invalidInput(
           "input 'model' has {} points after downsampling to {:.4g} m (parameter 'sampling' = "

@@ -119,6 +119,15 @@ Status checkSampling(double sampling) {
       sampling);
 }
 
+Status checkDownsampledModel(std::size_t count, std::size_t fewest, const Sizes& sizes,
+                             double sampling) {
+  if (count >= fewest) return Status::ok();
+  return invalidInput(
+      "input 'model' has {} points after downsampling to {:.4g} m (parameter 'sampling' = {} of "
+      "its {:.4g} m diameter); expected at least {}: lower 'sampling' or give a denser model",
+      count, sizes.step, sampling, sizes.diameter, fewest);
+}
+
 ModelExtent extentOf(const PointCloud& cloud) {
   ModelExtent extent;
   if (cloud.empty()) return extent;

@@ -36,6 +36,9 @@ struct Sizes {
 Status checkModel(const PointCloud& model);
 /// The scene: finite points; normals, when present, finite and non-zero.
 Status checkScene(const PointCloud& scene);
+/// A downsampled model of `count` points has at least `fewest` (the error says how to get more).
+Status checkDownsampledModel(std::size_t count, std::size_t fewest, const Sizes& sizes,
+                             double sampling);
 /// sampling strictly between 0 and 1 (the description's range admits both ends).
 Status checkSampling(double sampling);
 
