@@ -31,8 +31,9 @@ std::unique_ptr<Dfn> createConfigured(const std::string& dfn, const std::string&
 
 /// The first simulator seed of a benchmark's frames: the evaluation seeds (data/evaluation/
 /// draws.yaml: 900001 on), or with CDFF_DRAW_SET=tuning the tuning ones (1 on), which the
-/// parameters may be tuned on.
+/// parameters may be tuned on. CDFF_FIRST_SEED=N starts at seed N (to look at one frame again).
 inline std::uint64_t firstSeed() {
+  if (const char* first = std::getenv("CDFF_FIRST_SEED")) return std::strtoull(first, nullptr, 10);
   const char* set = std::getenv("CDFF_DRAW_SET");
   return set && std::string(set) == "tuning" ? 1 : 900001;
 }

@@ -46,6 +46,10 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     out.margin.set(kNaN);
     out.relative_margin.set(kNaN);
     out.ambiguous.set(false);
+    Detections none;
+    none.stamp = in.hypotheses->stamp;
+    none.frame_id = in.scene->frame_id;
+    out.candidates.set(std::move(none));
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
     CDFF_RETURN_IF_ERROR(scene.validate("input 'scene'"));
@@ -69,7 +73,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     std::vector<Trial> rough;
     for (int i = 0; i < count; ++i) {
       const Eigen::Isometry3d hypothesis = hypotheses.detections[i].pose.isometry();
-      const Distances d = distances(sensor, hypothesis);
+      const Distances d = distances(scene, sensor, hypothesis);
       Result<Trial> trial = verify(scene, hypothesis, sensor, d, coarse);
       if (!trial) {
         warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
@@ -162,7 +166,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     const std::size_t verified = trials.size();
     for (const Eigen::Isometry3d& motion : symmetries_) {
       const Eigen::Isometry3d rival = pose * motion;
-      const Distances d = distances(sensor, rival);
+      const Distances d = distances(scene, sensor, rival);
       const bool known = std::any_of(trials.begin(), trials.begin() + verified,
                                      [&](const Trial& t) { return samePose(t.pose, rival, d); });
       if (known) continue;  // already refined from a hypothesis of its own
@@ -185,11 +189,12 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   }
 
   /// The distances for a hypothesis: from the parameters, or (0) from the model and the range
-  /// noise at the hypothesis's range.
-  Distances distances(const LidarInfo* sensor, const Eigen::Isometry3d& hypothesis) const {
+  /// noise at the range of the returns it covers.
+  Distances distances(const PointCloud& scene, const LidarInfo* sensor,
+                      const Eigen::Isometry3d& hypothesis) {
     Distances d;
     const double radius = bounds_.radius();
-    const double range = (hypothesis * bounds_.centre() - viewpoint().cast<double>()).norm();
+    const double range = rangeOfReturns(scene, hypothesis);
     d.inlier = params_.inlier_distance > 0
                    ? params_.inlier_distance
                    : std::max(2.0 * spacing_, 3.0 * rangeNoise(sensor, range));
@@ -199,6 +204,25 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     d.crop = radius + (params_.crop_margin > 0 ? params_.crop_margin : d.inlier);
     d.distinct = params_.distinct_distance > 0 ? params_.distinct_distance : 0.1 * radius;
     return d;
+  }
+
+  /// The median range of the scene's returns within the model's bounding sphere at `pose` (its
+  /// bounding centre's range when there are none): where the range noise of the returns the pose
+  /// explains is. Not the bounding centre's own range, which differs between a pose and its
+  /// near-symmetric twin when the model is lopsided (a single solar wing moves the box's centre
+  /// by metres), and with it a range-dependent noise, so that the twin whose centre is farther
+  /// would score the same returns at a larger noise, i.e. better.
+  double rangeOfReturns(const PointCloud& scene, const Eigen::Isometry3d& pose) {
+    const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
+    const Eigen::Vector3f origin = viewpoint();
+    const float r2 = static_cast<float>(bounds_.radius() * bounds_.radius());
+    ranges_.clear();
+    for (const Point4f& p : scene.points)
+      if ((p.vec() - centre).squaredNorm() <= r2) ranges_.push_back((p.vec() - origin).norm());
+    if (ranges_.empty()) return (centre - origin).norm();
+    auto middle = ranges_.begin() + static_cast<std::ptrdiff_t>(ranges_.size() / 2);
+    std::nth_element(ranges_.begin(), middle, ranges_.end());
+    return *middle;
   }
 
   /// How hard a hypothesis is refined: the crop's returns kept, the ICP's iterations.
@@ -233,7 +257,8 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     if (points_.size() < static_cast<std::size_t>(params_.min_returns)) return trial;
     trial.quality = registration::evaluate(points_, *model_.index, trial.pose, d.inlier,
                                            params_.covariance_inflation);
-    if (sensor != nullptr && visibility_.setScan(points_, viewpoint(), lasers_.of(sensor)))
+    if (sensor != nullptr &&
+        visibility_.setScan(inSight(scene, trial.pose, d.crop), viewpoint(), lasers_.of(sensor)))
       trial.visibility = visibility_.evaluate(*model_.index, spacing_, trial.pose, 3.0 * d.inlier);
     // The misfit below that of explaining nothing (every return unmatched).
     trial.evidence =
@@ -258,12 +283,40 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       out.visibility.set(best_any->visibility);
       return;
     }
+    setCandidates(trials, scene);
     const Trial* rival = nullptr;
     for (const Trial& t : trials)
       if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances) &&
           (rival == nullptr || t.evidence > rival->evidence))
         rival = &t;
     decide(*best, rival, scene);
+  }
+
+  /// The distinct passing trials, most evidence first, onto the candidates output.
+  void setCandidates(const std::vector<Trial>& trials, const PointCloud& scene) {
+    std::vector<const Trial*> passing;
+    for (const Trial& t : trials)
+      if (t.passes) passing.push_back(&t);
+    std::stable_sort(passing.begin(), passing.end(),
+                     [](const Trial* a, const Trial* b) { return a->evidence > b->evidence; });
+    Detections candidates;
+    candidates.stamp = in.hypotheses->stamp;
+    candidates.frame_id = scene.frame_id;
+    std::vector<const Trial*> kept;
+    for (const Trial* t : passing) {
+      if (std::any_of(kept.begin(), kept.end(),
+                      [&](const Trial* k) { return samePose(k->pose, t->pose, k->distances); }))
+        continue;
+      kept.push_back(t);
+      Detection d;
+      d.pose = Transform::fromIsometry(t->pose, scene.frame_id, in.model->frame_id,
+                                       in.hypotheses->stamp);
+      d.pose.rotation.normalize();
+      d.similarity = std::clamp(t->quality.fitness, 0.0, 1.0);
+      d.template_id = fmt::format("hypothesis {}", t->hypothesis);
+      candidates.detections.push_back(std::move(d));
+    }
+    out.candidates.set(std::move(candidates));
   }
 
   /// The candidate over the last `confirmations` calls: this call's best pose and its rival are
@@ -360,6 +413,29 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
   }
 
+  /// The scene's returns on the lines of sight through the model's bounding sphere (radius
+  /// `radius`) at `pose`, up to its far side, into sight_: the crop and whatever is in front of
+  /// it. A laser whose return lies in front of the model (an occluder, even one outside the
+  /// sphere) confirms that the model's surface there is hidden rather than absent.
+  const std::vector<Eigen::Vector3f>& inSight(const PointCloud& scene,
+                                              const Eigen::Isometry3d& pose, double radius) {
+    const Eigen::Vector3f origin = viewpoint();
+    const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>() - origin;
+    const float distance = centre.norm();
+    const auto r = static_cast<float>(radius);
+    const float far = distance + r;
+    // Within the sphere's cone: the angle to the centre at most asin(r / distance).
+    const float min_cos =
+        distance > r ? std::sqrt(std::max(0.0f, 1.0f - (r / distance) * (r / distance))) : -1.0f;
+    sight_.clear();
+    for (const Point4f& p : scene.points) {
+      const Eigen::Vector3f d = p.vec() - origin;
+      const float range = d.norm();
+      if (range <= far && d.dot(centre) >= min_cos * range * distance) sight_.push_back(p.vec());
+    }
+    return sight_;
+  }
+
   Eigen::Vector3f viewpoint() const {
     return Eigen::Vector3f(params_.viewpoint[0], params_.viewpoint[1], params_.viewpoint[2]);
   }
@@ -381,7 +457,8 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   std::deque<Record> window_;  // the last `confirmations` calls
   registration::RingVisibility visibility_;
   registration::LaserElevations lasers_;
-  std::vector<Eigen::Vector3f> inside_, points_;
+  std::vector<Eigen::Vector3f> inside_, points_, sight_;
+  std::vector<float> ranges_;
 };
 
 CDFF_REGISTER_DFI(PoseHypothesisSelectionIcpMisfit);
