@@ -15,6 +15,7 @@
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
+#include "support/targets.hpp"
 
 namespace cdff::dfn {
 namespace {
@@ -25,37 +26,12 @@ std::unique_ptr<GlobalRegistration3D> make(const std::string& dfi, const std::st
   return testing::makeDfn<GlobalRegistration3D>("GlobalRegistration3D", dfi, yaml);
 }
 
-struct Target {
-  std::string name;
-  TriangleMesh mesh;
-  PointCloud model;
-};
+using Target = testing::ProceduralTarget;
 
-/// The model sampled 2 cm apart with its faces' normals, as ModelPointCloud samples a mesh.
-PointCloud modelOf(const TriangleMesh& mesh) {
-  const auto points = static_cast<std::size_t>(mesh.surfaceArea() / (0.02 * 0.02));
-  Result<PointCloud> cloud = sampleSurface(mesh, points, 5, SampleNormals::kFace);
-  EXPECT_TRUE(cloud.isOk()) << cloud.status().toString();
-  return std::move(cloud).value();
-}
-
+/// The two targets, their models with the faces' normals (sampled once for all tests).
 const std::vector<Target>& targets() {
-  static const std::vector<Target> t = [] {
-    std::vector<Target> list;
-    TriangleMesh box = egse::makeTargetSatellite().value().mesh;
-    list.push_back({"box satellite", box, modelOf(box)});
-    TriangleMesh hexagonal = egse::makeHexagonalSatellite().value().mesh;
-    list.push_back({"hexagonal satellite", hexagonal, modelOf(hexagonal)});
-    return list;
-  }();
+  static const std::vector<Target> t = testing::proceduralTargets(SampleNormals::kFace);
   return t;
-}
-
-/// sensor_T_target `range` m ahead (slightly off the axis), attitude drawn from `seed`.
-Eigen::Isometry3d truthAt(double range, std::uint32_t seed) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(range, 0.2, -0.3);
-  return testing::perturb(pose, 0.0, M_PI, seed);
 }
 
 /// A ToF camera's dense points: 120 rows over +-15 deg, 0.1 deg columns, 5 mm range noise.
@@ -100,7 +76,7 @@ Rates measure(const std::string& dfi, const testing::ScanOptions& scan, double n
     for (int k = 0; k < draws_per_target; ++k) {
       const std::uint32_t seed = seed0 + static_cast<std::uint32_t>(k);
       const double range = near + (far - near) * k / std::max(1, draws_per_target - 1);
-      const Eigen::Isometry3d truth = truthAt(range, seed);
+      const Eigen::Isometry3d truth = testing::targetAhead(range, seed);
       node->in.scene.set(testing::simulateScan(target.mesh, truth, scan, 1000 + seed));
       const Status s = node->process();
       EXPECT_TRUE(s.isOk()) << s.toString();
@@ -170,7 +146,7 @@ TEST(GlobalRegistration3DPointPairVoting, ASceneWithoutTheTargetGetsFewerVotes) 
     node->in.model.set(target.model);
     for (std::uint32_t seed = 1; seed <= 3; ++seed) {
       SCOPED_TRACE(target.name + " draw " + std::to_string(seed));
-      const Eigen::Isometry3d truth = truthAt(5.0, seed);
+      const Eigen::Isometry3d truth = testing::targetAhead(5.0, seed);
       const double with_target =
           bestVotes(*node, testing::simulateScan(target.mesh, truth, denseScan(), 700 + seed));
       const double without =
@@ -188,7 +164,7 @@ TEST(GlobalRegistration3DPointPairVoting, ASceneWithoutTheTargetGetsFewerVotes) 
 // model preparation 90 ms).
 TEST(GlobalRegistration3D, TimingOnATwentyThousandPointScene) {
   const Target& target = targets().front();
-  const Eigen::Isometry3d truth = truthAt(5.2, 5);
+  const Eigen::Isometry3d truth = testing::targetAhead(5.2, 5);
   const PointCloud scene = testing::simulateScan(target.mesh, truth, denseScan(), 1005);
   for (const std::string dfi : {"PointPairVoting", "OpenCvPpf"}) {
     auto node = make(dfi);
@@ -236,7 +212,8 @@ TEST(GlobalRegistration3D, NoPeaksGiveNoHypotheses) {
 
 TEST(GlobalRegistration3D, BadInputsAndParametersAreReported) {
   const Target& target = targets().front();
-  const PointCloud scan = testing::simulateScan(target.mesh, truthAt(5.0, 1), denseScan(), 1);
+  const PointCloud scan =
+      testing::simulateScan(target.mesh, testing::targetAhead(5.0, 1), denseScan(), 1);
   for (const std::string dfi : {"PointPairVoting", "OpenCvPpf"}) {
     SCOPED_TRACE(dfi);
     auto node = make(dfi);

@@ -14,6 +14,7 @@
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
+#include "support/targets.hpp"
 
 namespace cdff::dfn {
 namespace {
@@ -24,19 +25,8 @@ std::unique_ptr<PoseHypothesisSelection> make(const std::string& yaml = "{}") {
   return testing::makeDfn<PoseHypothesisSelection>("PoseHypothesisSelection", "IcpMisfit", yaml);
 }
 
-struct Target {
-  std::string name;
-  TriangleMesh mesh;
-  PointCloud model;
-};
-
-/// The model sampled 2 cm apart, as ModelPointCloud samples a mesh.
-PointCloud modelOf(const TriangleMesh& mesh) {
-  const auto points = static_cast<std::size_t>(mesh.surfaceArea() / (0.02 * 0.02));
-  Result<PointCloud> cloud = sampleSurface(mesh, points, 5);
-  EXPECT_TRUE(cloud.isOk()) << cloud.status().toString();
-  return std::move(cloud).value();
-}
+using Target = testing::ProceduralTarget;
+using testing::modelOf;
 
 /// The error of `pose` from the nearest of `truth` and its near-symmetric poses (the model's
 /// near-symmetries, registration::nearSymmetries as the DFI finds them): what a scene that does
@@ -54,19 +44,7 @@ testing::PoseError errorUpToSymmetry(const Eigen::Isometry3d& pose, const Eigen:
 }
 
 std::vector<Target> targets() {
-  std::vector<Target> t;
-  TriangleMesh box = egse::makeTargetSatellite().value().mesh;
-  t.push_back({"box", box, modelOf(box)});
-  TriangleMesh hexagonal = egse::makeHexagonalSatellite().value().mesh;
-  t.push_back({"hexagonal", hexagonal, modelOf(hexagonal)});
-  return t;
-}
-
-/// lidar_T_target `range` m ahead, attitude drawn from `seed`.
-Eigen::Isometry3d truthAt(double range, std::uint32_t seed) {
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.translation() = Eigen::Vector3d(range, 0.2, -0.3);
-  return testing::perturb(pose, 0.0, M_PI, seed);
+  return testing::proceduralTargets();
 }
 
 /// A dense scan as noisy as the simulated ToF camera at `range` (4 mm + 1.5 mm/m^2).
@@ -110,7 +88,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, TheHypothesisNearTheTruthIsChosenAndRefin
   for (const Target& target : targets()) {
     for (std::uint32_t seed = 1; seed <= 4; ++seed) {
       SCOPED_TRACE(target.name + " draw " + std::to_string(seed));
-      const Eigen::Isometry3d truth = truthAt(8.0, seed);
+      const Eigen::Isometry3d truth = testing::targetAhead(8.0, seed);
       const PointCloud scan = testing::simulateScan(target.mesh, truth, {}, 100 + seed);
       Eigen::Isometry3d far_off = truth;
       far_off.translation() += Eigen::Vector3d(0, 4.0, 0);
@@ -149,7 +127,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, ADenseSceneWithoutASensorDescriptionWorks
   dense.range_noise = 0.005;
   for (std::uint32_t seed = 1; seed <= 3; ++seed) {
     SCOPED_TRACE("draw " + std::to_string(seed));
-    const Eigen::Isometry3d truth = truthAt(6.0, seed);
+    const Eigen::Isometry3d truth = testing::targetAhead(6.0, seed);
     const PointCloud scan = testing::simulateScan(target.mesh, truth, dense, 200 + seed);
     auto node = make();
     Eigen::Isometry3d far_off = truth;
@@ -185,7 +163,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, NearSymmetricTwinsAreComparedAndAmbiguity
     int found = 0, ambiguous = 0;
     for (std::uint32_t seed = 1; seed <= 4; ++seed) {
       SCOPED_TRACE(std::string(dense ? "dense" : "sparse") + " draw " + std::to_string(seed));
-      const Eigen::Isometry3d truth = truthAt(dense ? 7.0 : 8.0, seed);
+      const Eigen::Isometry3d truth = testing::targetAhead(dense ? 7.0 : 8.0, seed);
       const PointCloud scan = testing::simulateScan(
           target.mesh, truth, dense ? tof : testing::ScanOptions{}, 500 + seed);
       const std::vector<Eigen::Isometry3d> twin{truth * symmetries.front()};
@@ -224,7 +202,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, NearSymmetricTwinsAreComparedAndAmbiguity
 // only hypothesis 10 m off the target, no return there) starts the count anew.
 TEST(PoseHypothesisSelectionIcpMisfit, ConfirmationsNeedConsecutiveCallsAtTheSamePose) {
   const Target target = targets()[1];  // hexagonal: decided on single VLP-16 scans at 8 m
-  const Eigen::Isometry3d truth = truthAt(8.0, 2);
+  const Eigen::Isometry3d truth = testing::targetAhead(8.0, 2);
   auto node = make("{confirmations: 3}");
   auto call = [&](std::uint32_t noise_seed, double offset) {
     const PointCloud scan = testing::simulateScan(target.mesh, truth, {}, noise_seed);
@@ -258,7 +236,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, TheStatedRangeNoiseSetsTheInlierDistance)
   const testing::ScanOptions tof = tofLike(range);
   for (std::uint32_t seed = 1; seed <= 3; ++seed) {
     SCOPED_TRACE("draw " + std::to_string(seed));
-    const Eigen::Isometry3d truth = truthAt(range, seed);
+    const Eigen::Isometry3d truth = testing::targetAhead(range, seed);
     const PointCloud scan = testing::simulateScan(target.mesh, truth, tof, 400 + seed);
     const std::vector<Eigen::Isometry3d> hypotheses{testing::perturb(truth, 0.05, 3 * kDeg, seed)};
     auto described = make("{noise_constant: 0.004, noise_quadratic: 0.0015}");
@@ -307,7 +285,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, AnOccluderInFrontHidesTheSurfaceRatherTha
   const Target target = targets().front();
   for (std::uint32_t seed = 1; seed <= 3; ++seed) {
     SCOPED_TRACE("draw " + std::to_string(seed));
-    const Eigen::Isometry3d truth = truthAt(8.0, seed);
+    const Eigen::Isometry3d truth = testing::targetAhead(8.0, seed);
     const PointCloud scan = occludedHalf(testing::simulateScan(target.mesh, truth, {}, 300 + seed));
     auto node = make();
     setInputs(*node, target, scan, {testing::perturb(truth, 0.05, 3 * kDeg, seed)});
@@ -357,7 +335,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, ALopsidedModelsTwinsAreScoredAtTheNoiseOf
   const testing::ScanOptions tof = tofLike(range);
   for (std::uint32_t seed = 1; seed <= 6; ++seed) {
     SCOPED_TRACE("draw " + std::to_string(seed));
-    const Eigen::Isometry3d truth = truthAt(range, seed);
+    const Eigen::Isometry3d truth = testing::targetAhead(range, seed);
     const PointCloud scan = testing::simulateScan(bus, truth, tof, 700 + seed);
     std::vector<Eigen::Isometry3d> hypotheses{truth};
     for (const Eigen::Isometry3d& s : symmetries) hypotheses.push_back(truth * s);
@@ -388,7 +366,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, ASceneWithoutTheTargetGivesNoPose) {
   const std::vector<Target> t = targets();
   for (std::uint32_t seed = 1; seed <= 4; ++seed) {
     SCOPED_TRACE("draw " + std::to_string(seed));
-    const Eigen::Isometry3d truth = truthAt(8.0, seed);
+    const Eigen::Isometry3d truth = testing::targetAhead(8.0, seed);
     const PointCloud scan = testing::simulateScan(t[1].mesh, truth, {}, 300 + seed);
     std::vector<Eigen::Isometry3d> hypotheses{truth};
     for (std::uint32_t k = 0; k < 5; ++k)
@@ -406,7 +384,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, ASceneWithoutTheTargetGivesNoPose) {
 
 TEST(PoseHypothesisSelectionIcpMisfit, NoHypothesesFindNothing) {
   const Target target = targets().front();
-  const PointCloud scan = testing::simulateScan(target.mesh, truthAt(8.0, 1), {}, 1);
+  const PointCloud scan = testing::simulateScan(target.mesh, testing::targetAhead(8.0, 1), {}, 1);
   auto node = make();
   setInputs(*node, target, scan, {});
   ASSERT_OK(node->process());
@@ -416,7 +394,7 @@ TEST(PoseHypothesisSelectionIcpMisfit, NoHypothesesFindNothing) {
 
 TEST(PoseHypothesisSelectionIcpMisfit, BadInputsAreReported) {
   const Target target = targets().front();
-  const Eigen::Isometry3d truth = truthAt(8.0, 1);
+  const Eigen::Isometry3d truth = testing::targetAhead(8.0, 1);
   const PointCloud scan = testing::simulateScan(target.mesh, truth, {}, 1);
   auto node = make();
   setInputs(*node, target, scan, {truth});

@@ -13,6 +13,7 @@
 #include "support/dfn_testing.hpp"
 #include "support/lidar.hpp"
 #include "support/synthetic.hpp"
+#include "support/targets.hpp"
 
 namespace cdff::dfn {
 namespace {
@@ -31,13 +32,7 @@ struct Target {
   double range;                 // m, where the scans tell the confusion apart
 };
 
-/// The model sampled 2 cm apart, as ModelPointCloud samples a mesh.
-PointCloud modelOf(const TriangleMesh& mesh) {
-  const auto points = static_cast<std::size_t>(mesh.surfaceArea() / (0.02 * 0.02));
-  Result<PointCloud> cloud = sampleSurface(mesh, points, 5);
-  EXPECT_TRUE(cloud.isOk()) << cloud.status().toString();
-  return std::move(cloud).value();
-}
+using testing::modelOf;
 
 Eigen::Isometry3d turn(double angle, const Eigen::Vector3d& axis) {
   return Eigen::Isometry3d(Eigen::AngleAxisd(angle, axis));
