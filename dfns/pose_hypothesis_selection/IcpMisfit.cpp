@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "PoseHypothesisSelection.gen.hpp"
+#include "cdff/registration/crop.hpp"
 #include "cdff/registration/icp.hpp"
 #include "cdff/registration/misfit.hpp"
 #include "cdff/registration/model_symmetry.hpp"
@@ -403,14 +404,8 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   /// thinned to `most` of them, into points_.
   void cropAround(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius, int most) {
     const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
-    const float r2 = static_cast<float>(radius * radius);
-    inside_.clear();
-    for (const Point4f& p : scene.points)
-      if ((p.vec() - centre).squaredNorm() <= r2) inside_.push_back(p.vec());
-    const std::size_t n = inside_.size();
-    const std::size_t keep = std::min<std::size_t>(n, static_cast<std::size_t>(most));
-    points_.clear();
-    for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
+    registration::pointsWithin(scene, {&centre, 1}, static_cast<float>(radius), inside_);
+    registration::thinEvenly(inside_, static_cast<std::size_t>(most), points_);
   }
 
   /// The scene's returns on the lines of sight through the model's bounding sphere (radius

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "SymmetryCheck.gen.hpp"
+#include "cdff/registration/crop.hpp"
 #include "cdff/registration/misfit.hpp"
 #include "cdff/registration/model_symmetry.hpp"
 #include "cdff/registration/quality.hpp"
@@ -126,20 +127,9 @@ class SymmetryCheckScanMisfit final : public SymmetryCheckScanMisfitBase {
     std::vector<Eigen::Vector3f> centres{(tracked * bounds_.centre()).cast<float>()};
     for (const Eigen::Isometry3d& s : symmetries_)
       centres.push_back((tracked * s * bounds_.centre()).cast<float>());
-    const float radius = static_cast<float>(bounds_.radius() + params_.crop_margin);
-    inside_.clear();
-    for (const Point4f& p : source.points) {
-      const Eigen::Vector3f v = p.vec();
-      for (const Eigen::Vector3f& c : centres)
-        if ((v - c).squaredNorm() <= radius * radius) {
-          inside_.push_back(v);
-          break;
-        }
-    }
-    const std::size_t n = inside_.size();
-    const std::size_t keep = std::min<std::size_t>(n, static_cast<std::size_t>(params_.max_points));
-    points_.clear();
-    for (std::size_t k = 0; k < keep; ++k) points_.push_back(inside_[k * n / keep]);
+    registration::pointsWithin(source, centres,
+                               static_cast<float>(bounds_.radius() + params_.crop_margin), inside_);
+    registration::thinEvenly(inside_, static_cast<std::size_t>(params_.max_points), points_);
   }
 
   Eigen::Vector3f viewpoint() const {
