@@ -259,6 +259,10 @@ TEST(GlobalRegistration3D, BadInputsAndParametersAreReported) {
     node->in.model.set(tiny);
     testing::expectRejected(*node, "points after downsampling");
     node->in.model.set(target.model);
+    // The model in millimetres against the scene in metres: said, not searched.
+    node->in.model.set(testing::inMillimetres(target.model));
+    testing::expectRejected(*node, "times the scene; expected both in metres");
+    node->in.model.set(target.model);
 
     // Still works afterwards.
     ASSERT_OK(node->process());

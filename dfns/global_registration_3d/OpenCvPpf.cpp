@@ -12,6 +12,7 @@
 #include <opencv2/surface_matching/ppf_helpers.hpp>
 
 #include "GlobalRegistration3D.gen.hpp"
+#include "cdff/types/cloud_extent.hpp"
 #include "registration_common.hpp"
 
 namespace cdff::dfn {
@@ -61,6 +62,7 @@ class GlobalRegistration3DOpenCvPpf final : public GlobalRegistration3DOpenCvPpf
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
     CDFF_RETURN_IF_ERROR(global_registration::checkScene(scene));
+    CDFF_RETURN_IF_ERROR(checkModelScale(scene, sizes_.diameter, "scene", "model"));
     std::vector<global_registration::Cluster> clusters;
     int sampled_rows = 0;
     try {

@@ -16,6 +16,7 @@
 #include <Eigen/Geometry>
 
 #include "GlobalRegistration3D.gen.hpp"
+#include "cdff/types/cloud_extent.hpp"
 #include "cdff/types/kd_tree.hpp"
 #include "registration_common.hpp"
 
@@ -267,6 +268,7 @@ class GlobalRegistration3DPointPairVoting final : public GlobalRegistration3DPoi
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
     CDFF_RETURN_IF_ERROR(global_registration::checkScene(scene));
+    CDFF_RETURN_IF_ERROR(checkModelScale(scene, sizes_.diameter, "scene", "model"));
     CDFF_RETURN_IF_ERROR(sampleScene(scene));
     std::vector<global_registration::Cluster> clusters;
     if (!scene_.empty()) cluster(vote(), clusters);

@@ -19,6 +19,7 @@
 #include "cdff/registration/ring_visibility.hpp"
 #include "cdff/registration/scan_inputs.hpp"
 #include "cdff/registration/shared_model_cache.hpp"
+#include "cdff/types/cloud_extent.hpp"
 
 namespace cdff::dfn {
 
@@ -54,6 +55,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     CDFF_RETURN_IF_ERROR(prepare(*in.model));
     const PointCloud& scene = *in.scene;
     CDFF_RETURN_IF_ERROR(scene.validate("input 'scene'"));
+    CDFF_RETURN_IF_ERROR(checkModelScale(scene, 2 * bounds_.radius(), "scene", "model"));
     const LidarInfo* sensor = in.sensor.get();
     CDFF_RETURN_IF_ERROR(registration::checkScanSensor(scene, sensor, "scene"));
     const Detections& hypotheses = *in.hypotheses;

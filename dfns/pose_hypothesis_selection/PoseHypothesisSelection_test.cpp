@@ -421,6 +421,9 @@ TEST(PoseHypothesisSelectionIcpMisfit, BadInputsAreReported) {
   bare.normals = {};
   node->in.model.set(bare);
   testing::expectRejected(*node, "has no normals");
+  // The model in millimetres against the scene in metres: said, rather than no pose found.
+  node->in.model.set(testing::inMillimetres(target.model));
+  testing::expectRejected(*node, "times the scene; expected both in metres");
   node->in.model.set(target.model);
 
   // Still works afterwards.

@@ -42,6 +42,16 @@ inline std::vector<ProceduralTarget> proceduralTargets(
   return t;
 }
 
+/// `cloud` with its points in millimetres (normals unchanged): the unit mistake the DFNs must
+/// report.
+inline PointCloud inMillimetres(const PointCloud& cloud) {
+  std::vector<Point4f> points;
+  for (const Point4f& p : cloud.points) points.emplace_back(1000 * p.x, 1000 * p.y, 1000 * p.z);
+  PointCloud scaled = cloud;
+  scaled.points = Buffer<Point4f>::fromVector(std::move(points));
+  return scaled;
+}
+
 /// sensor_T_target `range` m ahead along x (slightly off the axis), attitude drawn from `seed`
 /// uniformly.
 inline Eigen::Isometry3d targetAhead(double range, std::uint32_t seed) {

@@ -1,6 +1,9 @@
 #include "cdff/types/point_cloud.hpp"
 
+#include "cdff/types/cloud_extent.hpp"
+
 #include <cmath>
+#include <limits>
 
 namespace cdff {
 
@@ -30,8 +33,8 @@ Status PointCloud::validate(const char* what, bool require_finite) const {
   if (points.empty()) return invalidInput("{} has no points; expected at least one", what);
   auto check_size = [&](std::size_t n, const char* field) -> Status {
     if (n != 0 && n != points.size())
-      return invalidInput("{} has {} points but {} {} values; expected one per point or none",
-                          what, points.size(), n, field);
+      return invalidInput("{} has {} points but {} {} values; expected one per point or none", what,
+                          points.size(), n, field);
     return Status::ok();
   };
   CDFF_RETURN_IF_ERROR(check_size(normals.size(), "normal"));
@@ -47,6 +50,29 @@ Status PointCloud::validate(const char* what, bool require_finite) const {
     }
   }
   return Status::ok();
+}
+
+double boxDiagonal(const PointCloud& cloud) {
+  Eigen::Vector3f low = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f high = -low;
+  for (const Point4f& p : cloud.points) {
+    if (!p.vec().allFinite()) continue;
+    low = low.cwiseMin(p.vec());
+    high = high.cwiseMax(p.vec());
+  }
+  return (high.array() >= low.array()).all() ? static_cast<double>((high - low).norm()) : 0.0;
+}
+
+Status checkModelScale(const PointCloud& scene, double model_diameter, const char* scene_port,
+                       const char* model_port) {
+  const double extent = boxDiagonal(scene);
+  if (!(extent > 0) || model_diameter <= kMostModelToSceneExtent * extent) return Status::ok();
+  return invalidInput(
+      "input '{}' is {:.4g} m across but input '{}' spans {:.4g} m: the model is {:.0f} times "
+      "the scene; expected both in metres and the scene to span at least 1/{:.0f} of the model "
+      "(a model in millimetres against a scene in metres is 1000 times too large)",
+      model_port, model_diameter, scene_port, extent, model_diameter / extent,
+      kMostModelToSceneExtent);
 }
 
 }  // namespace cdff
