@@ -562,16 +562,21 @@ void runFrames(benchmark::State& state, DepthSource source) {
       points += static_cast<double>(scene->size());
       std::string line =
           fmt::format("seed {} {:.1f} m {} points:", seed, view->range, scene->size());
+      // A pose against the truth, for the frame's line.
+      auto describe = [&](const std::optional<Eigen::Isometry3d>& pose) {
+        if (!pose) return std::string("none");
+        const Eigen::Isometry3d t = view->camera_truth.isometry();
+        return fmt::format(
+            "{} {:.2f} m {:.1f} deg", correct(*pose, view->camera_truth) ? "correct" : "WRONG",
+            (pose->translation() - t.translation()).norm(),
+            Eigen::AngleAxisd(pose->linear().transpose() * t.linear()).angle() / kDeg);
+      };
+      // A pipeline's reported pose, counted as right or wrong.
       auto verdict = [&](const std::optional<Eigen::Isometry3d>& pose, int& right, int& wrong) {
         const bool ok = pose && correct(*pose, view->camera_truth);
         right += ok;
         wrong += pose && !ok;
-        if (!pose) return std::string("none");
-        const Eigen::Isometry3d t = view->camera_truth.isometry();
-        return fmt::format(
-            "{} {:.2f} m {:.1f} deg", ok ? "correct" : "WRONG",
-            (pose->translation() - t.translation()).norm(),
-            Eigen::AngleAxisd(pose->linear().transpose() * t.linear()).angle() / kDeg);
+        return describe(pose);
       };
       if (run.ours) {
         Result<OurPipeline::Outcome> r = ours->detect(*scene, model.cloud, *view);
@@ -585,11 +590,9 @@ void runFrames(benchmark::State& state, DepthSource source) {
             verdict(r->pose, ours_correct, ours_wrong), r->ambiguous ? " ambiguous" : "",
             r->hypotheses, r->nearest_hypothesis_deg, r->chosen, r->fitness, r->visibility,
             r->margin, 1e3 * (r->registration_s + r->selection_s));
-        if (r->ambiguous) {
-          int right = 0, wrong = 0;
-          line += fmt::format(" (candidate {}, relative margin {:.2f})",
-                              verdict(r->candidate, right, wrong), r->relative_margin);
-        }
+        if (r->ambiguous)
+          line += fmt::format(" (candidate {}, relative margin {:.2f})", describe(r->candidate),
+                              r->relative_margin);
         if (r->ambiguous && view->source == DepthSource::kTof) {
           ours_depth += r->depth_s;
           line += fmt::format(" (ambiguous: the depth refinement {}, margin {:.2f}, {:.0f} ms)",

@@ -13,6 +13,7 @@
 #include "PoseHypothesisSelection.gen.hpp"
 #include "cdff/registration/crop.hpp"
 #include "cdff/registration/icp.hpp"
+#include "cdff/registration/median.hpp"
 #include "cdff/registration/misfit.hpp"
 #include "cdff/registration/model_symmetry.hpp"
 #include "cdff/registration/quality.hpp"
@@ -218,14 +219,11 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   double rangeOfReturns(const PointCloud& scene, const Eigen::Isometry3d& pose) {
     const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
     const Eigen::Vector3f origin = viewpoint();
-    const float r2 = static_cast<float>(bounds_.radius() * bounds_.radius());
+    registration::pointsWithin(scene, {&centre, 1}, static_cast<float>(bounds_.radius()), inside_);
+    if (inside_.empty()) return (centre - origin).norm();
     ranges_.clear();
-    for (const Point4f& p : scene.points)
-      if ((p.vec() - centre).squaredNorm() <= r2) ranges_.push_back((p.vec() - origin).norm());
-    if (ranges_.empty()) return (centre - origin).norm();
-    auto middle = ranges_.begin() + static_cast<std::ptrdiff_t>(ranges_.size() / 2);
-    std::nth_element(ranges_.begin(), middle, ranges_.end());
-    return *middle;
+    for (const Eigen::Vector3f& p : inside_) ranges_.push_back((p - origin).norm());
+    return registration::median(ranges_);
   }
 
   /// How hard a hypothesis is refined: the crop's returns kept, the ICP's iterations.
