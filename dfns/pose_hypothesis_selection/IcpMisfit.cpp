@@ -72,12 +72,18 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     const int count =
         std::min<int>(params_.max_hypotheses, static_cast<int>(hypotheses.detections.size()));
     // Coarse: every hypothesis briefly, on a thinned crop.
-    const Effort coarse{std::max(params_.min_returns, params_.max_points / kCoarseThinning),
-                        std::max(1, params_.iterations / kCoarseIterationShare)};
+    std::vector<Eigen::Isometry3d> starts;
+    std::vector<Distances> start_distances;
+    for (int i = 0; i < count; ++i) {
+      starts.push_back(hypotheses.detections[i].pose.isometry());
+      start_distances.push_back(distances(scene, sensor, starts.back()));
+    }
+    Effort coarse = coarseEffort();
+    coarse.stride = scoringStride(scene, starts, start_distances, coarse.points);
     std::vector<Trial> rough;
     for (int i = 0; i < count; ++i) {
-      const Eigen::Isometry3d hypothesis = hypotheses.detections[i].pose.isometry();
-      const Distances d = distances(scene, sensor, hypothesis);
+      const Eigen::Isometry3d& hypothesis = starts[i];
+      const Distances& d = start_distances[i];
       Result<Trial> trial = verify(scene, hypothesis, sensor, d, coarse);
       if (!trial) {
         warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
@@ -90,7 +96,14 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     // Fine: the best distinct coarse results, from where they ended, on the full crop.
     std::stable_sort(rough.begin(), rough.end(),
                      [](const Trial& a, const Trial& b) { return a.evidence > b.evidence; });
-    const Effort fine{params_.max_points, params_.iterations};
+    starts.clear();
+    start_distances.clear();
+    for (const Trial& r : rough) {
+      starts.push_back(r.pose);
+      start_distances.push_back(r.distances);
+    }
+    Effort fine = fineEffort();
+    fine.stride = scoringStride(scene, starts, start_distances, fine.points);
     std::vector<Trial> trials;
     std::vector<Eigen::Isometry3d> started;
     for (const Trial& r : rough) {
@@ -106,7 +119,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       trials.push_back(std::move(trial).value());
     }
     if (trials.empty()) return Status::ok();
-    addSymmetricRivals(scene, sensor, trials);
+    addSymmetricRivals(scene, sensor, fine.stride, trials);
     pick(trials, scene);
     return Status::ok();
   }
@@ -119,6 +132,14 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   /// costs a full run for refined_hypotheses only.
   static constexpr int kCoarseThinning = 8;
   static constexpr int kCoarseIterationShare = 3;
+  /// Beyond the best refined_hypotheses of them (as many as the hypotheses refined: a coarse run
+  /// on a thinned sparse crop may stop short of its basin), a near-symmetric rival is refined to
+  /// the end when its coarse evidence is within this many standard deviations of the best
+  /// rival's: two poses that both fit differ in evidence by noise of about 2 per square root of
+  /// a return (min_margin's doc), so a rival farther behind cannot be the one that decides the
+  /// margin, while rivals the scene does not tell apart (the turns of a six-fold near-symmetric
+  /// bus) are all refined and listed as candidates.
+  static constexpr double kRivalSigmas = 3.0;
 
   /// The distances of this call, from the parameters or (0) from the model and the sensor.
   struct Distances {
@@ -133,6 +154,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     double visibility = kNaN;
     double evidence = -std::numeric_limits<double>::infinity();
     std::size_t returns = 0;
+    std::size_t stride = 1;  // of the scene subsample it was scored on
     bool passes = false;
     Distances distances;
   };
@@ -158,8 +180,9 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   /// The best passing trial's near-symmetric poses (the model turned by each of its
   /// near-symmetries), verified as the hypotheses are: a voting or a correspondence grouping
   /// often proposes one of them and not the other, and the margin must count the rival the
-  /// scene may fit as well.
-  void addSymmetricRivals(const PointCloud& scene, const LidarInfo* sensor,
+  /// scene may fit as well. Each briefly first, as the hypotheses; the best of them to the end
+  /// (kRivalSigmas).
+  void addSymmetricRivals(const PointCloud& scene, const LidarInfo* sensor, std::size_t stride,
                           std::vector<Trial>& trials) {
     const Trial* best = nullptr;
     for (const Trial& t : trials)
@@ -167,18 +190,41 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     if (best == nullptr) return;
     const Eigen::Isometry3d pose = best->pose;
     const int hypothesis = best->hypothesis;
-    const std::size_t verified = trials.size();
+    std::vector<Eigen::Isometry3d> rivals;
+    std::vector<Distances> rival_distances;
     for (const Eigen::Isometry3d& motion : symmetries_) {
       const Eigen::Isometry3d rival = pose * motion;
       const Distances d = distances(scene, sensor, rival);
-      const bool known = std::any_of(trials.begin(), trials.begin() + verified,
+      const bool known = std::any_of(trials.begin(), trials.end(),
                                      [&](const Trial& t) { return samePose(t.pose, rival, d); });
       if (known) continue;  // already refined from a hypothesis of its own
-      Result<Trial> trial =
-          verify(scene, rival, sensor, d, {params_.max_points, params_.iterations});
+      rivals.push_back(rival);
+      rival_distances.push_back(d);
+    }
+    Effort coarse = coarseEffort();
+    coarse.stride = scoringStride(scene, rivals, rival_distances, coarse.points);
+    Effort fine = fineEffort();
+    fine.stride = stride;
+    std::vector<Trial> rough;
+    for (std::size_t i = 0; i < rivals.size(); ++i) {
+      const Distances& d = rival_distances[i];
+      Result<Trial> trial = verify(scene, rivals[i], sensor, d, coarse);
       if (!trial) continue;  // a crop too small to refine: no rival there
-      trial->hypothesis = hypothesis;
       trial->distances = d;
+      rough.push_back(std::move(trial).value());
+    }
+    std::stable_sort(rough.begin(), rough.end(),
+                     [](const Trial& a, const Trial& b) { return a.evidence > b.evidence; });
+    for (std::size_t i = 0; i < rough.size(); ++i) {
+      const Trial& r = rough[i];
+      const double behind = rough.front().evidence - r.evidence;
+      const double sigma =
+          2.0 * std::sqrt(static_cast<double>(std::max<std::size_t>(r.returns, 1)));
+      if (static_cast<int>(i) >= params_.refined_hypotheses && behind > kRivalSigmas * sigma) break;
+      Result<Trial> trial = verify(scene, r.pose, sensor, r.distances, fine);
+      if (!trial) continue;
+      trial->hypothesis = hypothesis;
+      trial->distances = r.distances;
       trials.push_back(std::move(trial).value());
     }
   }
@@ -226,10 +272,17 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     return registration::median(ranges_);
   }
 
-  /// How hard a hypothesis is refined: the crop's returns kept, the ICP's iterations.
+  /// How hard a hypothesis is refined: the crop's returns kept for the ICP, its iterations, and
+  /// the scene subsample the refined pose is scored on (every stride-th return of the scene).
   struct Effort {
     int points = 0, iterations = 0;
+    std::size_t stride = 1;
   };
+  Effort coarseEffort() const {
+    return {std::max(params_.min_returns, params_.max_points / kCoarseThinning),
+            std::max(1, params_.iterations / kCoarseIterationShare)};
+  }
+  Effort fineEffort() const { return {params_.max_points, params_.iterations}; }
 
   Result<Trial> verify(const PointCloud& scene, const Eigen::Isometry3d& hypothesis,
                        const LidarInfo* sensor, const Distances& d, const Effort& effort) {
@@ -251,10 +304,11 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     if (!run) return run.status();
     trial.pose = run->pose;
     trial.pose.linear() = Eigen::Quaterniond(run->pose.linear()).normalized().toRotationMatrix();
-    // The refined pose's own crop: the ICP may have moved the model onto returns the first crop
-    // cut.
-    cropAround(scene, trial.pose, d.crop, effort.points);
+    // Scored on the refined pose's own crop (the ICP may have moved the model onto returns the
+    // first crop cut) of the subsample that every pose compared with it is scored on.
+    cropEvery(scene, trial.pose, d.crop, effort.stride);
     trial.returns = points_.size();
+    trial.stride = effort.stride;
     if (points_.size() < static_cast<std::size_t>(params_.min_returns)) return trial;
     trial.quality = registration::evaluate(points_, *model_.index, trial.pose, d.inlier,
                                            params_.covariance_inflation);
@@ -264,14 +318,16 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     // The misfit below that of explaining nothing (every return unmatched).
     trial.evidence =
         registration::kUnmatchedCost * static_cast<double>(points_.size()) -
-        registration::misfit(points_, *model_.index, trial.pose, d.inlier, trial.visibility);
+        registration::misfit(trial.quality, points_.size(), d.inlier, trial.visibility);
     trial.passes = trial.quality.fitness >= params_.min_fitness &&
                    (std::isnan(trial.visibility) || trial.visibility >= params_.min_visibility);
     return trial;
   }
 
   /// The passing trial with the most evidence onto the outputs, with its margin over the best
-  /// distinct passing rival; else the best-scored trial's fitness and visibility only.
+  /// distinct rival, passing or not (a twin that misses min_fitness by a hair explains the scene
+  /// about as well, and the threshold must not turn a coin toss into a decision); else the
+  /// best-scored trial's fitness and visibility only.
   void pick(const std::vector<Trial>& trials, const PointCloud& scene) {
     const Trial* best = nullptr;
     const Trial* best_any = &trials.front();
@@ -284,20 +340,21 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       out.visibility.set(best_any->visibility);
       return;
     }
-    setCandidates(trials, scene);
     const Trial* rival = nullptr;
     for (const Trial& t : trials)
-      if (t.passes && &t != best && !samePose(t.pose, best->pose, best->distances) &&
+      if (&t != best && !samePose(t.pose, best->pose, best->distances) &&
           (rival == nullptr || t.evidence > rival->evidence))
         rival = &t;
+    setCandidates(trials, rival, scene);
     decide(*best, rival, scene);
   }
 
-  /// The distinct passing trials, most evidence first, onto the candidates output.
-  void setCandidates(const std::vector<Trial>& trials, const PointCloud& scene) {
+  /// The distinct passing trials and the rival, most evidence first, onto the candidates output.
+  void setCandidates(const std::vector<Trial>& trials, const Trial* rival,
+                     const PointCloud& scene) {
     std::vector<const Trial*> passing;
     for (const Trial& t : trials)
-      if (t.passes) passing.push_back(&t);
+      if (t.passes || &t == rival) passing.push_back(&t);
     std::stable_sort(passing.begin(), passing.end(),
                      [](const Trial* a, const Trial* b) { return a->evidence > b->evidence; });
     Detections candidates;
@@ -325,16 +382,20 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   /// is the candidate: the same pose, moved little since the last call); a best pose that is
   /// neither starts the window anew. The sums decide: the margin is the candidate's evidence
   /// less its rival's, summed, over the square root of the summed returns; the relative margin
-  /// 1 less the ratio of their summed misfits per return. A window whose rival has summed more
-  /// evidence swaps the two.
+  /// 1 less the ratio of their summed misfits per return, each over the returns of both crops (a
+  /// return outside a pose's crop is one it leaves unexplained: a pose on a small part of the
+  /// scene must not gain by the returns it does not look at). A window whose rival has summed
+  /// more evidence swaps the two.
   void decide(const Trial& best, const Trial* rival, const PointCloud& scene) {
-    auto misfitPerReturn = [](const Trial& t) {
-      return (registration::kUnmatchedCost * static_cast<double>(t.returns) - t.evidence) /
-             std::max<double>(1.0, static_cast<double>(t.returns));
+    const double compared =
+        static_cast<double>(rival != nullptr ? returnsOfEither(scene, best, *rival) : best.returns);
+    auto misfitPerReturn = [&](const Trial& t) {
+      return (registration::kUnmatchedCost * compared - t.evidence) / std::max(1.0, compared);
     };
     const bool continues_best =
         !window_.empty() && samePose(window_.back().candidate, best.pose, best.distances);
-    const bool continues_rival = !continues_best && rival != nullptr && !window_.empty() &&
+    const bool continues_rival = !continues_best && rival != nullptr && rival->passes &&
+                                 !window_.empty() &&
                                  samePose(window_.back().candidate, rival->pose, rival->distances);
     if (!continues_best && !continues_rival) window_.clear();
     const Trial& mine = continues_rival ? *rival : best;
@@ -361,7 +422,7 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       returns += w.returns;
     }
     const Trial* chosen = &mine;
-    if (any_rival && evidence < 0 && other != nullptr) {
+    if (any_rival && evidence < 0 && other != nullptr && other->passes) {
       // The rival has explained the window better: it is the candidate from now on.
       for (Record& w : window_)
         if (w.rival_pose) {
@@ -394,6 +455,20 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     out.found.set(decided && enough);
   }
 
+  /// The returns of the subsample `a` and `b` were scored on that lie in the crop of either.
+  std::size_t returnsOfEither(const PointCloud& scene, const Trial& a, const Trial& b) const {
+    const Eigen::Vector3f ca = (a.pose * bounds_.centre()).cast<float>();
+    const Eigen::Vector3f cb = (b.pose * bounds_.centre()).cast<float>();
+    const auto ra = static_cast<float>(a.distances.crop * a.distances.crop);
+    const auto rb = static_cast<float>(b.distances.crop * b.distances.crop);
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < scene.points.size(); i += a.stride) {
+      const Eigen::Vector3f p = scene.points[i].vec();
+      count += (p - ca).squaredNorm() <= ra || (p - cb).squaredNorm() <= rb;
+    }
+    return count;
+  }
+
   bool samePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const Distances& d) const {
     const double angle = Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
     const Eigen::Vector3d centre = bounds_.centre();
@@ -406,6 +481,36 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
     registration::pointsWithin(scene, {&centre, 1}, static_cast<float>(radius), inside_);
     registration::thinEvenly(inside_, static_cast<std::size_t>(most), points_);
+  }
+
+  /// The stride that keeps at most `most` returns in the largest of the crops around `poses`
+  /// (radii from `d`): poses compared by their evidence are scored on the same subsample of the
+  /// scene, every stride-th return. Thinning each crop to `most` on its own would not do: the
+  /// evidence sums over the returns scored, so a pose whose crop holds fewer returns (a lopsided
+  /// model's twin whose sphere covers a part of the target) would have each of them weigh more.
+  std::size_t scoringStride(const PointCloud& scene, const std::vector<Eigen::Isometry3d>& poses,
+                            const std::vector<Distances>& d, int most) {
+    std::size_t largest = 0;
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      const Eigen::Vector3f centre = (poses[i] * bounds_.centre()).cast<float>();
+      registration::pointsWithin(scene, {&centre, 1}, static_cast<float>(d[i].crop), inside_);
+      largest = std::max(largest, inside_.size());
+    }
+    const auto m = static_cast<std::size_t>(std::max(1, most));
+    return std::max<std::size_t>(1, (largest + m - 1) / m);
+  }
+
+  /// Every stride-th return of the scene within `radius` of the model's bounding-box centre at
+  /// `pose`, into points_.
+  void cropEvery(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius,
+                 std::size_t stride) {
+    const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
+    const float r2 = static_cast<float>(radius * radius);
+    points_.clear();
+    for (std::size_t i = 0; i < scene.points.size(); i += stride) {
+      const Eigen::Vector3f p = scene.points[i].vec();
+      if ((p - centre).squaredNorm() <= r2) points_.push_back(p);
+    }
   }
 
   /// The scene's returns on the lines of sight through the model's bounding sphere (radius

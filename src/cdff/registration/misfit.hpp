@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "cdff/registration/model_index.hpp"
+#include "cdff/registration/quality.hpp"
 
 namespace cdff::registration {
 
@@ -21,5 +22,10 @@ inline constexpr double kUnmatchedCost = 9.0;
 /// left out when it is NaN.
 double misfit(std::span<const Eigen::Vector3f> points, const ModelIndex& model,
               const Eigen::Isometry3d& pose, double inlier_distance, double visibility);
+
+/// The same misfit from the pose's Quality on `returns` points at `inlier_distance` (evaluate()
+/// with that distance), for a caller that has it already.
+double misfit(const Quality& quality, std::size_t returns, double inlier_distance,
+              double visibility);
 
 }  // namespace cdff::registration
