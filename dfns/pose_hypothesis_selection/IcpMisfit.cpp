@@ -209,7 +209,8 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     for (std::size_t i = 0; i < rivals.size(); ++i) {
       const Distances& d = rival_distances[i];
       Result<Trial> trial = verify(scene, rivals[i], sensor, d, coarse);
-      if (!trial) continue;  // a crop too small to refine: no rival there
+      if (!trial) continue;                     // a crop too small to refine: no rival there
+      trial->hypothesis = static_cast<int>(i);  // the rival's index until refined
       trial->distances = d;
       rough.push_back(std::move(trial).value());
     }
@@ -221,7 +222,9 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
       const double sigma =
           2.0 * std::sqrt(static_cast<double>(std::max<std::size_t>(r.returns, 1)));
       if (static_cast<int>(i) >= params_.refined_hypotheses && behind > kRivalSigmas * sigma) break;
-      Result<Trial> trial = verify(scene, r.pose, sensor, r.distances, fine);
+      // From the twin itself: the coarse run ranks it but, on a thinned sparse crop, may slide
+      // it out of its basin.
+      Result<Trial> trial = verify(scene, rivals[r.hypothesis], sensor, r.distances, fine);
       if (!trial) continue;
       trial->hypothesis = hypothesis;
       trial->distances = r.distances;
