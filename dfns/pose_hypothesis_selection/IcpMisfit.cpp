@@ -72,32 +72,12 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     const int count =
         std::min<int>(params_.max_hypotheses, static_cast<int>(hypotheses.detections.size()));
     // Coarse: every hypothesis briefly, on a thinned crop.
-    std::vector<Eigen::Isometry3d> starts;
-    std::vector<Distances> start_distances;
-    for (int i = 0; i < count; ++i) {
-      starts.push_back(hypotheses.detections[i].pose.isometry());
-      start_distances.push_back(distances(scene, sensor, starts.back()));
-    }
-    Effort coarse = coarseEffort();
-    coarse.stride = scoringStride(scene, starts, start_distances, coarse.points);
-    std::vector<Trial> rough;
-    for (int i = 0; i < count; ++i) {
-      const Eigen::Isometry3d& hypothesis = starts[i];
-      const Distances& d = start_distances[i];
-      Result<Trial> trial = verify(scene, hypothesis, sensor, d, coarse);
-      if (!trial) {
-        warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
-        continue;
-      }
-      trial->hypothesis = i;
-      trial->distances = d;
-      rough.push_back(std::move(trial).value());
-    }
+    std::vector<Trial> rough = coarsePass(scene, sensor, hypotheses, count);
     // Fine: the best distinct coarse results, from where they ended, on the full crop.
     std::stable_sort(rough.begin(), rough.end(),
                      [](const Trial& a, const Trial& b) { return a.evidence > b.evidence; });
-    starts.clear();
-    start_distances.clear();
+    std::vector<Eigen::Isometry3d> starts;
+    std::vector<Distances> start_distances;
     for (const Trial& r : rough) {
       starts.push_back(r.pose);
       start_distances.push_back(r.distances);
@@ -158,6 +138,31 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     bool passes = false;
     Distances distances;
   };
+
+  /// Every one of the first `count` hypotheses refined briefly and scored (coarseEffort).
+  std::vector<Trial> coarsePass(const PointCloud& scene, const LidarInfo* sensor,
+                                const Detections& hypotheses, int count) {
+    std::vector<Eigen::Isometry3d> starts;
+    std::vector<Distances> start_distances;
+    for (int i = 0; i < count; ++i) {
+      starts.push_back(hypotheses.detections[i].pose.isometry());
+      start_distances.push_back(distances(scene, sensor, starts.back()));
+    }
+    Effort coarse = coarseEffort();
+    coarse.stride = scoringStride(scene, starts, start_distances, coarse.points);
+    std::vector<Trial> rough;
+    for (int i = 0; i < count; ++i) {
+      Result<Trial> trial = verify(scene, starts[i], sensor, start_distances[i], coarse);
+      if (!trial) {
+        warn(fmt::format("hypothesis {} not verified: {}", i, trial.status().message()));
+        continue;
+      }
+      trial->hypothesis = i;
+      trial->distances = start_distances[i];
+      rough.push_back(std::move(trial).value());
+    }
+    return rough;
+  }
 
   Status prepare(const PointCloud& model) {
     Result<std::shared_ptr<const registration::ModelIndex>> index =
