@@ -333,8 +333,9 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
   }
 
   /// The passing trial with the most evidence onto the outputs, with its margin over the best
-  /// distinct rival, passing or not (a twin that misses min_fitness by a hair explains the scene
-  /// about as well, and the threshold must not turn a coin toss into a decision); else the
+  /// distinct rival that was scored, passing or not (a twin that misses min_fitness by a hair
+  /// explains the scene about as well, and the threshold must not turn a coin toss into a
+  /// decision); else the
   /// best-scored trial's fitness and visibility only.
   void pick(const std::vector<Trial>& trials, const PointCloud& scene) {
     const Trial* best = nullptr;
@@ -350,7 +351,8 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     }
     const Trial* rival = nullptr;
     for (const Trial& t : trials)
-      if (&t != best && !samePose(t.pose, best->pose, best->distances) &&
+      if (&t != best && std::isfinite(t.evidence) &&
+          !samePose(t.pose, best->pose, best->distances) &&
           (rival == nullptr || t.evidence > rival->evidence))
         rival = &t;
     setCandidates(trials, rival, scene);
