@@ -7,6 +7,10 @@
 // BM_ModelTracking3dStep: dfpcs/model_tracking_3d.yaml on the same scans, started with no
 // initial state: each scan searched with no prior (GlobalRegistration3D/PointPairVoting), the
 // clusters verified (PoseHypothesisSelection/IcpMisfit) and the decided pose fused by the EKF.
+//
+// BM_ModelTracking3dTofStep: dfpcs/model_tracking_3d_tof.yaml on the ToF camera's depth maps of
+// the close-range approach's first 10 s (the LIDAR off), with no initial state: each depth map
+// turned into its points, then as BM_ModelTracking3dStep.
 #include <benchmark/benchmark.h>
 
 #include <optional>
@@ -28,6 +32,21 @@ const SimulatedRun& simulated() {
   return run;
 }
 
+const SimulatedRun& simulatedTof() {
+  static const SimulatedRun run = [] {
+    Result<SimulatedRun> r =
+        lidar_tracking::simulate("close_range_approach", 10.0, "", 1,
+                                 {"sensors.tof.enabled=true", "sensors.lidar.enabled=false"});
+    return r ? std::move(r).value() : SimulatedRun{};
+  }();
+  return run;
+}
+
+/// The stamp of the run's first sensor frame (a LIDAR scan, else a depth map).
+Timestamp firstFrame(const SimulatedRun& run) {
+  return run.scans.empty() ? run.depth_stamps.front() : run.scans.front().stamp;
+}
+
 struct Tracker {
   std::unique_ptr<dfpc::Orchestrator> orchestrator;
   std::size_t next = 0;  // next message of the run
@@ -44,7 +63,7 @@ std::optional<Tracker> startTracker(const SimulatedRun& run,
   t.orchestrator = std::make_unique<dfpc::Orchestrator>(dfpc::OrchestratorOptions{});
   if (!t.orchestrator->add(std::move(graph).value()) || !t.orchestrator->startAll())
     return std::nullopt;
-  const Timestamp first = run.scans.front().stamp;
+  const Timestamp first = firstFrame(run);
   const RigidBodyState initial =
       lidar_tracking::perturbedInitialState(run.truth, first, 0.10, 10.0 * M_PI / 180.0, 7);
   bool initialised = graph_name != "lidar_tracking";  // the others start with no prior
@@ -62,9 +81,10 @@ std::optional<Tracker> startTracker(const SimulatedRun& run,
   return t;
 }
 
-void trackingSteps(benchmark::State& state, const std::string& graph) {
-  const SimulatedRun& run = simulated();
-  if (run.scans.empty()) return state.SkipWithError("simulation failed");
+void trackingSteps(benchmark::State& state, const std::string& graph,
+                   const SimulatedRun& run = simulated()) {
+  if (run.scans.empty() && run.depth_stamps.empty())
+    return state.SkipWithError("simulation failed");
   std::optional<Tracker> tracker = startTracker(run, graph);
   if (!tracker) return state.SkipWithError("the DFPC did not start");
   std::size_t points = 0, scans = 0;
@@ -84,10 +104,12 @@ void trackingSteps(benchmark::State& state, const std::string& graph) {
         ++scans;
         scanned = true;
       }
+      scanned = scanned || m.as<DepthMap>() != nullptr;
       if (!tracker->orchestrator->process(m)) return state.SkipWithError("process failed");
     }
   }
-  state.counters["scan_points"] = benchmark::Counter(static_cast<double>(points) / scans);
+  if (scans > 0)
+    state.counters["scan_points"] = benchmark::Counter(static_cast<double>(points) / scans);
 }
 
 void BM_LidarTrackingStep(benchmark::State& state) {
@@ -99,6 +121,11 @@ void BM_ModelTracking3dStep(benchmark::State& state) {
   trackingSteps(state, "model_tracking_3d");
 }
 BENCHMARK(BM_ModelTracking3dStep)->Unit(benchmark::kMillisecond)->Iterations(200);
+
+void BM_ModelTracking3dTofStep(benchmark::State& state) {
+  trackingSteps(state, "model_tracking_3d_tof", simulatedTof());
+}
+BENCHMARK(BM_ModelTracking3dTofStep)->Unit(benchmark::kMillisecond)->Iterations(100);
 
 }  // namespace
 }  // namespace cdff

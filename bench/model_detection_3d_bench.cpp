@@ -89,30 +89,6 @@ int framesFromEnvironment() {
   return v ? std::max(1, std::atoi(v)) : 200;
 }
 
-/// The ToF depth map as points in its optical frame (pixels undistorted with its calibration).
-Result<PointCloud> cloudOfDepth(const DepthMap& depth) {
-  if (!depth.image.camera) return invalidInput("the ToF depth map has no calibration");
-  Result<cv::Mat> metres = depthMetres(depth);
-  if (!metres) return metres.status();
-  std::vector<cv::Point2f> pixels;
-  std::vector<float> z;
-  for (int v = 0; v < metres->rows; ++v)
-    for (int u = 0; u < metres->cols; ++u)
-      if (const float d = metres->at<float>(v, u); std::isfinite(d)) {
-        pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
-        z.push_back(d);
-      }
-  std::vector<cv::Point2f> normalised;
-  if (!pixels.empty())
-    cv::undistortPoints(pixels, normalised, cameraMatrix(*depth.image.camera),
-                        distortionCoefficients(*depth.image.camera));
-  std::vector<Eigen::Vector3f> xyz;
-  xyz.reserve(pixels.size());
-  for (std::size_t i = 0; i < normalised.size(); ++i)
-    xyz.emplace_back(normalised[i].x * z[i], normalised[i].y * z[i], z[i]);
-  return PointCloud::fromXyz(xyz, depth.image.frame_id, depth.image.stamp);
-}
-
 /// An occluder in front of the target (the occlusion rows): a plate across the line of sight at
 /// half the range of the target's nearest return, whose straight edge crosses the target's image
 /// at a random angle (drawn from `seed`) so that it hides `fraction` of the target's returns;
@@ -183,7 +159,7 @@ Status occlude(SimulatedView& view, double fraction, std::uint64_t seed) {
 /// The scene cloud of a view, in the sensor's frame.
 Result<PointCloud> sceneOf(const SimulatedView& view) {
   if (view.source == DepthSource::kLidar) return view.scan;
-  return cloudOfDepth(view.depth);
+  return pointsOfDepth(view.depth);
 }
 
 /// Distances from the model's bounding radius.

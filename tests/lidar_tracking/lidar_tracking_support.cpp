@@ -46,6 +46,10 @@ Result<SimulatedRun> simulate(const std::string& name, double duration,
         cloud && m.channel == "/chaser/lidar/points") {
       run.scans.push_back(*cloud);
       run.messages.push_back(dfpc::Message::of(m.channel, cloud->stamp, *cloud));
+    } else if (const auto* depth = std::get_if<DepthMap>(&m.payload);
+               depth && m.channel == "/chaser/tof/depth") {
+      run.depth_stamps.push_back(depth->image.stamp);
+      run.messages.push_back(dfpc::Message::of(m.channel, depth->image.stamp, *depth));
     } else if (const auto* info = std::get_if<LidarInfo>(&m.payload);
                info && m.channel == "/chaser/lidar/info") {
       run.messages.push_back(dfpc::Message::of(m.channel, info->stamp, *info));
@@ -139,6 +143,13 @@ Result<std::unique_ptr<dfpc::Dfpc>> loadGraph(const std::filesystem::path& mesh_
 
 namespace {
 
+/// The stamps of the run's sensor frames: its LIDAR scans, or its depth maps when it has none.
+std::vector<Timestamp> frameStamps(const SimulatedRun& run) {
+  std::vector<Timestamp> stamps;
+  for (const PointCloud& scan : run.scans) stamps.push_back(scan.stamp);
+  return stamps.empty() ? run.depth_stamps : stamps;
+}
+
 /// Runs the graph over `messages`, evaluating the pose products from `from` on.
 Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc::Message> messages,
                                       Timestamp from, const GraphEdit& edit,
@@ -165,12 +176,12 @@ Result<TrackingResult> runAndEvaluate(const SimulatedRun& run, std::vector<dfpc:
   for (const dfpc::Message& m : sink.messages(products + "pose"))
     if (const RigidBodyState* s = m.as<RigidBodyState>(); s && m.stamp >= from)
       estimates.push_back({s->pose, true, std::nullopt, s->covariance.topLeftCorner<6, 6>()});
-  for (const PointCloud& scan : run.scans)
-    if (scan.stamp >= from) ++result.scans;
+  const std::vector<Timestamp> frames = frameStamps(run);
+  for (const Timestamp stamp : frames)
+    if (stamp >= from) ++result.scans;
   // Scans whose registration passed the DFPC's checks and that the EKF fused (a prediction tick
   // reports false; a gated-out measurement too; an AHRS sample, at its own stamp, is not a scan).
-  std::set<Timestamp> scan_stamps;
-  for (const PointCloud& scan : run.scans) scan_stamps.insert(scan.stamp);
+  std::set<Timestamp> scan_stamps(frames.begin(), frames.end());
   for (const dfpc::Message& m : sink.messages(products + "accepted"))
     if (const bool* fused = m.as<bool>();
         fused && *fused && m.stamp >= from && scan_stamps.erase(m.stamp))
@@ -202,9 +213,10 @@ Result<TrackingResult> track(const SimulatedRun& run, std::vector<dfpc::Message>
 Result<TrackingResult> trackWithoutPrior(const SimulatedRun& run,
                                          std::vector<dfpc::Message> messages, double settle_s,
                                          const GraphEdit& edit, const std::string& graph) {
-  if (run.scans.empty()) return invalidInput("the simulated run has no scan");
-  return runAndEvaluate(run, std::move(messages), run.scans.front().stamp + fromSeconds(settle_s),
-                        edit, graph);
+  const std::vector<Timestamp> frames = frameStamps(run);
+  if (frames.empty()) return invalidInput("the simulated run has no scan and no depth map");
+  return runAndEvaluate(run, std::move(messages), frames.front() + fromSeconds(settle_s), edit,
+                        graph);
 }
 
 std::vector<std::pair<Transform, std::string>> posesWithTrackState(const TrackingResult& r) {

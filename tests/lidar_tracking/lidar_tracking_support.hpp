@@ -23,12 +23,14 @@ struct SimulatedRun {
                                         // /chaser/lidar/info), AHRS attitudes, /truth/target_pose
   std::vector<Transform> truth;         // servicer_T_target, /truth/target_pose
   std::vector<PointCloud> scans;
-  std::filesystem::path mesh_file;  // the target's mesh as the simulator used it (PLY)
+  std::vector<Timestamp> depth_stamps;  // /chaser/tof/depth, when the ToF camera is on
+  std::filesystem::path mesh_file;      // the target's mesh as the simulator used it (PLY)
 };
 
 /// Simulates `scenario` (a library name) with only the LIDAR on, for `duration` s (0: the
 /// scenario's), with `extra_yaml` appended to the scenario file (e.g. a faults: list) and the
-/// `overrides` (`cdff sim --set` syntax, e.g. sensors.ahrs.enabled=true) applied.
+/// `overrides` (`cdff sim --set` syntax, e.g. sensors.ahrs.enabled=true; with
+/// sensors.tof.enabled=true the ToF camera's depth maps are kept too) applied.
 Result<SimulatedRun> simulate(const std::string& scenario, double duration,
                               const std::string& extra_yaml = "", std::uint64_t seed = 1,
                               const std::vector<std::string>& overrides = {});
