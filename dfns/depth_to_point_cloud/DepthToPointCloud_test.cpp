@@ -54,30 +54,41 @@ TEST(DepthToPointCloudPinhole, ATiltedPlaneComesBackOnThePlane) {
   for (const Point4f& p : cloud.points) EXPECT_NEAR(n.dot(p.vec().cast<double>()), d, 1e-4);
 }
 
-// With radial-tangential distortion each point, projected by OpenCV with the same model, lands
-// on the centre of its pixel (within 0.01 px: the undistortion's iterations) at its depth.
+// With radial-tangential or equidistant (fisheye) distortion each point, projected by OpenCV
+// with the same model, lands on the centre of its pixel (within 0.01 px: the undistortion's
+// iterations) at its depth.
 TEST(DepthToPointCloudPinhole, ADistortedCamerasPointsProjectBackOntoTheirPixels) {
-  CameraModel camera = testing::pinholeCamera(40, 30, 35.0);
-  camera.distortion_model = DistortionModel::kRadialTangential;
-  camera.distortion = {-0.2, 0.05, 0.001, -0.001, 0.0};
-  const DepthMap map = depthMap(camera, [](int u, int v) { return 2.0f + 0.01f * (u + v); });
-  auto node = make();
-  node->in.depth.set(map);
-  ASSERT_OK(node->process());
-  const PointCloud& cloud = *node->out.cloud;
-  ASSERT_EQ(cloud.points.size(), static_cast<std::size_t>(40 * 30));
-  std::vector<cv::Point3f> points;
-  for (const Point4f& p : cloud.points) points.emplace_back(p.x, p.y, p.z);
-  std::vector<cv::Point2f> pixels;
-  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(camera),
-                    distortionCoefficients(camera), pixels);
-  std::size_t i = 0;
-  for (int v = 0; v < camera.height; ++v)
-    for (int u = 0; u < camera.width; ++u, ++i) {
-      EXPECT_NEAR(pixels[i].x, u, 0.01);
-      EXPECT_NEAR(pixels[i].y, v, 0.01);
-      EXPECT_NEAR(points[i].z, 2.0f + 0.01f * (u + v), 1e-5);
-    }
+  for (const DistortionModel model :
+       {DistortionModel::kRadialTangential, DistortionModel::kEquidistant}) {
+    SCOPED_TRACE(toString(model));
+    CameraModel camera = testing::pinholeCamera(40, 30, 35.0);
+    camera.distortion_model = model;
+    camera.distortion = model == DistortionModel::kEquidistant
+                            ? std::vector<double>{0.05, -0.01, 0.002, 0.0}
+                            : std::vector<double>{-0.2, 0.05, 0.001, -0.001, 0.0};
+    const DepthMap map = depthMap(camera, [](int u, int v) { return 2.0f + 0.01f * (u + v); });
+    auto node = make();
+    node->in.depth.set(map);
+    ASSERT_OK(node->process());
+    const PointCloud& cloud = *node->out.cloud;
+    ASSERT_EQ(cloud.points.size(), static_cast<std::size_t>(40 * 30));
+    std::vector<cv::Point3f> points;
+    for (const Point4f& p : cloud.points) points.emplace_back(p.x, p.y, p.z);
+    std::vector<cv::Point2f> pixels;
+    if (model == DistortionModel::kEquidistant)
+      cv::fisheye::projectPoints(points, pixels, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0),
+                                 cameraMatrix(camera), distortionCoefficients(camera));
+    else
+      cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cameraMatrix(camera),
+                        distortionCoefficients(camera), pixels);
+    std::size_t i = 0;
+    for (int v = 0; v < camera.height; ++v)
+      for (int u = 0; u < camera.width; ++u, ++i) {
+        EXPECT_NEAR(pixels[i].x, u, 0.01);
+        EXPECT_NEAR(pixels[i].y, v, 0.01);
+        EXPECT_NEAR(points[i].z, 2.0f + 0.01f * (u + v), 1e-5);
+      }
+  }
 }
 
 // No measurement (0, negative, NaN, infinite) gives no point; the stride keeps one pixel in
