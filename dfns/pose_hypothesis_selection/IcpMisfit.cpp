@@ -314,7 +314,9 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     trial.pose.linear() = Eigen::Quaterniond(run->pose.linear()).normalized().toRotationMatrix();
     // Scored on the refined pose's own crop (the ICP may have moved the model onto returns the
     // first crop cut) of the subsample that every pose compared with it is scored on.
-    cropEvery(scene, trial.pose, d.crop, effort.stride);
+    const Eigen::Vector3f centre = (trial.pose * bounds_.centre()).cast<float>();
+    registration::pointsWithin(scene, {&centre, 1}, static_cast<float>(d.crop), points_,
+                               effort.stride);
     trial.returns = points_.size();
     trial.stride = effort.stride;
     if (points_.size() < static_cast<std::size_t>(params_.min_returns)) return trial;
@@ -508,19 +510,6 @@ class PoseHypothesisSelectionIcpMisfit final : public PoseHypothesisSelectionIcp
     }
     const auto m = static_cast<std::size_t>(std::max(1, most));
     return std::max<std::size_t>(1, (largest + m - 1) / m);
-  }
-
-  /// Every stride-th return of the scene within `radius` of the model's bounding-box centre at
-  /// `pose`, into points_.
-  void cropEvery(const PointCloud& scene, const Eigen::Isometry3d& pose, double radius,
-                 std::size_t stride) {
-    const Eigen::Vector3f centre = (pose * bounds_.centre()).cast<float>();
-    const float r2 = static_cast<float>(radius * radius);
-    points_.clear();
-    for (std::size_t i = 0; i < scene.points.size(); i += stride) {
-      const Eigen::Vector3f p = scene.points[i].vec();
-      if ((p - centre).squaredNorm() <= r2) points_.push_back(p);
-    }
   }
 
   /// The scene's returns on the lines of sight through the model's bounding sphere (radius

@@ -5,11 +5,11 @@
 namespace cdff::registration {
 
 void pointsWithin(const PointCloud& cloud, std::span<const Eigen::Vector3f> centres, float radius,
-                  std::vector<Eigen::Vector3f>& inside) {
+                  std::vector<Eigen::Vector3f>& inside, std::size_t stride) {
   const float r2 = radius * radius;
   inside.clear();
-  for (const Point4f& p : cloud.points) {
-    const Eigen::Vector3f v = p.vec();
+  for (std::size_t i = 0; i < cloud.points.size(); i += std::max<std::size_t>(stride, 1)) {
+    const Eigen::Vector3f v = cloud.points[i].vec();
     if (std::any_of(centres.begin(), centres.end(),
                     [&](const Eigen::Vector3f& c) { return (v - c).squaredNorm() <= r2; }))
       inside.push_back(v);

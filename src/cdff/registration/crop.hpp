@@ -14,9 +14,10 @@
 namespace cdff::registration {
 
 /// The points of `cloud` within `radius` of any of `centres`, in the cloud's order, into
-/// `inside` (cleared first).
+/// `inside` (cleared first); of every `stride`-th point of the cloud only (a subsample that is
+/// the same whatever the centres).
 void pointsWithin(const PointCloud& cloud, std::span<const Eigen::Vector3f> centres, float radius,
-                  std::vector<Eigen::Vector3f>& inside);
+                  std::vector<Eigen::Vector3f>& inside, std::size_t stride = 1);
 
 /// `points` evenly thinned to at most `most` of them (spread over the whole sequence, in order),
 /// into `kept` (cleared first).
