@@ -3,7 +3,8 @@
 # The folder holds <Name>.yaml (the description), one .cpp per DFI and *_test.cpp unit tests.
 # The description is read and checked by `cdff_dfn_describe` (the project's schema reader, with
 # each port's C++ type from the type registry) into <Name>.json, which scripts/dfn_codegen.py turns
-# into <Name>.gen.hpp/.gen.cpp at build time;
+# into <Name>.gen.hpp/.gen.cpp at build time (and, with every other description, into the Python
+# package's `cdff.dfn` module: python/CMakeLists.txt);
 # the DFIs and generated code into the object library `cdff_dfn_<area>` (object files, so that
 # every DFI's self-registration is linked in), and the tests into one GoogleTest executable per
 # folder that links only its own area. `cdff_dfns` (dfns/CMakeLists.txt) gathers every area.
@@ -45,6 +46,9 @@ function(cdff_add_dfn_area dir)
       COMMENT "Generating the ${name} DFN interface"
       VERBATIM)
     target_sources(${lib} PRIVATE ${gen_cpp} ${gen_hpp})
+    if(source_file MATCHES "^dfns/")  # not the test-only probe DFNs of tests/
+      set_property(GLOBAL APPEND PROPERTY CDFF_DFN_DESCRIPTION_JSONS ${checked})
+    endif()
   endforeach()
   file(GLOB sources CONFIGURE_DEPENDS ${dir}/*.cpp)
   file(GLOB tests CONFIGURE_DEPENDS ${dir}/*_test.cpp)

@@ -15,6 +15,7 @@ packages=(
   visp-images-data
   # tests, benchmarks, bindings
   libgtest-dev libgmock-dev libbenchmark-dev pybind11-dev python3-dev python3-yaml
+  python3-numpy python3-pytest python3-matplotlib
   # peers measured in the benchmarks (Open3D: global registration)
   libopen3d-dev
 )
