@@ -14,11 +14,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "cdff/egse/mcap_sink.hpp"
 #include "cdff/egse/model_io.hpp"
 #include "cdff/egse/procedural.hpp"
 #include "cdff/egse/simulator.hpp"
 #include "commands.hpp"
-#include "sim_command.hpp"
 
 namespace cdff::app {
 
@@ -273,7 +273,7 @@ int runSim(const SimOptions& options) {
                digest.digest(), wall);
     return 0;
   }
-  auto sink = openMcapSink(options.output);
+  auto sink = egse::openMcapSink(options.output);
   if (!sink) {
     fmt::print(stderr, "error: {}\n", sink.status().message());
     return 1;

@@ -27,6 +27,8 @@ void defineErrors(py::module_& m);
 /// Raises the Python exception of `status`'s code with status.message() as its text (the same
 /// text as the C++ error) and `code`/`reason`/`location` attributes. Only for non-OK statuses.
 [[noreturn]] void raise(const Status& status);
+/// The exception object raise() would raise, not raised (for callbacks that receive errors).
+py::object errorOf(const Status& status);
 /// Raises `status` when it is not OK.
 inline void check(const Status& status) {
   if (!status.isOk()) raise(status);
@@ -62,6 +64,9 @@ Buffer<T> viewOf(py::handle object, const void* data, std::size_t count) {
   return Buffer<T>::view(std::const_pointer_cast<void>(keepAlive(object)),
                          static_cast<const T*>(data), count);
 }
+
+/// A file path from a str or an os.PathLike (pathlib.Path).
+std::string pathOf(py::handle path);
 
 /// "float64 array of shape (3, 2)" for messages.
 std::string describeArray(const py::array& array);
@@ -104,5 +109,21 @@ void bindScalars(py::module_& m);
 void bindFeatures(py::module_& m);
 void bindModels(py::module_& m);
 void bindDfn(py::module_& m);
+
+}  // namespace cdff::python
+
+namespace cdff::python {
+
+/// The Value of a Python object: of the registered type `type_name` when given, else of the
+/// first type (in the registry's order, classes before built-ins) whose converter takes it. A
+/// TypeError names what was given and what is accepted.
+Value valueOf(py::handle object, const std::string& type_name, const std::string& what);
+/// The Python object of a Value (None when empty); an internal error for a type without a
+/// converter.
+py::object toPython(const Value& value);
+
+void bindIo(py::module_& m);
+void bindSimAndEval(py::module_& m);
+void bindDfpc(py::module_& m);
 
 }  // namespace cdff::python

@@ -86,15 +86,8 @@ py::dict parameters(const DfnHandle& h) {
   return out;
 }
 
-py::object valueOf(const dfn::PortBase& port) {
-  if (!port.hasValue()) return py::none();
-  const Converter* c = findConverter(port.type());
-  if (!c)
-    raise(Status(StatusCode::kInternal,
-                 fmt::format("port '{}' holds a {} and the Python binding has no conversion "
-                             "for that type",
-                             port.name(), port.type().name())));
-  return c->to_python(port.anyValue());
+py::object portValue(const dfn::PortBase& port) {
+  return toPython(port.anyValue());
 }
 
 template <typename Port>
@@ -208,7 +201,7 @@ void bindDfn(py::module_& m) {
       "input_port",
       [](const std::string& name, const std::string& doc) {
         return property(py::cpp_function([name](py::handle self) {
-                          return valueOf(portOf<dfn::InputPortBase>(handleOf(self), name, true));
+                          return portValue(portOf<dfn::InputPortBase>(handleOf(self), name, true));
                         }),
                         py::cpp_function([name](py::handle self, py::handle value) {
                           setInput(handleOf(self), name, value);
@@ -219,10 +212,11 @@ void bindDfn(py::module_& m) {
   m.def(
       "output_port",
       [](const std::string& name, const std::string& doc) {
-        return property(py::cpp_function([name](py::handle self) {
-                          return valueOf(portOf<dfn::OutputPortBase>(handleOf(self), name, false));
-                        }),
-                        py::none(), doc);
+        return property(
+            py::cpp_function([name](py::handle self) {
+              return portValue(portOf<dfn::OutputPortBase>(handleOf(self), name, false));
+            }),
+            py::none(), doc);
       },
       py::arg("name"), py::arg("doc"), "A read-only property over a DFN's output port.");
   m.def(

@@ -59,7 +59,7 @@ void defineErrors(py::module_& m) {
   m.add_object("CopyWarning", py::handle(g_copy_warning));
 }
 
-void raise(const Status& status) {
+py::object errorOf(const Status& status) {
   PyObject* type = g_error;
   for (const ErrorClass& c : errorClasses())
     if (c.code == status.code()) type = c.type;
@@ -70,7 +70,12 @@ void raise(const Status& status) {
       status.location().prefix().empty()
           ? std::string()
           : status.location().prefix().substr(0, status.location().prefix().size() - 2);
-  PyErr_SetObject(type, error.ptr());
+  return error;
+}
+
+void raise(const Status& status) {
+  py::object error = errorOf(status);
+  PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(error.ptr())), error.ptr());
   throw py::error_already_set();
 }
 

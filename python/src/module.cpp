@@ -15,4 +15,7 @@ PYBIND11_MODULE(_core, m) {
   bindFeatures(m);
   bindModels(m);
   bindDfn(m);
+  bindIo(m);
+  bindSimAndEval(m);
+  bindDfpc(m);
 }

@@ -1,12 +1,14 @@
-// The MCAP output of `cdff sim`: every simulator message through cdff::io::Recorder, with the
-// recording library's typed schemas (docs/recording.md), so that `cdff run` replays the sensor
-// channels into DFPCs and `cdff eval` pairs their products with the /truth channels.
+// The simulator's MCAP output (`cdff sim -o`, cdff.sim.run): every simulator message through
+// cdff::io::Recorder, with the recording library's typed schemas (docs/recording.md), so that `cdff
+// run` replays the sensor channels into DFPCs and `cdff eval` pairs their products with the /truth
+// channels.
 #include <nlohmann/json.hpp>
 
-#include "cdff/io/recorder.hpp"
-#include "sim_command.hpp"
+#include "cdff/egse/mcap_sink.hpp"
 
-namespace cdff::app {
+#include "cdff/io/recorder.hpp"
+
+namespace cdff::egse {
 namespace {
 
 nlohmann::json vector3(const Eigen::Vector3d& v) {
@@ -91,7 +93,7 @@ class McapSink final : public egse::SimulationSink {
 
 }  // namespace
 
-Result<std::unique_ptr<egse::SimulationSink>> openMcapSink(const std::string& path) {
+Result<std::unique_ptr<SimulationSink>> openMcapSink(const std::string& path) {
   if (path.empty())
     return Status(StatusCode::kInvalidInput,
                   "no output file: `cdff sim SCENARIO -o OUT.mcap` (or --check, --digest, "
@@ -101,4 +103,4 @@ Result<std::unique_ptr<egse::SimulationSink>> openMcapSink(const std::string& pa
   return std::unique_ptr<egse::SimulationSink>(std::move(sink));
 }
 
-}  // namespace cdff::app
+}  // namespace cdff::egse

@@ -1,0 +1,34 @@
+"""DFPCs from Python: graphs run over recordings (as `cdff run`), and the external API.
+
+    result = cdff.dfpc.run(["dfpcs/lidar_tracking.yaml"], ["sim.mcap"], "run.mcap")
+    report = cdff.eval.evaluate("run.mcap")
+
+    with cdff.dfpc.Cdff(["dfpcs/pose_filtering.yaml"]) as api:      # live input
+        api.setCDFFState("initialize")
+        api.getDFPCPose("pose_filtering", 10.0, lambda now, pose: print(now, pose))
+        api.push("/chaser/measured_pose", pose)
+        api.flush()
+"""
+import os
+
+from cdff._core._dfpc import Cdff
+
+__all__ = ["Cdff", "run"]
+
+
+def _paths(p):
+    return [str(p)] if isinstance(p, (str, os.PathLike)) else [str(x) for x in p]
+
+
+def run(graphs, inputs, output, remaps=(), settings=(), passthrough=("/truth/",),
+        record_timing=True):
+    """Runs DFPC graphs over recordings to their end and records the products in `output`.
+
+    remaps: "dfpc.input=/channel" to feed an input from another channel.
+    settings: "[DFPC/]NODE.PARAM=VALUE" to set instance parameters without editing the graphs.
+    passthrough: input channel prefixes copied to the output (the ground truth by default).
+    Returns {"summary": ..., "dfpcs": [status, ...], "output": output}. Runs without the GIL.
+    """
+    from cdff._core import _dfpc
+    return _dfpc.run(_paths(graphs), _paths(inputs), str(output), list(remaps), list(settings),
+                     list(passthrough), record_timing)
