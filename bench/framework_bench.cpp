@@ -4,8 +4,10 @@
 
 #include <cstring>
 
+#include "FrameTransformation.gen.hpp"
 #include "bench_support.hpp"
 #include "cdff/dfn/port.hpp"
+#include "cdff/dfn/registry.hpp"
 #include "cdff/types/opencv.hpp"
 #include "cdff/types/pcl.hpp"
 
@@ -103,6 +105,47 @@ void BM_PointCloudToPclCopy30k(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(cdff::toPcl(cloud)->points.data());
 }
 BENCHMARK(BM_PointCloudToPclCopy30k)->Unit(benchmark::kMicrosecond);
+
+// One DFN call from C++: a pose into FrameTransformation/Rigid, process(), the re-expressed pose
+// out. bench/python_binding_bench.py runs the same call from Python and reports the difference
+// (the binding's cost per call).
+std::unique_ptr<cdff::dfn::FrameTransformation> frameTransformation() {
+  auto node = cdff::dfn::Registry::instance()
+                  .createAs<cdff::dfn::FrameTransformation>("FrameTransformation", "Rigid")
+                  .value();
+  cdff::Transform extrinsic = cdff::Transform::identity("servicer", "lidar");
+  extrinsic.translation = Eigen::Vector3d(0.5, 0, 0);
+  node->in.extrinsic.set(extrinsic);
+  (void)node->configureDefaults();
+  return node;
+}
+
+cdff::PoseWithCovariance lidarPose() {
+  cdff::PoseWithCovariance pose;
+  pose.pose = cdff::Transform::identity("lidar", "target", 1000);
+  pose.pose.translation = Eigen::Vector3d(1, 2, 3);
+  pose.covariance = cdff::Matrix6d::Identity() * 1e-4;
+  return pose;
+}
+
+void BM_DfnCallFromCpp(benchmark::State& state) {
+  auto node = frameTransformation();
+  const cdff::PoseWithCovariance pose = lidarPose();
+  for (auto _ : state) {
+    node->in.pose.set(pose);  // a new value each call, as a caller's fresh measurement
+    if (!node->process().isOk()) state.SkipWithError("process failed");
+    benchmark::DoNotOptimize(node->out.pose.get());
+  }
+}
+BENCHMARK(BM_DfnCallFromCpp);
+
+void BM_DfnProcessOnlyFromCpp(benchmark::State& state) {
+  auto node = frameTransformation();
+  node->in.pose.set(lidarPose());
+  for (auto _ : state)
+    if (!node->process().isOk()) state.SkipWithError("process failed");
+}
+BENCHMARK(BM_DfnProcessOnlyFromCpp);
 
 }  // namespace
 

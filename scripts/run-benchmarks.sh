@@ -18,4 +18,10 @@ if [ -x "$build_dir/bench/detection_bench" ]; then
   CDFF_DETECTION_SOURCE=tof "$build_dir/bench/detection_bench" \
     --benchmark_out="$out_dir/detection_bench_tof.json" --benchmark_out_format=json || status=1
 fi
+# The Python binding's per-call cost and zero-copy transfers, beside the C++ figures of the run.
+if [ -d "$build_dir/python/cdff" ]; then
+  echo "== python_binding_bench"
+  PYTHONPATH="$build_dir/python" /usr/bin/python3 bench/python_binding_bench.py \
+    --build "$build_dir" --json "$out_dir/python_binding.json" || status=1
+fi
 exit $status

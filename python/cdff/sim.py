@@ -1,16 +1,19 @@
 """The EGSE simulator from Python: run a scenario of the trajectory library (data/scenarios, or
 a YAML file) into an MCAP recording, as `cdff sim -o` does.
 
-    info = cdff.sim.run("mid_range_approach", "sim.mcap", seed=7, duration=5.0)
-    for msg in cdff.io.read("sim.mcap", channels=["/truth/target_pose"]): ...
+    info = cdff.sim.run("mid_range_approach", seed=7, duration=5.0)   # -> mid_range_approach_seed7.mcap
+    for msg in cdff.io.read(info["output"], channels=["/truth/target_pose"]): ...
 """
+import pathlib
 from cdff._core import _sim
 
 __all__ = ["run", "scenarios"]
 
 
-def run(scenario, output, seed=None, duration=None, overrides=None):
-    """Simulates `scenario` (a library name or a YAML path) into the MCAP file `output`.
+def run(scenario, output=None, seed=None, duration=None, overrides=None):
+    """Simulates `scenario` (a library name or a YAML path) into the MCAP file `output`
+    (default: <scenario>_seed<seed>.mcap in the working directory, or <scenario>.mcap with the
+    scenario's own seed).
 
     seed: the random seed (default: the scenario's); the same seed gives the same file.
     duration: simulated seconds (default: the scenario's).
@@ -21,6 +24,9 @@ def run(scenario, output, seed=None, duration=None, overrides=None):
         overrides = []
     elif isinstance(overrides, dict):
         overrides = [f"{k}={_yaml_value(v)}" for k, v in overrides.items()]
+    if output is None:
+        stem = pathlib.Path(str(scenario)).stem
+        output = f"{stem}_seed{seed}.mcap" if seed is not None else f"{stem}.mcap"
     return _sim.run(str(scenario), str(output), seed, duration, list(overrides))
 
 

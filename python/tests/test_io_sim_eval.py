@@ -93,6 +93,13 @@ def test_truncated_recording(tmp_path, simulated):
     assert seen > 0  # what precedes the damage is delivered first
 
 
+def test_default_output_is_named_after_scenario_and_seed(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    info = cdff.sim.run("mid_range_approach", seed=4, duration=0.3, overrides=LIDAR_ONLY)
+    assert info["output"] == "mid_range_approach_seed4.mcap"
+    assert (tmp_path / "mid_range_approach_seed4.mcap").stat().st_size > 0
+
+
 def test_missing_files_and_names(tmp_path):
     with pytest.raises(cdff.IoError, match="nothing.mcap"):
         cdff.io.read(tmp_path / "nothing.mcap")
