@@ -200,22 +200,9 @@ py::object velocityDict(const api::VelocityWithCovariance& v) {
   return d;
 }
 
-void bindCdffApi(py::module_& m) {
-  py::class_<PyCdff>(
-      m, "Cdff",
-      "The external API of seed §7.3: DFPC graphs run on a recording (recordings=[...]) or on "
-      "messages pushed live (push()), their products read or subscribed to. The methods keep "
-      "the C++ names; callbacks run on the API's thread with the GIL taken; close() (or leaving "
-      "a `with` block) stops the threads and closes the output recording.")
-      .def(py::init<const std::vector<std::string>&, const std::vector<std::string>&,
-                    const std::string&, bool, std::size_t, const std::vector<Transform>&>(),
-           py::arg("graphs"), py::arg("recordings") = std::vector<std::string>{},
-           py::arg("output") = "", py::arg("realtime") = false, py::arg("live_capacity") = 1024,
-           py::arg("static_transforms") = std::vector<Transform>{})
-      .def("close", &PyCdff::close)
-      .def("__enter__", [](PyCdff& c) -> PyCdff& { return c; })
-      .def("__exit__", [](PyCdff& c, py::args) { c.close(); })
-      .def(
+/// The state machine and the DFPCs' life cycle.
+void bindLifecycle(py::class_<PyCdff>& cdff) {
+  cdff.def(
           "setCDFFState",
           [](PyCdff& c, const std::string& request) {
             const api::StateRequest r = requestNamed(request);
@@ -245,8 +232,12 @@ void bindCdffApi(py::module_& m) {
           [](PyCdff& c, const std::string& d) {
             check(c.unlocked("stopDFPC", [&](api::Cdff& a) { return a.stopDFPC(d); }));
           },
-          py::arg("dfpc"))
-      .def(
+          py::arg("dfpc"));
+}
+
+/// The synchronous queries: the target's pose, velocity and model.
+void bindQueries(py::class_<PyCdff>& cdff) {
+  cdff.def(
           "getTargetRelativePose",
           [](PyCdff& c, const std::string& frame) {
             return take(c.unlocked("getTargetRelativePose",
@@ -261,14 +252,17 @@ void bindCdffApi(py::module_& m) {
             })));
           },
           py::arg("frame"))
-      .def("getModelOfTarget",
-           [](PyCdff& c) -> py::object {
-             api::TargetModel model = take(
-                 c.unlocked("getModelOfTarget", [](api::Cdff& a) { return a.getModelOfTarget(); }));
-             if (model.mesh) return py::cast(std::make_shared<TriangleMesh>(*model.mesh));
-             return py::cast(std::make_shared<PointCloud>(*model.cloud));
-           })
-      .def(
+      .def("getModelOfTarget", [](PyCdff& c) -> py::object {
+        api::TargetModel model =
+            take(c.unlocked("getModelOfTarget", [](api::Cdff& a) { return a.getModelOfTarget(); }));
+        if (model.mesh) return py::cast(std::make_shared<TriangleMesh>(*model.mesh));
+        return py::cast(std::make_shared<PointCloud>(*model.cloud));
+      });
+}
+
+/// The asynchronous queries (callbacks at a rate) and their cancellation.
+void bindSubscriptions(py::class_<PyCdff>& cdff) {
+  cdff.def(
           "getDFPCPose",
           [](PyCdff& c, const std::string& dfpc, double hz, py::function callback) {
             auto f = keepCallable(std::move(callback));
@@ -302,8 +296,12 @@ void bindCdffApi(py::module_& m) {
             check(c.unlocked("cancelSubscription",
                              [id](api::Cdff& a) { return a.cancelSubscription(id); }));
           },
-          py::arg("id"))
-      .def(
+          py::arg("id"));
+}
+
+/// Live input and the Data Product Manager's products.
+void bindData(py::class_<PyCdff>& cdff) {
+  cdff.def(
           "push",
           [](PyCdff& c, const std::string& channel, py::handle value,
              std::optional<Timestamp> stamp, const std::string& type) {
@@ -344,6 +342,27 @@ void bindCdffApi(py::module_& m) {
             return out;
           },
           py::arg("name"), "[(stamp, value), ...] of a product's kept history, oldest first.");
+}
+
+void bindCdffApi(py::module_& m) {
+  py::class_<PyCdff> cdff(
+      m, "Cdff",
+      "The external API of seed §7.3: DFPC graphs run on a recording (recordings=[...]) or on "
+      "messages pushed live (push()), their products read or subscribed to. The methods keep "
+      "the C++ names; callbacks run on the API's thread with the GIL taken; close() (or leaving "
+      "a `with` block) stops the threads and closes the output recording.");
+  cdff.def(py::init<const std::vector<std::string>&, const std::vector<std::string>&,
+                    const std::string&, bool, std::size_t, const std::vector<Transform>&>(),
+           py::arg("graphs"), py::arg("recordings") = std::vector<std::string>{},
+           py::arg("output") = "", py::arg("realtime") = false, py::arg("live_capacity") = 1024,
+           py::arg("static_transforms") = std::vector<Transform>{})
+      .def("close", &PyCdff::close)
+      .def("__enter__", [](PyCdff& c) -> PyCdff& { return c; })
+      .def("__exit__", [](PyCdff& c, py::args) { c.close(); });
+  bindLifecycle(cdff);
+  bindQueries(cdff);
+  bindSubscriptions(cdff);
+  bindData(cdff);
 }
 
 }  // namespace
