@@ -21,14 +21,18 @@ def _paths(p):
 
 
 def run(graphs, inputs, output, remaps=(), settings=(), passthrough=("/truth/",),
-        record_timing=True):
+        record_timing=True, pairs=(), run_while=()):
     """Runs DFPC graphs over recordings to their end and records the products in `output`.
 
     remaps: "dfpc.input=/channel" to feed an input from another channel.
     settings: "[DFPC/]NODE.PARAM=VALUE" to set instance parameters without editing the graphs.
     passthrough: input channel prefixes copied to the output (the ground truth by default).
+    pairs: "/pair=/left/image,/right/image" to make stereo pairs from two image channels.
+    run_while: "DFPC=TRACKER:STATE[,STATE]" to run a DFPC only while another's track state is
+    one of those (detection while a tracker is UNINITIALISED or LOST).
+    These are `cdff run`'s options --map, --set, --passthrough, --pair and --run-while.
     Returns {"summary": ..., "dfpcs": [status, ...], "output": output}. Runs without the GIL.
     """
     from cdff._core import _dfpc
     return _dfpc.run(_paths(graphs), _paths(inputs), str(output), list(remaps), list(settings),
-                     list(passthrough), record_timing)
+                     list(passthrough), record_timing, list(pairs), list(run_while))

@@ -54,13 +54,19 @@ py::dict statusDict(const dfpc::DfpcStatus& s) {
 py::dict runGraphs(const std::vector<std::string>& graphs, const std::vector<std::string>& inputs,
                    const std::string& output, const std::vector<std::string>& remaps,
                    const std::vector<std::string>& settings,
-                   const std::vector<std::string>& passthrough, bool record_timing) {
+                   const std::vector<std::string>& passthrough, bool record_timing,
+                   const std::vector<std::string>& pairs,
+                   const std::vector<std::string>& run_while) {
   dfpc::ReplayOptions options;
   options.graph_files = graphs;
   options.parameter_settings = settings;
   options.passthrough_prefixes = passthrough;
   options.record_timing = record_timing;
   for (const std::string& r : remaps) options.remaps.push_back(take(dfpc::parseRemap(r)));
+  for (const std::string& p : pairs)
+    options.stereo_pairs.push_back(take(dfpc::parseStereoPairing(p)));
+  for (const std::string& r : run_while)
+    options.run_while.push_back(take(dfpc::parseActivationRule(r)));
   Result<dfpc::ReplayResult> result = Status::ok();
   {
     py::gil_scoped_release release;
@@ -373,7 +379,8 @@ void bindDfpc(py::module_& root) {
         py::arg("remaps") = std::vector<std::string>{},
         py::arg("settings") = std::vector<std::string>{},
         py::arg("passthrough") = std::vector<std::string>{"/truth/"},
-        py::arg("record_timing") = true);
+        py::arg("record_timing") = true, py::arg("pairs") = std::vector<std::string>{},
+        py::arg("run_while") = std::vector<std::string>{});
   bindCdffApi(m);
 }
 

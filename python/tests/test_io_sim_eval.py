@@ -100,6 +100,19 @@ def test_default_output_is_named_after_scenario_and_seed(tmp_path, monkeypatch):
     assert (tmp_path / "mid_range_approach_seed4.mcap").stat().st_size > 0
 
 
+def test_run_options_are_checked_before_anything_runs(simulated, tmp_path):
+    graph = SOURCE / "dfpcs/lidar_tracking.yaml"
+    mesh = f"model.mesh_file={SOURCE / 'data/models/target.ply'}"
+    out = tmp_path / "r.mcap"
+    with pytest.raises(cdff.Error, match="no_such"):
+        cdff.dfpc.run([graph], [simulated], out, settings=[mesh],
+                      run_while=["no_such=lidar_tracking:LOST"])
+    with pytest.raises(cdff.InvalidParameterError, match="stereo pairing .not a pairing."):
+        cdff.dfpc.run([graph], [simulated], out, settings=[mesh], pairs=["not a pairing"])
+    with pytest.raises(cdff.Error, match="nosuchnode"):
+        cdff.dfpc.run([graph], [simulated], out, settings=[mesh, "nosuchnode.x=1"])
+
+
 def test_missing_files_and_names(tmp_path):
     with pytest.raises(cdff.IoError, match="nothing.mcap"):
         cdff.io.read(tmp_path / "nothing.mcap")
