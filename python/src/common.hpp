@@ -109,10 +109,9 @@ void bindScalars(py::module_& m);
 void bindFeatures(py::module_& m);
 void bindModels(py::module_& m);
 void bindDfn(py::module_& m);
-
-}  // namespace cdff::python
-
-namespace cdff::python {
+void bindIo(py::module_& m);
+void bindSimAndEval(py::module_& m);
+void bindDfpc(py::module_& m);
 
 /// The Value of a Python object: of the registered type `type_name` when given, else of the
 /// first type (in the registry's order, classes before built-ins) whose converter takes it. A
@@ -121,9 +120,5 @@ Value valueOf(py::handle object, const std::string& type_name, const std::string
 /// The Python object of a Value (None when empty); an internal error for a type without a
 /// converter.
 py::object toPython(const Value& value);
-
-void bindIo(py::module_& m);
-void bindSimAndEval(py::module_& m);
-void bindDfpc(py::module_& m);
 
 }  // namespace cdff::python

@@ -80,7 +80,7 @@ void raise(const Status& status) {
 }
 
 void warnCopy(const std::string& what) {
-  if (PyErr_WarnEx(g_copy_warning, what.c_str(), 2) != 0) throw py::error_already_set();
+  if (PyErr_WarnEx(g_copy_warning, what.c_str(), 1) != 0) throw py::error_already_set();
 }
 
 }  // namespace cdff::python

@@ -1,5 +1,5 @@
-// The converter table of port values, the owner that keeps NumPy arrays alive from C++, and
-// array descriptions for messages.
+// The converter table of port values and the conversion of any Python object to a Value, the
+// owner that keeps NumPy arrays alive from C++, paths, and array descriptions for messages.
 
 #include <map>
 
@@ -48,10 +48,6 @@ std::string describeArray(const py::array& array) {
   if (array.ndim() == 1) shape += ",";
   return fmt::format("{} array of shape ({})", py::str(array.dtype()).cast<std::string>(), shape);
 }
-
-}  // namespace cdff::python
-
-namespace cdff::python {
 
 Value valueOf(py::handle object, const std::string& type_name, const std::string& what) {
   if (!type_name.empty()) {
