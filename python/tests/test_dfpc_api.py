@@ -60,7 +60,7 @@ def test_live_input_subscription_and_queries():
         velocity = api.getTargetRelativeVelocity("camera")
         np.testing.assert_allclose(velocity["linear"], [0.02, 0, -0.05], atol=0.05)
         status = api.getDFPCStatus("pose_filtering")
-        assert status["messages"] == 31 and status["faults"] == 0
+        assert status["messages"] == 31 and status["products"] > 0
         assert "pose_filtering/state" in api.product_names()
         stamp, state = api.product("pose_filtering/state")
         assert isinstance(state, cdff.RigidBodyState) and stamp == 3_000_000
