@@ -16,5 +16,6 @@ void addEvalCommand(CLI::App& root, int& exit_code);
 void addInitialStateCommand(CLI::App& root, int& exit_code);
 void addModelCommands(CLI::App& root, int& exit_code);
 void addTrainCommand(CLI::App& root, int& exit_code);
+void addCampaignCommands(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

@@ -10,7 +10,7 @@ packages=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libceres-dev libvisp-dev
   liboctomap-dev libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
-  libzstd-dev liblz4-dev zlib1g-dev
+  libzstd-dev liblz4-dev zlib1g-dev libboost-dev
   # real data to validate on (ViSP tracking sequences with ground truth)
   visp-images-data
   # tests, benchmarks, bindings

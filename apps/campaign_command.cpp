@@ -1,0 +1,139 @@
+// cdff campaign CAMPAIGN.yaml -o DIR [--jobs N] [-q]       runs a verification campaign
+// cdff campaign-report DIR [--json FILE] [-q]               its report, from the results folder
+//
+// docs/campaigns.md. Each run is a child process (`cdff campaign FILE -o DIR --run INDEX`), so a
+// run that crashes takes only itself down; runs already done are not redone.
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+
+#include "cdff/campaign/pool.hpp"
+#include "cdff/campaign/report.hpp"
+#include "cdff/campaign/run.hpp"
+#include "commands.hpp"
+
+namespace cdff::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CampaignArgs {
+  std::string file, output, json;
+  int jobs = 0;
+  std::int64_t run = -1;
+  bool quiet = false, check_only = false;
+};
+
+std::string selfExecutable() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("cdff") : self.string();
+}
+
+int fail(const Status& s) {
+  fmt::print(stderr, "error: {}\n", s.message());
+  return 1;
+}
+
+int writeReport(const campaign::Campaign& c, const fs::path& dir, const std::string& json_path,
+                bool quiet) {
+  Result<nlohmann::json> report = campaign::campaignReport(c, dir);
+  if (!report) return fail(report.status());
+  const std::string path = json_path.empty() ? (dir / "report.json").string() : json_path;
+  std::ofstream out(path);
+  out << report->dump(1) << "\n";
+  if (!out) return fail(ioError("cannot write '{}'", path));
+  if (!quiet) fmt::print("{}report: {}\n", campaign::reportText(*report), path);
+  return (*report)["runs"]["failed"].get<int>() > 0 ? 1 : 0;
+}
+
+int runCampaign(const CampaignArgs& args) {
+  Result<campaign::Campaign> c = campaign::loadCampaign(args.file);
+  if (!c) return fail(c.status());
+  const fs::path dir = args.output;
+  if (args.run >= 0) {  // one run, in this process (the pool's child)
+    if (static_cast<std::uint64_t>(args.run) >= c->runs)
+      return fail(invalidInput("--run {}: the campaign has runs 0 to {}", args.run, c->runs - 1));
+    if (Status s = campaign::prepareResults(*c, dir); !s) return fail(s);
+    Result<nlohmann::json> r = campaign::executeRun(*c, static_cast<std::uint64_t>(args.run), dir);
+    if (!r) return fail(r.status());
+    fmt::print("{}\n", r->dump(1));
+    return 0;
+  }
+  if (Status s = campaign::checkCampaign(*c); !s) return fail(s);
+  if (args.check_only) {
+    fmt::print("{}: ok ({} runs, {} scenarios, {} dispersions, {} graphs)\n", args.file, c->runs,
+               c->scenarios.size(), c->dispersions.size(), c->dfpcs.size());
+    return 0;
+  }
+  if (Status s = campaign::prepareResults(*c, dir); !s) return fail(s);
+  campaign::PoolOptions options;
+  options.jobs = args.jobs > 0 ? args.jobs : static_cast<int>(std::thread::hardware_concurrency());
+  options.run_command = {selfExecutable(), "campaign", args.file, "-o", dir.string(), "--run"};
+  options.progress = !args.quiet;
+  Result<campaign::PoolSummary> summary = campaign::runPool(*c, dir, options);
+  if (!summary) return fail(summary.status());
+  if (!args.quiet)
+    fmt::print(stderr,
+               "cdff campaign: {} runs done now ({} failed, {} retried), {} done before, "
+               "{:.1f} s with {} jobs\n",
+               summary->completed, summary->failed, summary->retried, summary->skipped,
+               summary->wall_s, options.jobs);
+  return writeReport(*c, dir, args.json, args.quiet);
+}
+
+int reportCampaign(const CampaignArgs& args) {
+  const fs::path dir = args.output;
+  const fs::path copy = dir / "campaign.yaml";
+  if (!fs::exists(copy))
+    return fail(
+        notFound("'{}' is not a campaign's results folder (no campaign.yaml in it)", dir.string()));
+  Result<campaign::Campaign> c = campaign::loadCampaign(copy.string());
+  if (!c) return fail(c.status());
+  return writeReport(*c, dir, args.json, args.quiet);
+}
+
+}  // namespace
+
+void addCampaignCommands(CLI::App& root, int& exit_code) {
+  auto args = std::make_shared<CampaignArgs>();
+  CLI::App* run = root.add_subcommand(
+      "campaign", "Run a verification campaign: Monte-Carlo runs simulated, run and evaluated");
+  run->add_option("CAMPAIGN", args->file, "The campaign file (YAML, docs/campaigns.md)")
+      ->required();
+  run->add_option("-o,--output", args->output, "The results folder (resumed when it exists)");
+  run->add_option("-j,--jobs", args->jobs, "Runs at a time (default: the number of cores)")
+      ->check(CLI::Range(1, 1024));
+  run->add_option("--run", args->run, "Only this run, in this process (what the pool starts)")
+      ->check(CLI::NonNegativeNumber);
+  run->add_flag("--check", args->check_only,
+                "Check the campaign (scenarios with their dispersions, graphs) and stop");
+  run->add_flag("-q,--quiet", args->quiet, "No progress line and no report text");
+  run->add_option("--json", args->json, "Write the report here (default: DIR/report.json)");
+  run->callback([args, &exit_code] {
+    if (args->output.empty() && !args->check_only) {
+      fmt::print(stderr, "error: cdff campaign {}: expected -o DIR (the results folder)\n",
+                 args->file);
+      exit_code = 2;
+      return;
+    }
+    exit_code = runCampaign(*args);
+  });
+
+  auto report_args = std::make_shared<CampaignArgs>();
+  CLI::App* report = root.add_subcommand(
+      "campaign-report", "The report of a campaign's results folder (pass rates, intervals)");
+  report->add_option("DIR", report_args->output, "The results folder")->required();
+  report->add_option("--json", report_args->json,
+                     "Write the report here (default: DIR/report.json)");
+  report->add_flag("-q,--quiet", report_args->quiet, "No report text");
+  report->callback([report_args, &exit_code] { exit_code = reportCampaign(*report_args); });
+}
+
+}  // namespace cdff::app

@@ -1,0 +1,268 @@
+// The campaign file (campaign.hpp): its reader, the plan of one run, and the checks made before
+// any run starts.
+
+#include "cdff/campaign/campaign.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include <fmt/format.h>
+
+#include "cdff/dfpc/graph.hpp"
+#include "cdff/egse/rng.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/schema/field.hpp"
+#include "cdff/schema/table.hpp"
+
+namespace cdff::campaign {
+namespace {
+
+using schema::Field;
+using schema::Table;
+
+/// "key=value" overrides from a map of scenario keys (`set: {sensors.tof.enabled: false}`).
+Status readOverrides(const Field& f, std::vector<std::string>& out) {
+  if (!f.isMap()) return f.fail("a map of scenario keys to values ({sensors.tof.enabled: false})");
+  for (const Field::Entry& e : f.entries()) {
+    if (!e.value.defined() || e.value.isMap())
+      return e.value.fail("a value (a number, a word, true/false or a list)");
+    out.push_back(e.key + "=" + e.value.text());
+  }
+  return Status::ok();
+}
+
+const Table<ScenarioEntry>& scenarioTable() {
+  static const Table<ScenarioEntry> table =
+      Table<ScenarioEntry>("a scenario entry")
+          .required("name", schema::text(&ScenarioEntry::name),
+                    "a library scenario name or a YAML file")
+          .optional("duration",
+                    [](const Field& f, ScenarioEntry& s) {
+                      double d = 0;
+                      CDFF_RETURN_IF_ERROR(f.read(d, schema::Range::above(0, "s")));
+                      s.duration = d;
+                      return Status::ok();
+                    })
+          .optional("set",
+                    [](const Field& f, ScenarioEntry& s) { return readOverrides(f, s.set); });
+  return table;
+}
+
+Status readDistribution(const Field& f, Dispersion& d) {
+  const bool uniform = f.has("uniform"), normal = f.has("normal"), choice = f.has("choice");
+  if (uniform + normal + choice != 1)
+    return f.fail("exactly one of uniform: [low, high], normal: [mean, sigma], choice: [...]",
+                  uniform + normal + choice == 0 ? "no distribution" : "several distributions");
+  std::vector<double> v;
+  if (uniform) {
+    d.kind = DistributionKind::kUniform;
+    CDFF_RETURN_IF_ERROR(f["uniform"].numbers(v, 2, 2));
+    if (!(v[0] <= v[1])) return f["uniform"].fail("[low, high] with low <= high");
+    d.low = v[0];
+    d.high = v[1];
+  } else if (normal) {
+    d.kind = DistributionKind::kNormal;
+    CDFF_RETURN_IF_ERROR(f["normal"].numbers(v, 2, 2));
+    if (!(v[1] >= 0)) return f["normal"].fail("[mean, sigma] with sigma >= 0");
+    d.mean = v[0];
+    d.sigma = v[1];
+  } else {
+    d.kind = DistributionKind::kChoice;
+    const Field c = f["choice"];
+    if (!c.isList() || c.size() == 0) return c.fail("a non-empty list of values");
+    for (const Field& e : c.elements()) {
+      if (!e.isScalar() && !e.isList()) return e.fail("a value (a number, a word or a list)");
+      d.values.push_back(e.text());
+    }
+  }
+  return Status::ok();
+}
+
+const Table<Dispersion>& dispersionTable() {
+  static const Table<Dispersion> table =
+      Table<Dispersion>("a dispersion")
+          .required("key", schema::text(&Dispersion::key), "a scenario key, dotted")
+          .optional("uniform", [](const Field&, Dispersion&) { return Status::ok(); })
+          .optional("normal", [](const Field&, Dispersion&) { return Status::ok(); })
+          .optional("choice", [](const Field&, Dispersion&) { return Status::ok(); });
+  return table;
+}
+
+const Table<DfpcEntry>& dfpcTable() {
+  static const Table<DfpcEntry> table =
+      Table<DfpcEntry>("a DFPC entry")
+          .required("graph", schema::text(&DfpcEntry::graph), "a DFPC graph file")
+          .optional("set",
+                    [](const Field& f, DfpcEntry& e) {
+                      return f.words(e.settings, "settings NODE.PARAM=VALUE");
+                    })
+          .optional("map", [](const Field& f, DfpcEntry& e) {
+            return f.words(e.maps, "input maps DFPC.INPUT=/channel");
+          });
+  return table;
+}
+
+Status readDispersions(const Field& f, Campaign& c) {
+  if (!f.isList()) return f.fail("a list of dispersions ({key: ..., uniform: [low, high]})");
+  for (const Field& e : f.elements()) {
+    Dispersion d;
+    CDFF_RETURN_IF_ERROR(dispersionTable().read(e, d));
+    CDFF_RETURN_IF_ERROR(readDistribution(e, d));
+    d.where = e.location();
+    for (const Dispersion& other : c.dispersions)
+      if (other.key == d.key)
+        return e["key"].fail("a key not dispersed twice", "already dispersed above");
+    c.dispersions.push_back(std::move(d));
+  }
+  return Status::ok();
+}
+
+const Table<Campaign>& campaignTable() {
+  static const Table<Campaign> table =
+      Table<Campaign>("a campaign")
+          .required("name", schema::text(&Campaign::name), "the campaign's name")
+          .optional("doc", schema::text(&Campaign::doc))
+          .required(
+              "runs",
+              [](const Field& f, Campaign& c) {
+                std::int64_t n = 0;
+                CDFF_RETURN_IF_ERROR(f.read(n, 1, 1'000'000));
+                c.runs = static_cast<std::uint64_t>(n);
+                return Status::ok();
+              },
+              "the number of runs (1 to 1000000)")
+          .optional("first_draw",
+                    [](const Field& f, Campaign& c) {
+                      std::int64_t n = 0;
+                      CDFF_RETURN_IF_ERROR(f.read(n, 1, std::int64_t{1} << 62));
+                      c.first_draw = static_cast<std::uint64_t>(n);
+                      return Status::ok();
+                    })
+          .optional("keep", schema::named(&Campaign::keep,
+                                          {{"evaluation", Keep::kEvaluation}, {"all", Keep::kAll}}))
+          .required("scenarios",
+                    schema::listOf(&Campaign::scenarios, scenarioTable(), "scenario entries"),
+                    "a list of scenario entries ({name: mid_range_approach})")
+          .optional("dispersions", readDispersions)
+          .required("dfpcs", schema::listOf(&Campaign::dfpcs, dfpcTable(), "DFPC entries"),
+                    "a list of DFPC entries ({graph: dfpcs/lidar_tracking.yaml})");
+  return table;
+}
+
+/// Draws are numbered as in data/evaluation/draws.yaml: a campaign starts after the tuning draws
+/// (1..10000) by default, so that no figure it gives was tuned on.
+constexpr std::uint64_t kDefaultFirstDraw = 1'000'001;
+
+std::string drawValue(const Dispersion& d, std::uint64_t draw) {
+  egse::Rng rng = egse::Rng::stream(draw, "campaign.dispersion." + d.key);
+  switch (d.kind) {
+    case DistributionKind::kUniform:
+      return fmt::format("{}", rng.uniform(d.low, d.high));
+    case DistributionKind::kNormal:
+      return fmt::format("{}", rng.normal(d.mean, d.sigma));
+    case DistributionKind::kChoice:
+      return d.values[rng.below(d.values.size())];
+  }
+  return {};
+}
+
+std::string quoted(const std::string& s) {
+  if (s.find_first_of(" \t'\"$`\\*?[]{}()<>|&;#~") == std::string::npos && !s.empty()) return s;
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+}  // namespace
+
+std::uint64_t Campaign::identity() const {
+  return egse::hashName(text);
+}
+
+Result<Campaign> parseCampaign(const std::string& text, const std::string& source) {
+  Result<schema::Document> doc = schema::Document::parse(text, source);
+  if (!doc) return doc.status();
+  Campaign c;
+  c.first_draw = kDefaultFirstDraw;
+  CDFF_RETURN_IF_ERROR(campaignTable().read(doc->root(), c));
+  if (c.scenarios.empty())
+    return doc->root()["scenarios"].fail("at least one scenario entry", "an empty list");
+  if (c.dfpcs.empty()) return doc->root()["dfpcs"].fail("at least one DFPC entry", "an empty list");
+  c.source = source;
+  c.text = text;
+  return c;
+}
+
+Result<Campaign> loadCampaign(const std::string& path) {
+  Result<schema::Document> doc = schema::Document::loadFile(path, "campaign");
+  if (!doc) return doc.status();
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return parseCampaign(text, path);
+}
+
+RunPlan planRun(const Campaign& campaign, std::uint64_t index) {
+  RunPlan plan;
+  plan.index = index;
+  plan.draw = campaign.first_draw + index;
+  plan.scenario = &campaign.scenarios[index % campaign.scenarios.size()];
+  plan.overrides = plan.scenario->set;
+  for (const Dispersion& d : campaign.dispersions) {
+    std::string value = drawValue(d, plan.draw);
+    plan.overrides.push_back(d.key + "=" + value);
+    plan.dispersed.emplace_back(d.key, std::move(value));
+  }
+  return plan;
+}
+
+Status checkCampaign(const Campaign& campaign) {
+  for (const ScenarioEntry& s : campaign.scenarios) {
+    Result<std::filesystem::path> path = egse::resolveScenario(s.name);
+    if (!path) return path.status();
+    if (Result<egse::Scenario> sc = egse::loadScenario(*path, s.set); !sc) return sc.status();
+    for (const Dispersion& d : campaign.dispersions) {
+      std::vector<std::string> extremes;
+      if (d.kind == DistributionKind::kUniform)
+        extremes = {fmt::format("{}", d.low), fmt::format("{}", d.high)};
+      if (d.kind == DistributionKind::kNormal)
+        extremes = {fmt::format("{}", d.mean - 3 * d.sigma),
+                    fmt::format("{}", d.mean + 3 * d.sigma)};
+      if (d.kind == DistributionKind::kChoice) extremes = d.values;
+      for (const std::string& v : extremes) {
+        std::vector<std::string> overrides = s.set;
+        overrides.push_back(d.key + "=" + v);
+        Result<egse::Scenario> sc = egse::loadScenario(*path, overrides);
+        if (!sc)
+          return Status(StatusCode::kInvalidParameter,
+                        fmt::format("dispersion '{}' of scenario '{}' at {}: {}", d.key, s.name, v,
+                                    sc.status().message()),
+                        d.where);
+      }
+    }
+  }
+  for (const DfpcEntry& e : campaign.dfpcs) {
+    Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(e.graph, e.settings);
+    if (!graph) return graph.status();
+    for (const Status& problem : dfpc::checkGraph(*graph))
+      if (!problem.isOk()) return problem;
+  }
+  return Status::ok();
+}
+
+std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan) {
+  std::string sim =
+      fmt::format("cdff sim {} -o sim.mcap --seed {}", quoted(plan.scenario->name), plan.draw);
+  if (plan.scenario->duration) sim += fmt::format(" --duration {}", *plan.scenario->duration);
+  for (const std::string& o : plan.overrides) sim += " --set " + quoted(o);
+  std::string run = "cdff run";
+  for (const DfpcEntry& e : campaign.dfpcs) {
+    run += " " + quoted(e.graph);
+    for (const std::string& s : e.settings) run += " --set " + quoted(s);
+    for (const std::string& m : e.maps) run += " --map " + quoted(m);
+  }
+  run += " -i sim.mcap -o out.mcap";
+  return sim + " && " + run + " && cdff eval out.mcap";
+}
+
+}  // namespace cdff::campaign

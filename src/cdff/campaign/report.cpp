@@ -1,0 +1,228 @@
+// A campaign's report (report.hpp).
+
+#include "cdff/campaign/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+#include <boost/math/distributions/beta.hpp>
+
+#include "cdff/campaign/run.hpp"
+
+namespace cdff::campaign {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json distribution(const std::vector<double>& v) {
+  if (v.empty()) return json::object({{"count", 0}});
+  return {{"count", v.size()},
+          {"p50", percentile(v, 50)},
+          {"p95", percentile(v, 95)},
+          {"p99", percentile(v, 99)},
+          {"max", *std::max_element(v.begin(), v.end())}};
+}
+
+struct RequirementTally {
+  json first;  // the first row seen: id, title, quantity, threshold, comparison, statistic
+  std::uint64_t pass = 0, fail = 0, not_applicable = 0;
+  std::uint64_t no_product = 0;         // of the fails: runs whose DFPCs produced no pose at all
+  std::set<std::string> applicable_in;  // scenarios where some run had a verdict
+  std::vector<double> measured;
+  std::vector<std::pair<double, std::uint64_t>> by_run;  // measured, run index
+};
+
+/// Worse first: the largest measured value for an upper bound ("<"), the smallest for a lower.
+void sortWorstFirst(RequirementTally& t) {
+  const bool upper = t.first.value("comparison", "<").find('<') != std::string::npos;
+  std::sort(t.by_run.begin(), t.by_run.end(), [upper](const auto& a, const auto& b) {
+    return upper ? a.first > b.first : a.first < b.first;
+  });
+}
+
+json requirementsOf(std::map<std::string, RequirementTally>& tallies,
+                    const std::map<std::uint64_t, json>& runs, double confidence) {
+  json out = json::array();
+  for (auto& [key, t] : tallies) {
+    json r = {{"id", t.first["id"]},
+              {"title", t.first["title"]},
+              {"channel", t.first["channel"]},
+              {"quantity", t.first["quantity"]},
+              {"statistic", t.first["statistic"]},
+              {"comparison", t.first["comparison"]},
+              {"threshold", t.first["threshold"]},
+              {"pass", t.pass},
+              {"fail", t.fail},
+              {"not_applicable", t.not_applicable},
+              {"failed_without_product", t.no_product},
+              {"measured", distribution(t.measured)}};
+    const std::uint64_t applicable = t.pass + t.fail;
+    if (applicable > 0) {
+      const auto [low, high] = clopperPearson(t.pass, applicable, confidence);
+      r["pass_fraction"] = static_cast<double>(t.pass) / applicable;
+      r["pass_interval"] = {low, high};
+    }
+    sortWorstFirst(t);
+    json worst = json::array();
+    for (std::size_t i = 0; i < std::min<std::size_t>(3, t.by_run.size()); ++i) {
+      const json& run = runs.at(t.by_run[i].second);
+      worst.push_back({{"index", run["index"]},
+                       {"measured", t.by_run[i].first},
+                       {"reproduce", run["reproduce"]}});
+    }
+    r["worst_runs"] = worst;
+    out.push_back(r);
+  }
+  return out;
+}
+
+json productsOf(const std::map<std::uint64_t, json>& runs) {
+  std::map<std::string, std::map<std::string, std::vector<double>>> figures;
+  for (const auto& [index, run] : runs) {
+    if (run.value("status", "") != "ok") continue;
+    for (const json& p : run["evaluation"]["products"]) {
+      auto& f = figures[p.value("channel", "?")];
+      for (const char* quantity :
+           {"position_error_m", "position_error_pct_range", "angle_error_deg"})
+        if (p.contains(quantity) && p[quantity].contains("p95") && p[quantity]["p95"].is_number())
+          f[std::string(quantity) + "_p95"].push_back(p[quantity]["p95"]);
+      if (p.contains("tracked_fraction") && p["tracked_fraction"].is_number())
+        f["tracked_fraction"].push_back(p["tracked_fraction"]);
+    }
+  }
+  json out = json::object();
+  for (const auto& [channel, f] : figures)
+    for (const auto& [name, values] : f) out[channel][name] = distribution(values);
+  return out;
+}
+
+}  // namespace
+
+std::pair<double, double> clopperPearson(std::uint64_t successes, std::uint64_t trials,
+                                         double confidence) {
+  const double alpha = 1.0 - confidence;
+  const double k = static_cast<double>(successes), n = static_cast<double>(trials);
+  const double low =
+      successes == 0
+          ? 0.0
+          : boost::math::quantile(boost::math::beta_distribution<>(k, n - k + 1), alpha / 2);
+  const double high =
+      successes == trials
+          ? 1.0
+          : boost::math::quantile(boost::math::beta_distribution<>(k + 1, n - k), 1 - alpha / 2);
+  return {low, high};
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return std::nan("");
+  std::sort(values.begin(), values.end());
+  const double rank = p / 100.0 * static_cast<double>(values.size() - 1);
+  const std::size_t below = static_cast<std::size_t>(std::floor(rank));
+  const std::size_t above = std::min(below + 1, values.size() - 1);
+  return values[below] + (rank - below) * (values[above] - values[below]);
+}
+
+Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
+  std::map<std::uint64_t, json> runs;
+  json failed = json::array();
+  std::map<std::string, RequirementTally> tallies;
+  for (std::uint64_t i = 0; i < campaign.runs; ++i) {
+    const fs::path file = resultFile(results, i);
+    if (!fs::exists(file)) continue;
+    json r = json::parse(std::ifstream(file), nullptr, false);
+    if (r.is_discarded()) return corruptData("'{}' is not a run result (JSON)", file.string());
+    runs[i] = r;
+    if (r.value("status", "") == "no_product") continue;  // counted below, once all are read
+    if (r.value("status", "") != "ok") {
+      failed.push_back({{"index", i},
+                        {"stage", r.value("stage", "")},
+                        {"error", r.value("error", "")},
+                        {"reproduce", r.value("reproduce", "")}});
+      continue;
+    }
+    for (const json& row : r["evaluation"]["requirements"]) {
+      const std::string key = fmt::format("{}|{}|{}", row.value("id", ""), row.value("channel", ""),
+                                          row.value("quantity", ""));
+      RequirementTally& t = tallies[key];
+      if (t.first.is_null()) t.first = row;
+      const std::string verdict = row.value("verdict", "");
+      if (verdict == "pass")
+        ++t.pass;
+      else if (verdict == "fail")
+        ++t.fail;
+      else
+        ++t.not_applicable;
+      if (verdict == "pass" || verdict == "fail") t.applicable_in.insert(r.value("scenario", ""));
+      if (row.contains("measured") && row["measured"].is_number()) {
+        t.measured.push_back(row["measured"]);
+        t.by_run.emplace_back(row["measured"].get<double>(), i);
+      }
+    }
+  }
+  // A run whose DFPCs produced no pose fails every requirement that applied to the runs of its
+  // scenario that did produce one (the truth's range is the scenario's): no estimate is a miss.
+  json no_product = json::array();
+  for (const auto& [i, r] : runs) {
+    if (r.value("status", "") != "no_product") continue;
+    no_product.push_back({{"index", i}, {"reproduce", r.value("reproduce", "")}});
+    for (auto& [key, t] : tallies)
+      if (t.applicable_in.count(r.value("scenario", ""))) {
+        ++t.fail;
+        ++t.no_product;
+      }
+  }
+  std::uint64_t ok = 0, without_product = 0;
+  for (const auto& [i, r] : runs) {
+    ok += r.value("status", "") == "ok";
+    without_product += r.value("status", "") == "no_product";
+  }
+  return json{{"campaign", campaign.name},
+              {"source", campaign.source},
+              {"runs",
+               {{"planned", campaign.runs},
+                {"done", runs.size()},
+                {"ok", ok},
+                {"no_product", without_product},
+                {"failed", runs.size() - ok - without_product},
+                {"missing", campaign.runs - runs.size()}}},
+              {"confidence", 0.95},
+              {"requirements", requirementsOf(tallies, runs, 0.95)},
+              {"products", productsOf(runs)},
+              {"no_product_runs", no_product},
+              {"failed_runs", failed}};
+}
+
+std::string reportText(const json& report) {
+  const json& runs = report["runs"];
+  std::string out = fmt::format(
+      "campaign {}: {} of {} runs done: {} evaluated, {} without a pose product (counted as "
+      "failing the requirements that applied to their scenario), {} failed\n",
+      report["campaign"].get<std::string>(), runs["done"].get<int>(), runs["planned"].get<int>(),
+      runs["ok"].get<int>(), runs["no_product"].get<int>(), runs["failed"].get<int>());
+  for (const json& r : report["requirements"]) {
+    const std::uint64_t applicable =
+        r["pass"].get<std::uint64_t>() + r["fail"].get<std::uint64_t>();
+    if (applicable == 0) continue;
+    const json& m = r["measured"];
+    out += fmt::format(
+        "  {} {} {} {} {}: pass {}/{} = {:.1f} % (95 % CI {:.1f}-{:.1f} %); over runs p50 {:.4g} "
+        "p95 {:.4g} max {:.4g}\n",
+        r["id"].get<std::string>(), r["channel"].get<std::string>(),
+        r["quantity"].get<std::string>(), r["comparison"].get<std::string>(), r["threshold"].dump(),
+        r["pass"].get<std::uint64_t>(), applicable, 100 * r["pass_fraction"].get<double>(),
+        100 * r["pass_interval"][0].get<double>(), 100 * r["pass_interval"][1].get<double>(),
+        m.value("p50", NAN), m.value("p95", NAN), m.value("max", NAN));
+  }
+  for (const json& f : report["failed_runs"])
+    out += fmt::format("  run {} failed at {}: {}\n    reproduce: {}\n", f["index"].get<int>(),
+                       f["stage"].get<std::string>(), f["error"].get<std::string>(),
+                       f["reproduce"].get<std::string>());
+  return out;
+}
+
+}  // namespace cdff::campaign

@@ -1,0 +1,157 @@
+// One run of a campaign (run.hpp).
+
+#include "cdff/campaign/run.hpp"
+
+#include <chrono>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "cdff/dfpc/recording_streams.hpp"
+#include "cdff/dfpc/replay.hpp"
+#include "cdff/egse/mcap_sink.hpp"
+#include "cdff/egse/scenario.hpp"
+#include "cdff/egse/simulator.hpp"
+#include "cdff/eval/recording_evaluation.hpp"
+#include "cdff/eval/report.hpp"
+#include "cdff/io/replay.hpp"
+
+namespace cdff::campaign {
+namespace {
+
+namespace fs = std::filesystem;
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+Status simulate(const RunPlan& plan, const fs::path& output) {
+  Result<fs::path> path = egse::resolveScenario(plan.scenario->name);
+  if (!path) return path.status();
+  Result<egse::Scenario> scenario = egse::loadScenario(*path, plan.overrides);
+  if (!scenario) return scenario.status();
+  auto sim = egse::Simulator::create(*scenario, plan.draw, plan.scenario->duration);
+  if (!sim) return sim.status();
+  auto sink = egse::openMcapSink(output.string());
+  if (!sink) return sink.status();
+  return (*sim)->run(**sink);
+}
+
+Status process(const Campaign& campaign, const fs::path& input, const fs::path& output) {
+  dfpc::ReplayOptions options;
+  for (const DfpcEntry& e : campaign.dfpcs) {
+    options.graph_files.push_back(e.graph);
+    options.parameter_settings.insert(options.parameter_settings.end(), e.settings.begin(),
+                                      e.settings.end());
+    for (const std::string& m : e.maps) {
+      Result<dfpc::ChannelRemap> remap = dfpc::parseRemap(m);
+      if (!remap) return remap.status();
+      options.remaps.push_back(*remap);
+    }
+  }
+  dfpc::McapInputStream in;
+  CDFF_RETURN_IF_ERROR(in.open({input.string()}));
+  dfpc::McapSink sink;
+  CDFF_RETURN_IF_ERROR(sink.open(output.string()));
+  Result<dfpc::ReplayResult> result = dfpc::replay(in, sink, options);
+  const Status closed = sink.close();
+  if (!result) return result.status();
+  return closed;
+}
+
+/// Whether the DFPCs' output holds a pose product (what evaluation measures): a DFPC that never
+/// produced one (a tracker that never acquired) leaves none.
+Result<bool> hasPoseProduct(const fs::path& output) {
+  io::Replay replay;
+  CDFF_RETURN_IF_ERROR(replay.open({output.string()}));
+  for (const io::ReplayChannel& c : replay.channels()) {
+    const bool pose = c.type == TypeId::of<PoseWithCovariance>() ||
+                      c.type == TypeId::of<RigidBodyState>() || c.type == TypeId::of<Transform>();
+    if (pose && c.topic.rfind("/cdff/", 0) == 0 && c.message_count > 0) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+fs::path runDirectory(const fs::path& results, std::uint64_t index) {
+  return results / "runs" / fmt::format("{:06d}", index);
+}
+
+fs::path resultFile(const fs::path& results, std::uint64_t index) {
+  return runDirectory(results, index) / "result.json";
+}
+
+Status writeResult(const fs::path& results, std::uint64_t index, const nlohmann::json& result) {
+  const fs::path file = resultFile(results, index);
+  std::error_code ec;
+  fs::create_directories(file.parent_path(), ec);
+  if (ec) return ioError("cannot create '{}': {}", file.parent_path().string(), ec.message());
+  const fs::path partial = file.string() + ".partial";
+  {
+    std::ofstream out(partial);
+    out << result.dump(1) << "\n";
+    if (!out) return ioError("cannot write '{}'", partial.string());
+  }
+  fs::rename(partial, file, ec);
+  if (ec)
+    return ioError("cannot rename '{}' to '{}': {}", partial.string(), file.string(), ec.message());
+  return Status::ok();
+}
+
+Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
+                                  const fs::path& results) {
+  const RunPlan plan = planRun(campaign, index);
+  const fs::path dir = runDirectory(results, index);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return ioError("cannot create '{}': {}", dir.string(), ec.message());
+  nlohmann::json r = {{"index", index},
+                      {"draw", plan.draw},
+                      {"scenario", plan.scenario->name},
+                      {"dispersed", nlohmann::json::object()},
+                      {"reproduce", reproduceCommand(campaign, plan)}};
+  for (const auto& [key, value] : plan.dispersed) r["dispersed"][key] = value;
+  const fs::path sim = dir / "sim.mcap", out = dir / "out.mcap";
+  auto fail = [&](const char* stage, const Status& s) {
+    r["status"] = "failed";
+    r["stage"] = stage;
+    r["error"] = s.message();
+  };
+  auto start = std::chrono::steady_clock::now();
+  if (Status s = simulate(plan, sim); !s) {
+    fail("simulate", s);
+  } else {
+    r["wall_s"]["simulate"] = secondsSince(start);
+    start = std::chrono::steady_clock::now();
+    if (Status p = process(campaign, sim, out); !p) {
+      fail("run", p);
+    } else {
+      r["wall_s"]["run"] = secondsSince(start);
+      start = std::chrono::steady_clock::now();
+      Result<bool> produced = hasPoseProduct(out);
+      eval::RecordingEvaluationNotes notes;
+      Result<eval::EvaluationReport> report = Status::ok();
+      if (produced && !*produced) {
+        r["status"] = "no_product";  // ran to its end without producing a pose: not a fault
+      } else if (!produced) {
+        fail("evaluate", produced.status());
+      } else if (report = eval::evaluateRecording({out.string()}, {}, &notes); !report) {
+        fail("evaluate", report.status());
+      } else {
+        r["wall_s"]["evaluate"] = secondsSince(start);
+        r["status"] = "ok";
+        r["evaluation"] = eval::toJson(*report);
+        r["evaluation"]["notes"] = notes.notes;
+      }
+    }
+  }
+  if (campaign.keep == Keep::kEvaluation) {
+    fs::remove(sim, ec);
+    fs::remove(out, ec);
+  }
+  CDFF_RETURN_IF_ERROR(writeResult(results, index, r));
+  return r;
+}
+
+}  // namespace cdff::campaign

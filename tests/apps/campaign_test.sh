@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# `cdff campaign` and `cdff campaign-report`: a small campaign run by the local pool (two jobs),
+# its report (pass fractions with intervals, the runs that produced no pose), resumption (runs
+# done are not redone; a missing result is redone alone), and errors for bad campaigns and for a
+# results folder of another campaign.
+# usage: campaign_test.sh CDFF SOURCE_DIR WORK_DIR
+set -u
+cdff=$1
+source_dir=$2
+work=$3
+rm -rf "$work"
+mkdir -p "$work"
+cd "$source_dir" || exit 1  # the graphs' model paths are relative to the source tree
+
+source "$(dirname "${BASH_SOURCE[0]}")/check.sh"
+
+# 4 runs of 3 s of the smoke campaign's LIDAR-only approach, two dispersions.
+sed -e 's/^runs: 20/runs: 4/' -e 's/duration: 20/duration: 3/' \
+  data/campaigns/lidar_tracking_smoke.yaml > "$work/small.yaml"
+out="$work/results"
+
+check campaign-check 0 'ok \(4 runs, 1 scenarios, 9 dispersions, 1 graphs\)' -- \
+  "$cdff" campaign "$work/small.yaml" --check
+check campaign-run 0 'campaign lidar_tracking_smoke: 4 of 4 runs done' -- \
+  "$cdff" campaign "$work/small.yaml" -o "$out" -j 2
+check campaign-results 0 '"status": "(ok|no_product)"' -- cat "$out/runs/000003/result.json"
+check campaign-report-interval 0 '"pass_interval"' -- cat "$out/report.json"
+check campaign-reproduce 0 'cdff sim mid_range_approach -o sim.mcap --seed 1000004 --duration 3' -- \
+  cat "$out/runs/000003/result.json"
+check campaign-resume 0 '0 runs done now \(0 failed, 0 retried\), 4 done before' -- \
+  "$cdff" campaign "$work/small.yaml" -o "$out" -j 2
+rm "$out/runs/000002/result.json"
+check campaign-redo-one 0 '1 runs done now \(0 failed, 0 retried\), 3 done before' -- \
+  "$cdff" campaign "$work/small.yaml" -o "$out" -j 2
+check campaign-report 0 'SR_DFPC_0100 /cdff/lidar_tracking/pose position_error_m < 1.0: pass [0-9]+/4' -- \
+  "$cdff" campaign-report "$out"
+
+# errors
+sed 's/^runs: 4/runs: 5/' "$work/small.yaml" > "$work/other.yaml"
+check campaign-other-folder 1 "holds the results of campaign 'lidar_tracking_smoke' \(.*small.yaml\)" -- \
+  "$cdff" campaign "$work/other.yaml" -o "$out"
+sed 's/sensors.lidar.range_noise/sensors.lidar.range_nois/' "$work/small.yaml" > "$work/typo.yaml"
+check campaign-unknown-key 1 "typo.yaml:[0-9]+:[0-9]+: dispersion 'sensors.lidar.range_nois'.*did you mean 'range_noise'" -- \
+  "$cdff" campaign "$work/typo.yaml" -o "$work/typo"
+sed 's/^runs: 4/runs: -4/' "$work/small.yaml" > "$work/negative.yaml"
+check campaign-negative-runs 1 'negative.yaml:[0-9]+:[0-9]+: runs = -4: out of range; expected an integer in \[1, 1000000\]' -- \
+  "$cdff" campaign "$work/negative.yaml" -o "$work/negative"
+check campaign-missing 1 'cannot open campaign' -- "$cdff" campaign "$work/none.yaml" -o "$work/none"
+check campaign-report-not-results 1 'is not a campaign.s results folder' -- \
+  "$cdff" campaign-report "$work"
+check campaign-no-output 2 'expected -o DIR' -- "$cdff" campaign "$work/small.yaml"
+
+echo "$failures failure(s)"
+[ "$failures" -eq 0 ]

@@ -1,0 +1,176 @@
+// The campaign library: reading and checking campaign files (errors at file:line with the key),
+// reproducible and independent draws, the Clopper-Pearson interval against published values,
+// and the local pool retrying, then recording, a run whose process crashes.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "cdff/campaign/campaign.hpp"
+#include "cdff/campaign/pool.hpp"
+#include "cdff/campaign/report.hpp"
+#include "cdff/campaign/run.hpp"
+
+namespace cdff::campaign {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kGraph = std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml";
+
+std::string campaignText(const std::string& dispersions = "") {
+  return "name: t\nruns: 5\nscenarios:\n  - {name: mid_range_approach, duration: 2}\n" +
+         (dispersions.empty() ? std::string() : "dispersions:\n" + dispersions) +
+         "dfpcs:\n  - graph: " + kGraph + "\n";
+}
+
+TEST(CampaignFile, ReadsScenariosDispersionsAndGraphs) {
+  Result<Campaign> c =
+      parseCampaign(campaignText("  - {key: sensors.lidar.range_noise, uniform: [0.01, 0.03]}\n"
+                                 "  - {key: target.attitude.rpy_deg.0, normal: [10, 5]}\n"
+                                 "  - {key: lighting.sun.preset, choice: [side_lit, front_lit]}\n"),
+                    "c.yaml");
+  ASSERT_TRUE(c) << c.status().message();
+  EXPECT_EQ(c->runs, 5u);
+  EXPECT_EQ(c->first_draw, 1'000'001u);  // after the tuning draws
+  ASSERT_EQ(c->dispersions.size(), 3u);
+  EXPECT_EQ(c->dispersions[2].values, (std::vector<std::string>{"side_lit", "front_lit"}));
+  EXPECT_TRUE(checkCampaign(*c).isOk()) << checkCampaign(*c).message();
+}
+
+TEST(CampaignFile, ErrorsNameTheFileLineAndKey) {
+  auto error = [](const std::string& text) {
+    Result<Campaign> c = parseCampaign(text, "c.yaml");
+    return c ? checkCampaign(*c).message() : c.status().message();
+  };
+  // a dispersed key the scenario does not have: at the dispersion's line, with the near miss
+  EXPECT_EQ(error(campaignText("  - {key: sensors.lidar.range_nois, uniform: [0.01, 0.02]}\n"))
+                .rfind("c.yaml:6:5: dispersion 'sensors.lidar.range_nois'", 0),
+            0u);
+  EXPECT_NE(error(campaignText("  - {key: sensors.lidar.range_nois, uniform: [0.01, 0.02]}\n"))
+                .find("did you mean 'range_noise'?"),
+            std::string::npos);
+  // a value the scenario refuses, found at the distribution's extreme
+  EXPECT_NE(error(campaignText("  - {key: sensors.lidar.range_noise, uniform: [-1, 0.02]}\n"))
+                .find("range_noise=-1"),
+            std::string::npos);
+  std::string text = campaignText();
+  EXPECT_NE(error(std::string(text).replace(text.find("runs: 5"), 7, "runs: -5"))
+                .find("c.yaml:2:7: runs = -5: out of range"),
+            std::string::npos);
+  EXPECT_NE(error(std::string(text).replace(text.find("runs: 5"), 7, "runs: 5\nfirst_draws: 3"))
+                .find("did you mean 'first_draw'?"),
+            std::string::npos);
+  EXPECT_NE(error(campaignText("  - {key: a.b, uniform: [2, 1]}\n")).find("low <= high"),
+            std::string::npos);
+  EXPECT_NE(error(campaignText("  - {key: a.b}\n")).find("no distribution"), std::string::npos);
+  EXPECT_NE(error(campaignText("  - {key: a.b, uniform: [0, 1], normal: [0, 1]}\n"))
+                .find("several distributions"),
+            std::string::npos);
+}
+
+TEST(RunPlan, EachRunIsItsDrawAndEachDispersionItsOwnStream) {
+  const std::string noise = "  - {key: sensors.lidar.range_noise, uniform: [0.01, 0.03]}\n";
+  const std::string yaw = "  - {key: target.attitude.rpy_deg.2, uniform: [-180, 180]}\n";
+  Result<Campaign> one = parseCampaign(campaignText(noise), "a.yaml");
+  Result<Campaign> two = parseCampaign(campaignText(yaw + noise), "b.yaml");
+  ASSERT_TRUE(one && two);
+  const RunPlan a = planRun(*one, 3), b = planRun(*two, 3), again = planRun(*one, 3);
+  EXPECT_EQ(a.draw, one->first_draw + 3);
+  EXPECT_EQ(a.dispersed, again.dispersed);  // reproducible from (campaign, index)
+  // adding a dispersion leaves the others' values as they were
+  EXPECT_EQ(a.dispersed[0], b.dispersed[1]);
+  EXPECT_NE(planRun(*one, 4).dispersed[0].second, a.dispersed[0].second);
+  // the uniform's values over many runs stay in range and fill it
+  double low = 1, high = 0;
+  for (std::uint64_t i = 0; i < 200; ++i) {
+    const double v = std::stod(planRun(*one, i).dispersed[0].second);
+    low = std::min(low, v);
+    high = std::max(high, v);
+  }
+  EXPECT_GE(low, 0.01);
+  EXPECT_LE(high, 0.03);
+  EXPECT_LT(low, 0.0102);
+  EXPECT_GT(high, 0.0298);
+}
+
+TEST(Statistics, ClopperPearsonMatchesPublishedValues) {
+  // Exact binomial intervals (e.g. the tables of Clopper and Pearson 1934, or R's binom.test)
+  auto [l0, h0] = clopperPearson(0, 20);
+  EXPECT_DOUBLE_EQ(l0, 0.0);
+  EXPECT_NEAR(h0, 0.16843, 1e-5);
+  auto [l1, h1] = clopperPearson(20, 20);
+  EXPECT_NEAR(l1, 0.83157, 1e-5);
+  EXPECT_DOUBLE_EQ(h1, 1.0);
+  auto [l2, h2] = clopperPearson(5, 10);
+  EXPECT_NEAR(l2, 0.18709, 1e-5);
+  EXPECT_NEAR(h2, 0.81291, 1e-5);
+  auto [l3, h3] = clopperPearson(16, 20);
+  EXPECT_NEAR(l3, 0.56339, 1e-5);
+  EXPECT_NEAR(h3, 0.94267, 1e-5);
+}
+
+TEST(Statistics, PercentileInterpolatesBetweenOrderStatistics) {
+  EXPECT_DOUBLE_EQ(percentile({3, 1, 2}, 50), 2);
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4}, 50), 2.5);
+  EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4}, 100), 4);
+  EXPECT_DOUBLE_EQ(percentile({7}, 95), 7);
+}
+
+TEST(Pool, ARunWhoseProcessCrashesIsRetriedOnceThenRecorded) {
+  Result<Campaign> c = parseCampaign(campaignText(), "crash.yaml");
+  ASSERT_TRUE(c);
+  c->runs = 2;
+  const fs::path dir = fs::temp_directory_path() / "cdff_campaign_pool_test";
+  fs::remove_all(dir);
+  ASSERT_TRUE(prepareResults(*c, dir).isOk());
+  PoolOptions options;
+  options.jobs = 2;
+  options.progress = false;
+  // A run process that kills itself and counts its attempts in the run's folder.
+  options.run_command = {"/bin/sh", "-c", "echo x >> \"$0/runs/00000$1/attempts\"; kill -SEGV $$",
+                         dir.string()};
+  Result<PoolSummary> s = runPool(*c, dir, options);
+  ASSERT_TRUE(s) << s.status().message();
+  EXPECT_EQ(s->completed, 2u);
+  EXPECT_EQ(s->failed, 2u);
+  EXPECT_EQ(s->retried, 2u);
+  for (int i = 0; i < 2; ++i) {
+    std::ifstream attempts(runDirectory(dir, i) / "attempts");
+    std::string line;
+    int n = 0;
+    while (std::getline(attempts, line)) ++n;
+    EXPECT_EQ(n, 2);  // once, then retried once
+    const nlohmann::json r = nlohmann::json::parse(std::ifstream(resultFile(dir, i)));
+    EXPECT_EQ(r["status"], "failed");
+    EXPECT_NE(r["error"].get<std::string>().find("killed by signal 11"), std::string::npos);
+    EXPECT_NE(r["reproduce"].get<std::string>().find("--seed"), std::string::npos);
+  }
+  // a second call finds every run done and does nothing
+  Result<PoolSummary> again = runPool(*c, dir, options);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->skipped, 2u);
+  EXPECT_EQ(again->completed, 0u);
+  fs::remove_all(dir);
+}
+
+TEST(Pool, AFolderOfAnotherCampaignIsRefused) {
+  Result<Campaign> a = parseCampaign(campaignText(), "a.yaml");
+  Result<Campaign> b = parseCampaign(campaignText() + "# another\n", "b.yaml");
+  ASSERT_TRUE(a && b);
+  const fs::path dir = fs::temp_directory_path() / "cdff_campaign_identity_test";
+  fs::remove_all(dir);
+  ASSERT_TRUE(prepareResults(*a, dir).isOk());
+  EXPECT_TRUE(prepareResults(*a, dir).isOk());  // the same campaign resumes
+  const Status refused = prepareResults(*b, dir);
+  EXPECT_EQ(refused.code(), StatusCode::kInvalidInput);
+  EXPECT_NE(refused.message().find("holds the results of campaign 't' (a.yaml)"), std::string::npos)
+      << refused.message();
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cdff::campaign
