@@ -16,6 +16,7 @@
 #include "cdff/campaign/pool.hpp"
 #include "cdff/campaign/report.hpp"
 #include "cdff/campaign/run.hpp"
+#include "cdff/campaign/slurm.hpp"
 #include "commands.hpp"
 
 namespace cdff::app {
@@ -28,6 +29,11 @@ struct CampaignArgs {
   int jobs = 0;
   std::int64_t run = -1;
   bool quiet = false, check_only = false;
+  // Slurm
+  bool slurm = false, wait = false, fallback_local = false;
+  std::string partition, slice, sbatch = "sbatch";
+  std::uint64_t tasks = 0;
+  int cpus_per_task = 1;
 };
 
 std::string selfExecutable() {
@@ -53,6 +59,40 @@ int writeReport(const campaign::Campaign& c, const fs::path& dir, const std::str
   return (*report)["runs"]["failed"].get<int>() > 0 ? 1 : 0;
 }
 
+constexpr int kRunLocally = -1;
+
+/// Submits the campaign as a Slurm array job; with --wait, reports when it has ended. Returns
+/// kRunLocally when Slurm cannot take it and --fallback-local asks for the local pool.
+int submitToSlurm(const campaign::Campaign& c, const CampaignArgs& args) {
+  campaign::SlurmOptions options;
+  options.partition = args.partition;
+  options.tasks = args.tasks;
+  options.cpus_per_task = args.cpus_per_task;
+  options.wait = args.wait;
+  options.sbatch = args.sbatch;
+  options.task_command = {selfExecutable(), "campaign", fs::absolute(args.file).string(), "-o",
+                          fs::absolute(args.output).string()};
+  Result<campaign::SlurmSubmission> job = campaign::submitArrayJob(c, args.output, options);
+  if (!job) {
+    if (!args.fallback_local) return fail(job.status());
+    fmt::print(stderr, "warning: {}\ncdff campaign: running on this machine (--fallback-local)\n",
+               job.status().message());
+    return kRunLocally;
+  }
+  const std::string after =
+      args.wait ? " ended" : " submitted; when it has ended: cdff campaign-report " + args.output;
+  fmt::print(stderr, "cdff campaign: Slurm job {} ({} array tasks){}\n  {}\n", job->job_id,
+             job->tasks, after, job->command);
+  if (!args.wait) return 0;
+  const int report = writeReport(c, args.output, args.json, args.quiet);
+  if (job->end_status != 0)
+    return fail(ioError(
+        "Slurm job {} ended in failure (sbatch --wait exit status {}): {}; the "
+        "tasks' logs are in {}",
+        job->job_id, job->end_status, job->end_output, (fs::path(args.output) / "slurm").string()));
+  return report;
+}
+
 int runCampaign(const CampaignArgs& args) {
   Result<campaign::Campaign> c = campaign::loadCampaign(args.file);
   if (!c) return fail(c.status());
@@ -73,10 +113,21 @@ int runCampaign(const CampaignArgs& args) {
     return 0;
   }
   if (Status s = campaign::prepareResults(*c, dir); !s) return fail(s);
+  if (args.slurm) {
+    const int status = submitToSlurm(*c, args);
+    if (status != kRunLocally) return status;
+  }
   campaign::PoolOptions options;
   options.jobs = args.jobs > 0 ? args.jobs : static_cast<int>(std::thread::hardware_concurrency());
   options.run_command = {selfExecutable(), "campaign", args.file, "-o", dir.string(), "--run"};
   options.progress = !args.quiet;
+  if (!args.slice.empty()) {  // a Slurm array task: its share of the runs, no report
+    Result<std::pair<std::uint64_t, std::uint64_t>> slice = campaign::parseSlice(args.slice);
+    if (!slice) return fail(slice.status());
+    std::tie(options.slice_index, options.slice_count) = *slice;
+    Result<campaign::PoolSummary> done = campaign::runPool(*c, dir, options);
+    return done ? 0 : fail(done.status());
+  }
   Result<campaign::PoolSummary> summary = campaign::runPool(*c, dir, options);
   if (!summary) return fail(summary.status());
   if (!args.quiet)
@@ -116,6 +167,18 @@ void addCampaignCommands(CLI::App& root, int& exit_code) {
                 "Check the campaign (scenarios with their dispersions, graphs) and stop");
   run->add_flag("-q,--quiet", args->quiet, "No progress line and no report text");
   run->add_option("--json", args->json, "Write the report here (default: DIR/report.json)");
+  run->add_flag("--slurm", args->slurm, "Submit the runs as a Slurm array job (sbatch --array)");
+  run->add_option("--partition", args->partition, "With --slurm: the partition");
+  run->add_option("--tasks", args->tasks, "With --slurm: array tasks (default: one per 10 runs)")
+      ->check(CLI::Range(1, 100000));
+  run->add_option("--cpus-per-task", args->cpus_per_task,
+                  "With --slurm: cores per task (its local pool's jobs)")
+      ->check(CLI::Range(1, 1024));
+  run->add_flag("--wait", args->wait, "With --slurm: wait for the job's end, then report");
+  run->add_flag("--fallback-local", args->fallback_local,
+                "With --slurm: run on this machine when Slurm cannot take the job");
+  run->add_option("--sbatch", args->sbatch, "With --slurm: the sbatch command (default: sbatch)");
+  run->add_option("--slice", args->slice, "Only the runs i with i mod K == I (I/K: a Slurm task)");
   run->callback([args, &exit_code] {
     if (args->output.empty() && !args->check_only) {
       fmt::print(stderr, "error: cdff campaign {}: expected -o DIR (the results folder)\n",

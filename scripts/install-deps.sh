@@ -16,6 +16,8 @@ packages=(
   # tests, benchmarks, bindings
   libgtest-dev libgmock-dev libbenchmark-dev pybind11-dev python3-dev python3-yaml
   python3-numpy python3-pytest python3-matplotlib
+  # verification campaigns on a cluster (the tests start a private single-node Slurm)
+  slurm-wlm munge
   # peers measured in the benchmarks (Open3D: global registration)
   libopen3d-dev
 )

@@ -119,6 +119,7 @@ Result<PoolSummary> runPool(const Campaign& campaign, const fs::path& results,
   const auto start = std::chrono::steady_clock::now();
   std::deque<std::uint64_t> todo;
   for (std::uint64_t i = 0; i < campaign.runs; ++i) {
+    if (i % std::max<std::uint64_t>(1, options.slice_count) != options.slice_index) continue;
     if (fs::exists(resultFile(results, i)))
       ++summary.skipped;
     else

@@ -19,6 +19,8 @@ struct PoolOptions {
   /// DIR, "--run"}.
   std::vector<std::string> run_command;
   bool progress = true;  // a progress line with the ETA on stderr
+  /// Only the runs i with i mod slice_count == slice_index (a Slurm array task's share).
+  std::uint64_t slice_index = 0, slice_count = 1;
 };
 
 struct PoolSummary {

@@ -1,0 +1,93 @@
+// Campaigns on Slurm (slurm.hpp).
+
+#include "cdff/campaign/slurm.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include <fmt/format.h>
+
+namespace cdff::campaign {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Runs a shell command line; its exit status and its output (stdout and stderr).
+std::pair<int, std::string> runCommand(const std::string& line) {
+  std::FILE* pipe = popen((line + " 2>&1").c_str(), "r");
+  if (!pipe) return {-1, "cannot start a shell"};
+  std::string output;
+  char buffer[4096];
+  while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe)) output.append(buffer, n);
+  const int status = pclose(pipe);
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
+  return {code, output};
+}
+
+}  // namespace
+
+std::string shellQuoted(const std::string& word) {
+  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                              "0123456789-_./=:,+@%") == std::string::npos)
+    return word;
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+Result<std::pair<std::uint64_t, std::uint64_t>> parseSlice(const std::string& text) {
+  unsigned long long index = 0, count = 0;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%llu/%llu%c", &index, &count, &extra) != 2 || count == 0 ||
+      index >= count)
+    return invalidParameter(
+        "--slice '{}': expected I/K with 0 <= I < K (a Slurm array task's "
+        "share of the runs)",
+        text);
+  return std::pair<std::uint64_t, std::uint64_t>{index, count};
+}
+
+Result<SlurmSubmission> submitArrayJob(const Campaign& campaign, const fs::path& results,
+                                       const SlurmOptions& options) {
+  SlurmSubmission s;
+  s.tasks = options.tasks > 0 ? options.tasks
+                              : std::clamp<std::uint64_t>((campaign.runs + 9) / 10, 1, 1000);
+  s.tasks = std::min(s.tasks, campaign.runs);
+  std::error_code ec;
+  fs::create_directories(results / "slurm", ec);
+  std::string task;
+  for (const std::string& word : options.task_command) task += shellQuoted(word) + " ";
+  task +=
+      fmt::format("--slice \"$SLURM_ARRAY_TASK_ID/{}\" -j {} -q", s.tasks, options.cpus_per_task);
+  s.command = fmt::format(
+      "{} --parsable --array=0-{} --job-name={} --output={} --chdir={} --cpus-per-task={}{}{} "
+      "--wrap={}",
+      shellQuoted(options.sbatch), s.tasks - 1, shellQuoted("cdff-" + campaign.name),
+      shellQuoted((fs::absolute(results) / "slurm" / "%A_%a.log").string()),
+      shellQuoted(fs::current_path().string()), options.cpus_per_task,
+      options.partition.empty() ? "" : " --partition=" + shellQuoted(options.partition),
+      options.wait ? " --wait" : "", shellQuoted(task));
+  const auto [code, output] = runCommand(s.command);
+  // --parsable prints "jobid[;cluster]"; with --wait the job's end comes after it.
+  const std::string first_line = output.substr(0, output.find('\n'));
+  s.job_id = first_line.substr(0, first_line.find(';'));
+  const bool submitted =
+      !s.job_id.empty() && s.job_id.find_first_not_of("0123456789") == std::string::npos;
+  if (!submitted)
+    return ioError(
+        "sbatch could not submit the campaign's array job (exit status {}): {}; is "
+        "Slurm reachable (`sinfo`)? Without --slurm, or with --fallback-local, the "
+        "campaign runs on this machine",
+        code, output.empty() ? "no output" : output);
+  if (code != 0)
+    return ioError(
+        "Slurm job {} ended in failure (sbatch --wait exit status {}): {}; its tasks' "
+        "logs are in {}",
+        s.job_id, code, output, (results / "slurm").string());
+  return s;
+}
+
+}  // namespace cdff::campaign
