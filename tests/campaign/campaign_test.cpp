@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -154,6 +155,51 @@ TEST(Pool, ARunWhoseProcessCrashesIsRetriedOnceThenRecorded) {
   ASSERT_TRUE(again);
   EXPECT_EQ(again->skipped, 2u);
   EXPECT_EQ(again->completed, 0u);
+  fs::remove_all(dir);
+}
+
+TEST(Pool, ProcessesOfOneClaimGroupShareTheRunsAndDoEachOnce) {
+  Result<Campaign> c = parseCampaign(campaignText(), "claims.yaml");
+  ASSERT_TRUE(c);
+  c->runs = 8;
+  const fs::path dir = fs::temp_directory_path() / "cdff_campaign_claim_test";
+  fs::remove_all(dir);
+  ASSERT_TRUE(prepareResults(*c, dir).isOk());
+  // A run process that notes that it ran, takes a moment, and writes its result.
+  auto options = [&](std::uint64_t slice) {
+    PoolOptions o;
+    o.jobs = 1;
+    o.progress = false;
+    o.claim_group = "job7";
+    o.slice_index = slice;
+    o.slice_count = 2;
+    o.run_command = {"/bin/sh", "-c",
+                     "d=\"$0/runs/00000$1\"; echo $$ >> \"$d/ran\"; sleep 0.1; "
+                     "echo '{\"status\": \"ok\"}' > \"$d/result.json\"",
+                     dir.string()};
+    return o;
+  };
+  Result<PoolSummary> a = Status::ok(), b = Status::ok();
+  std::thread other([&] { b = runPool(*c, dir, options(1)); });
+  a = runPool(*c, dir, options(0));
+  other.join();
+  ASSERT_TRUE(a && b);
+  EXPECT_EQ(a->completed + b->completed, 8u);
+  EXPECT_GT(a->completed, 0u);
+  EXPECT_GT(b->completed, 0u);
+  for (int i = 0; i < 8; ++i) {
+    std::ifstream ran(runDirectory(dir, i) / "ran");
+    std::string line;
+    int n = 0;
+    while (std::getline(ran, line)) ++n;
+    EXPECT_EQ(n, 1) << "run " << i;
+  }
+  // a later group (a resubmitted job) ignores the claims of this one: nothing is left to do
+  PoolOptions later = options(0);
+  later.claim_group = "job8";
+  Result<PoolSummary> again = runPool(*c, dir, later);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->skipped, 8u);
   fs::remove_all(dir);
 }
 

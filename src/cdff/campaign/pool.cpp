@@ -13,6 +13,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <thread>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -42,6 +43,30 @@ Result<pid_t> spawnRun(const PoolOptions& options, std::uint64_t index, const fs
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) return ioError("cannot start '{}': {}", args[0], std::strerror(rc));
   return pid;
+}
+
+/// Creates `dir`/claim.<group> if no one has: true when this process now has the run.
+bool claim(const fs::path& dir, const std::string& group) {
+  const fs::path file = dir / ("claim." + group);
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
+  if (fd < 0) return false;
+  const std::string who = fmt::format("{}\n", getpid());
+  (void)!::write(fd, who.data(), who.size());
+  ::close(fd);
+  return true;
+}
+
+/// Waits until one of this pool's own run processes ends (never another child of the program,
+/// which may run other pools or processes of its own): its pid and wait status.
+Result<pid_t> waitForOne(const std::map<pid_t, std::uint64_t>& running, int& status) {
+  while (true) {
+    for (const auto& [pid, index] : running) {
+      const pid_t ended = waitpid(pid, &status, WNOHANG);
+      if (ended == pid) return pid;
+      if (ended < 0) return ioError("waiting for run {}: {}", index, std::strerror(errno));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
 }
 
 std::string exitReason(int status) {
@@ -118,8 +143,10 @@ Result<PoolSummary> runPool(const Campaign& campaign, const fs::path& results,
   summary.runs = campaign.runs;
   const auto start = std::chrono::steady_clock::now();
   std::deque<std::uint64_t> todo;
-  for (std::uint64_t i = 0; i < campaign.runs; ++i) {
-    if (i % std::max<std::uint64_t>(1, options.slice_count) != options.slice_index) continue;
+  const std::uint64_t first =
+      options.slice_index * campaign.runs / std::max<std::uint64_t>(1, options.slice_count);
+  for (std::uint64_t k = 0; k < campaign.runs; ++k) {
+    const std::uint64_t i = (first + k) % campaign.runs;
     if (fs::exists(resultFile(results, i)))
       ++summary.skipped;
     else
@@ -135,16 +162,19 @@ Result<PoolSummary> runPool(const Campaign& campaign, const fs::path& results,
       todo.pop_front();
       std::error_code ec;
       fs::create_directories(runDirectory(results, index), ec);
+      if (!options.claim_group.empty() && attempts[index] == 0 &&
+          !claim(runDirectory(results, index), options.claim_group))
+        continue;  // another process of the group has it
       Result<pid_t> pid = spawnRun(options, index, runDirectory(results, index) / "log.txt");
       if (!pid) return pid.status();
       running[*pid] = index;
       ++attempts[index];
     }
+    if (running.empty()) continue;  // every remaining run was claimed by another process
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) return ioError("waiting for the runs: {}", std::strerror(errno));
-    const auto it = running.find(pid);
-    if (it == running.end()) continue;
+    Result<pid_t> ended = waitForOne(running, status);
+    if (!ended) return ended.status();
+    const auto it = running.find(*ended);
     const std::uint64_t index = it->second;
     running.erase(it);
     if (!fs::exists(resultFile(results, index))) {

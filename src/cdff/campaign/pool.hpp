@@ -19,7 +19,14 @@ struct PoolOptions {
   /// DIR, "--run"}.
   std::vector<std::string> run_command;
   bool progress = true;  // a progress line with the ETA on stderr
-  /// Only the runs i with i mod slice_count == slice_index (a Slurm array task's share).
+  /// Processes that share the runs (a Slurm array job's tasks) claim each run before running
+  /// it: the first to create DIR/runs/NNNNNN/claim.<claim_group> runs it, the others go on to
+  /// the next run, so that a task that is done early takes runs a slower one has not reached.
+  /// Empty: no claims (the only process on the folder). Claims of another group (an earlier
+  /// job) are ignored: a resubmitted job redoes what an interrupted one left unfinished.
+  std::string claim_group;
+  /// Where in the run order this process starts (task I of K starts at run I * runs / K), so
+  /// that the processes of a group start apart.
   std::uint64_t slice_index = 0, slice_count = 1;
 };
 

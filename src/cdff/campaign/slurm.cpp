@@ -5,7 +5,9 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -61,17 +63,19 @@ Result<SlurmSubmission> submitArrayJob(const Campaign& campaign, const fs::path&
   std::string task;
   for (const std::string& word : options.task_command) task += shellQuoted(word) + " ";
   task +=
-      fmt::format("--slice \"$SLURM_ARRAY_TASK_ID/{}\" -j {} -q", s.tasks, options.cpus_per_task);
+      fmt::format("--slice \"$SLURM_ARRAY_TASK_ID/{}\" --claim \"job$SLURM_ARRAY_JOB_ID\" -j {} -q",
+                  s.tasks, options.cpus_per_task);
   s.command = fmt::format(
-      "{} --parsable --array=0-{} --job-name={} --output={} --chdir={} --cpus-per-task={}{}{} "
+      "{} --parsable --array=0-{} --job-name={} --output={} --chdir={} --cpus-per-task={}{} "
       "--wrap={}",
       shellQuoted(options.sbatch), s.tasks - 1, shellQuoted("cdff-" + campaign.name),
       shellQuoted((fs::absolute(results) / "slurm" / "%A_%a.log").string()),
       shellQuoted(fs::current_path().string()), options.cpus_per_task,
       options.partition.empty() ? "" : " --partition=" + shellQuoted(options.partition),
-      options.wait ? " --wait" : "", shellQuoted(task));
+      shellQuoted(task));
+  const auto submitted_at = std::chrono::steady_clock::now();
   const auto [code, output] = runCommand(s.command);
-  // --parsable prints "jobid[;cluster]"; with --wait the job's end comes after it.
+  // --parsable prints "jobid[;cluster]".
   const std::string first_line = output.substr(0, output.find('\n'));
   s.job_id = first_line.substr(0, first_line.find(';'));
   const bool submitted =
@@ -82,11 +86,27 @@ Result<SlurmSubmission> submitArrayJob(const Campaign& campaign, const fs::path&
         "Slurm reachable (`sinfo`)? Without --slurm, or with --fallback-local, the "
         "campaign runs on this machine",
         code, output.empty() ? "no output" : output);
-  if (code != 0)
-    return ioError(
-        "Slurm job {} ended in failure (sbatch --wait exit status {}): {}; its tasks' "
-        "logs are in {}",
-        s.job_id, code, output, (results / "slurm").string());
+  if (!options.wait) return s;
+  // The job has ended when squeue no longer lists it. Asking squeue costs the controller and a
+  // process each time, so while runs are missing their results (a stat each) are what is
+  // watched every second, and squeue is asked every 15 s (a task that died leaves runs without
+  // results) and every second once every run has one.
+  for (int tick = 0;; ++tick) {
+    bool all_done = true;
+    for (std::uint64_t i = 0; i < campaign.runs && all_done; ++i)
+      all_done = fs::exists(results / "runs" / fmt::format("{:06d}", i) / "result.json");
+    if (all_done || tick % 15 == 14) {
+      const auto [status, listed] =
+          runCommand(fmt::format("{} -h -j {} -o %i", shellQuoted(options.squeue), s.job_id));
+      const bool gone = listed.empty() || listed.find("Invalid job id") != std::string::npos;
+      if (status != 0 && !gone)
+        return ioError("squeue could not tell the state of job {} (exit status {}): {}", s.job_id,
+                       status, listed);
+      if (gone) break;
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - submitted_at).count();
   return s;
 }
 

@@ -1,9 +1,10 @@
 #pragma once
-// Running a campaign on a Slurm cluster: one array job (`sbatch --array=0-(K-1)`) whose task I
-// runs the runs i with i mod K == I through the local pool on its node (`cdff campaign FILE -o
-// DIR --slice I/K`), writing into the shared results folder; `cdff campaign-report DIR` (or
-// --wait) gathers them. Runs already done are skipped by every task, so a job can be
-// resubmitted after an interruption.
+// Running a campaign on a Slurm cluster: one array job (`sbatch --array=0-(K-1)`) whose tasks
+// run the local pool on their nodes (`cdff campaign FILE -o DIR --slice I/K --claim JOB`) over
+// the shared results folder, each claiming runs as it goes (pool.hpp), so that the runs spread
+// over the tasks however long each takes; `cdff campaign-report DIR` (or --wait) gathers them.
+// Runs already done are skipped by every task, so a job can be resubmitted after an
+// interruption.
 
 #include <cstdint>
 #include <filesystem>
@@ -20,6 +21,7 @@ struct SlurmOptions {
   int cpus_per_task = 1;    // each task's local pool runs this many at a time
   bool wait = false;        // return when the job has ended (sbatch --wait)
   std::string sbatch = "sbatch";
+  std::string squeue = "squeue";
   /// The command a task runs, its slice appended: {"/path/cdff", "campaign", FILE, "-o", DIR}.
   std::vector<std::string> task_command;
 };
@@ -28,10 +30,8 @@ struct SlurmSubmission {
   std::string job_id;
   std::uint64_t tasks = 0;
   std::string command;  // the sbatch command line, for the user to see
-  /// With `wait`: sbatch's exit status once the job ended (0: every task succeeded) and what it
-  /// said.
-  int end_status = 0;
-  std::string end_output;
+  /// With `wait`: the job's wall time from its submission to its end, s.
+  double wall_s = 0;
 };
 
 /// Submits the array job; an error (kIoError) says why sbatch could not submit it (not
