@@ -167,14 +167,16 @@ std::string drawValue(const Dispersion& d, std::uint64_t draw) {
   return {};
 }
 
-std::string quoted(const std::string& s) {
-  if (s.find_first_of(" \t'\"$`\\*?[]{}()<>|&;#~") == std::string::npos && !s.empty()) return s;
+}  // namespace
+
+std::string shellQuoted(const std::string& word) {
+  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                              "0123456789-_./=:,+@%") == std::string::npos)
+    return word;
   std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return out + "'";
 }
-
-}  // namespace
 
 std::uint64_t Campaign::identity() const {
   return egse::hashName(text);
@@ -252,14 +254,14 @@ Status checkCampaign(const Campaign& campaign) {
 
 std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan) {
   std::string sim =
-      fmt::format("cdff sim {} -o sim.mcap --seed {}", quoted(plan.scenario->name), plan.draw);
+      fmt::format("cdff sim {} -o sim.mcap --seed {}", shellQuoted(plan.scenario->name), plan.draw);
   if (plan.scenario->duration) sim += fmt::format(" --duration {}", *plan.scenario->duration);
-  for (const std::string& o : plan.overrides) sim += " --set " + quoted(o);
+  for (const std::string& o : plan.overrides) sim += " --set " + shellQuoted(o);
   std::string run = "cdff run";
   for (const DfpcEntry& e : campaign.dfpcs) {
-    run += " " + quoted(e.graph);
-    for (const std::string& s : e.settings) run += " --set " + quoted(s);
-    for (const std::string& m : e.maps) run += " --map " + quoted(m);
+    run += " " + shellQuoted(e.graph);
+    for (const std::string& s : e.settings) run += " --set " + shellQuoted(s);
+    for (const std::string& m : e.maps) run += " --map " + shellQuoted(m);
   }
   run += " -i sim.mcap -o out.mcap";
   return sim + " && " + run + " && cdff eval out.mcap";

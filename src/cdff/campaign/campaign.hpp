@@ -85,6 +85,9 @@ RunPlan planRun(const Campaign& campaign, std::uint64_t index);
 /// loads every graph with its settings.
 Status checkCampaign(const Campaign& campaign);
 
+/// A word quoted for a POSIX shell when it needs to be.
+std::string shellQuoted(const std::string& word);
+
 /// The shell command that reproduces a run on its own (simulate, run, evaluate).
 std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan);
 

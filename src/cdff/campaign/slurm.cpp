@@ -31,15 +31,6 @@ std::pair<int, std::string> runCommand(const std::string& line) {
 
 }  // namespace
 
-std::string shellQuoted(const std::string& word) {
-  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                              "0123456789-_./=:,+@%") == std::string::npos)
-    return word;
-  std::string out = "'";
-  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 Result<std::pair<std::uint64_t, std::uint64_t>> parseSlice(const std::string& text) {
   unsigned long long index = 0, count = 0;
   char extra = 0;

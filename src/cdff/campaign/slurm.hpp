@@ -43,7 +43,4 @@ Result<SlurmSubmission> submitArrayJob(const Campaign& campaign,
 /// Parses "I/K" (0 <= I < K).
 Result<std::pair<std::uint64_t, std::uint64_t>> parseSlice(const std::string& text);
 
-/// A word quoted for a POSIX shell when it needs to be.
-std::string shellQuoted(const std::string& word);
-
 }  // namespace cdff::campaign
