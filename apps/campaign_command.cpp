@@ -55,7 +55,11 @@ int writeReport(const campaign::Campaign& c, const fs::path& dir, const std::str
   std::ofstream out(path);
   out << report->dump(1) << "\n";
   if (!out) return fail(ioError("cannot write '{}'", path));
-  if (!quiet) fmt::print("{}report: {}\n", campaign::reportText(*report), path);
+  const std::string html_path = (dir / "report.html").string();
+  std::ofstream html(html_path);
+  html << campaign::reportHtml(*report);
+  if (!html) return fail(ioError("cannot write '{}'", html_path));
+  if (!quiet) fmt::print("{}report: {}, {}\n", campaign::reportText(*report), path, html_path);
   return (*report)["runs"]["failed"].get<int>() > 0 ? 1 : 0;
 }
 

@@ -12,6 +12,7 @@
 #include <boost/math/distributions/beta.hpp>
 
 #include "cdff/campaign/run.hpp"
+#include "cdff/eval/html.hpp"
 
 namespace cdff::campaign {
 namespace {
@@ -61,6 +62,9 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
               {"not_applicable", t.not_applicable},
               {"failed_without_product", t.no_product},
               {"measured", distribution(t.measured)}};
+    std::vector<double> sorted = t.measured;
+    std::sort(sorted.begin(), sorted.end());
+    r["measured_values"] = sorted;
     const std::uint64_t applicable = t.pass + t.fail;
     if (applicable > 0) {
       const auto [low, high] = clopperPearson(t.pass, applicable, confidence);
@@ -223,6 +227,91 @@ std::string reportText(const json& report) {
                        f["stage"].get<std::string>(), f["error"].get<std::string>(),
                        f["reproduce"].get<std::string>());
   return out;
+}
+
+namespace {
+
+std::string requirementRowHtml(const json& r) {
+  using eval::escapeHtml;
+  const std::uint64_t applicable = r["pass"].get<std::uint64_t>() + r["fail"].get<std::uint64_t>();
+  if (applicable == 0)
+    return fmt::format(
+        "<tr class='not_applicable'><td>{}</td><td>{}</td><td>{}</td><td>{} {}</td>"
+        "<td colspan='5'>applies to no run</td></tr>\n",
+        escapeHtml(r["id"]), escapeHtml(r["channel"]), escapeHtml(r["quantity"]),
+        escapeHtml(r["comparison"]), r["threshold"].dump());
+  const json& m = r["measured"];
+  return fmt::format(
+      "<tr class='{}'><td>{}</td><td>{}</td><td>{}</td><td>{} {}</td><td>{}/{}</td>"
+      "<td>{:.1f} % [{:.1f}, {:.1f}]</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td></tr>\n",
+      r["fail"].get<std::uint64_t>() == 0 ? "pass" : "fail", escapeHtml(r["id"]),
+      escapeHtml(r["channel"]), escapeHtml(r["quantity"]), escapeHtml(r["comparison"]),
+      r["threshold"].dump(), r["pass"].get<std::uint64_t>(), applicable,
+      100 * r["pass_fraction"].get<double>(), 100 * r["pass_interval"][0].get<double>(),
+      100 * r["pass_interval"][1].get<double>(), m.value("p50", NAN), m.value("p95", NAN),
+      m.value("max", NAN));
+}
+
+/// The measured values over the runs, sorted: the fraction of runs (x, %) at or below a value.
+std::string requirementPlot(const json& r) {
+  const std::vector<double> values = r.value("measured_values", std::vector<double>{});
+  if (values.empty()) return {};
+  eval::PlotSeries series;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    series.x.push_back(100.0 * static_cast<double>(i + 1) / static_cast<double>(values.size()));
+    series.y.push_back(values[i]);
+  }
+  return eval::svgPlot(
+      fmt::format("{} {} ({}), {}", r["id"].get<std::string>(), r["quantity"].get<std::string>(),
+                  r["statistic"].get<std::string>(), r["channel"].get<std::string>()),
+      "runs at or below (%)", r["quantity"].get<std::string>(), series,
+      r["threshold"].is_number() ? r["threshold"].get<double>() : NAN);
+}
+
+std::string runListHtml(const json& runs, const char* title) {
+  if (runs.empty()) return {};
+  std::string html = fmt::format(
+      "<h2>{}</h2><table><tr><th>run</th><th>why</th>"
+      "<th>reproduce</th></tr>\n",
+      title);
+  for (const json& f : runs)
+    html +=
+        fmt::format("<tr><td>{}</td><td>{}</td><td><code>{}</code></td></tr>\n",
+                    f["index"].get<std::uint64_t>(),
+                    eval::escapeHtml(f.contains("stage") ? f["stage"].get<std::string>() + ": " +
+                                                               f.value("error", std::string())
+                                                         : std::string("no pose product")),
+                    eval::escapeHtml(f.value("reproduce", std::string())));
+  return html + "</table>\n";
+}
+
+}  // namespace
+
+std::string reportHtml(const json& report) {
+  using eval::escapeHtml;
+  const json& runs = report["runs"];
+  std::string html = std::string(
+                         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+                         "<title>CDFF campaign ") +
+                     escapeHtml(report["campaign"]) + "</title><style>\n" + eval::kPageCss +
+                     "</style></head><body>\n";
+  html += fmt::format(
+      "<h1>Campaign {}</h1><p>From <code>{}</code>: {} of {} runs done: {} evaluated, {} without "
+      "a pose product (counted as failing the requirements that applied to their scenario), {} "
+      "failed. Pass fractions with their exact 95 % (Clopper-Pearson) intervals; the measured "
+      "statistic's distribution over the runs.</p>\n",
+      escapeHtml(report["campaign"]), escapeHtml(report["source"]), runs["done"].get<int>(),
+      runs["planned"].get<int>(), runs["ok"].get<int>(), runs["no_product"].get<int>(),
+      runs["failed"].get<int>());
+  html +=
+      "<table><tr><th>requirement</th><th>channel</th><th>quantity</th><th>bound</th>"
+      "<th>pass</th><th>fraction [95 % CI]</th><th>p50</th><th>p95</th><th>max</th></tr>\n";
+  for (const json& r : report["requirements"]) html += requirementRowHtml(r);
+  html += "</table>\n";
+  for (const json& r : report["requirements"]) html += requirementPlot(r);
+  html += runListHtml(report["no_product_runs"], "Runs without a pose product");
+  html += runListHtml(report["failed_runs"], "Failed runs");
+  return html + "</body></html>\n";
 }
 
 }  // namespace cdff::campaign

@@ -31,5 +31,7 @@ Result<nlohmann::json> campaignReport(const Campaign& campaign,
 
 /// The report as text for a terminal.
 std::string reportText(const nlohmann::json& report);
+/// The report as a self-contained HTML page (tables and inline SVG plots).
+std::string reportHtml(const nlohmann::json& report);
 
 }  // namespace cdff::campaign

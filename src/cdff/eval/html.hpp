@@ -1,0 +1,28 @@
+#pragma once
+// Self-contained HTML pages of results (`cdff eval --html`, `cdff campaign`'s report.html): text
+// escaping, the shared style sheet, and plots as inline SVG, so that a page needs no script and
+// no file beside it.
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace cdff::eval {
+
+/// `text` with &, <, > and " escaped for HTML.
+std::string escapeHtml(const std::string& text);
+
+/// The style sheet of the pages (tables with pass/fail cells, plots).
+extern const char* const kPageCss;
+
+struct PlotSeries {
+  std::vector<double> x, y;
+};
+
+/// One scatter-and-line plot as inline SVG: axes with ticks, the data, and an optional
+/// horizontal threshold line (the requirement) drawn dashed; `connect` draws the line.
+std::string svgPlot(const std::string& title, const std::string& x_label,
+                    const std::string& y_label, const PlotSeries& data, double threshold = NAN,
+                    bool connect = true);
+
+}  // namespace cdff::eval
