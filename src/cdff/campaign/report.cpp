@@ -264,7 +264,7 @@ std::string requirementPlot(const json& r) {
   return eval::svgPlot(
       fmt::format("{} {} ({}), {}", r["id"].get<std::string>(), r["quantity"].get<std::string>(),
                   r["statistic"].get<std::string>(), r["channel"].get<std::string>()),
-      "runs at or below (%)", r["quantity"].get<std::string>(), series,
+      "runs with a value at or below it (%)", r["quantity"].get<std::string>(), series,
       r["threshold"].is_number() ? r["threshold"].get<double>() : NAN);
 }
 
