@@ -4,7 +4,6 @@
 // whose RMS is a fraction of the range and an angle, and that Gaussian's covariance
 // (eval::perturbedInitialState). `cdff run GRAPH -i SIM.mcap -i INIT.mcap` then starts the
 // tracker from it.
-#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -13,9 +12,6 @@
 #include <fmt/format.h>
 
 #include "cdff/eval/initial_state.hpp"
-#include "cdff/eval/pose_evaluation.hpp"
-#include "cdff/io/recorder.hpp"
-#include "cdff/io/replay.hpp"
 #include "commands.hpp"
 
 namespace cdff::app {
@@ -37,54 +33,29 @@ struct InitialStateOptions {
 };
 
 Status writeInitialState(const InitialStateOptions& o) {
-  io::Replay replay;
-  io::ReplayOptions replay_options;
-  replay_options.channels = {o.truth_channel, o.at_channel};
-  CDFF_RETURN_IF_ERROR(replay.open({o.input}, replay_options));
-  std::vector<Transform> truth;
-  std::optional<Timestamp> at;
-  while (replay.next()) {
-    const io::ReplayMessage& m = replay.message();
-    if (m.channel() == o.truth_channel) {
-      Result<std::shared_ptr<const RigidBodyState>> s = m.decode<RigidBodyState>();
-      if (!s) return s.status();
-      truth.push_back((*s)->pose);
-    } else if (!at) {
-      at = m.logTime();
-      // A scan's stamp is its start, earlier than its log time.
-      if (m.type() == TypeId::of<PointCloud>()) {
-        Result<std::shared_ptr<const PointCloud>> cloud = m.decode<PointCloud>();
-        if (!cloud) return cloud.status();
-        at = (*cloud)->stamp;
-      }
-    }
-  }
-  CDFF_RETURN_IF_ERROR(replay.status());
-  if (!at) return notFound("{} has no message on '{}'", o.input, o.at_channel);
-  std::sort(truth.begin(), truth.end(),
-            [](const Transform& a, const Transform& b) { return a.stamp < b.stamp; });
-  eval::InitialStatePerturbation perturbation;
-  perturbation.position_fraction = o.position_fraction;
-  perturbation.angle_rad = o.angle_deg * M_PI / 180.0;
-  perturbation.seed = o.seed;
-  perturbation.distribution = o.distribution == "fixed" ? eval::InitialErrorDistribution::kFixedSize
-                                                        : eval::InitialErrorDistribution::kGaussian;
-  perturbation.linear_velocity_sigma = o.linear_velocity_sigma;
-  perturbation.angular_velocity_sigma = o.angular_velocity_sigma_deg * M_PI / 180.0;
-  Result<RigidBodyState> state = eval::perturbedInitialState(truth, *at, perturbation);
-  if (!state) return state.status().withContext(o.input);
-  io::Recorder recorder;
-  CDFF_RETURN_IF_ERROR(recorder.open(o.output));
-  CDFF_RETURN_IF_ERROR(recorder.write(o.channel, *state));
-  CDFF_RETURN_IF_ERROR(recorder.close());
-  const std::optional<Transform> truth_at = eval::truthAt(truth, *at, {});
-  const double moved = truth_at ? (state->pose.translation - truth_at->translation).norm() : 0;
+  eval::InitialStateFromRecording from;
+  from.truth_channel = o.truth_channel;
+  from.at_channel = o.at_channel;
+  from.channel = o.channel;
+  eval::InitialStatePerturbation& p = from.perturbation;
+  p.position_fraction = o.position_fraction;
+  p.angle_rad = o.angle_deg * M_PI / 180.0;
+  p.seed = o.seed;
+  p.distribution = o.distribution == "fixed" ? eval::InitialErrorDistribution::kFixedSize
+                                             : eval::InitialErrorDistribution::kGaussian;
+  p.linear_velocity_sigma = o.linear_velocity_sigma;
+  p.angular_velocity_sigma = o.angular_velocity_sigma_deg * M_PI / 180.0;
+  Result<eval::WrittenInitialState> written = eval::writeInitialState(o.input, o.output, from);
+  if (!written) return written.status();
+  const RigidBodyState& state = written->state;
+  const std::optional<Transform>& truth_at = written->truth;
+  const double moved = truth_at ? (state.pose.translation - truth_at->translation).norm() : 0;
   const double turned =
-      truth_at ? logSO3(state->pose.rotation * truth_at->rotation.conjugate()).norm() : 0;
+      truth_at ? logSO3(state.pose.rotation * truth_at->rotation.conjugate()).norm() : 0;
   std::cout << fmt::format(
       "{}: initial state {}_T_{} at t = {:.3f} s on {} ({} error of RMS {:.1f} % of the range "
       "and {:.1f} deg; this draw: {:.3f} m and {:.2f} deg)\n",
-      o.output, state->pose.parent_frame, state->pose.child_frame, toSeconds(*at), o.channel,
+      o.output, state.pose.parent_frame, state.pose.child_frame, toSeconds(written->at), o.channel,
       o.distribution, 100 * o.position_fraction, o.angle_deg, moved, turned * 180 / M_PI);
   return Status::ok();
 }

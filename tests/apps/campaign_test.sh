@@ -35,6 +35,18 @@ check campaign-redo-one 0 '1 runs done now \(0 failed, 0 retried\), 3 done befor
 check campaign-report 0 'SR_DFPC_0100 /cdff/lidar_tracking/pose position_error_m < 1.0: pass [0-9]+/4' -- \
   "$cdff" campaign-report "$out"
 
+# a tracker started from a perturbed truth (the initial-state stage)
+cp "$work/small.yaml" "$work/init.yaml"
+echo "    initial_state: {channel: /cdff/lidar_tracking/initial_state, position_fraction: 0.05, angle_deg: 5}" \
+  >> "$work/init.yaml"
+check campaign-initial-state 0 '4 of 4 runs done: 4 evaluated' -- \
+  "$cdff" campaign "$work/init.yaml" -o "$work/init" -j 2
+check campaign-initial-state-reproduce 0 'cdff initial-state sim.mcap -o init0.mcap --channel /cdff/lidar_tracking/initial_state .*-i sim.mcap -i init0.mcap' -- \
+  cat "$work/init/runs/000001/result.json"
+sed 's/angle_deg: 5}/angle_deg: 500}/' "$work/init.yaml" > "$work/init_bad.yaml"
+check campaign-initial-state-range 1 'init_bad.yaml:[0-9]+:[0-9]+: dfpcs.0.initial_state.angle_deg = 500: out of range' -- \
+  "$cdff" campaign "$work/init_bad.yaml" -o "$work/init_bad"
+
 # errors
 sed 's/^runs: 4/runs: 5/' "$work/small.yaml" > "$work/other.yaml"
 check campaign-other-folder 1 "holds the results of campaign 'lidar_tracking_smoke' \(.*small.yaml\)" -- \

@@ -12,6 +12,7 @@
 #include "cdff/dfpc/graph.hpp"
 #include "cdff/egse/rng.hpp"
 #include "cdff/egse/scenario.hpp"
+#include "cdff/eval/draws.hpp"
 #include "cdff/schema/field.hpp"
 #include "cdff/schema/table.hpp"
 
@@ -89,6 +90,25 @@ const Table<Dispersion>& dispersionTable() {
   return table;
 }
 
+const Table<InitialStateEntry>& initialStateTable() {
+  static const Table<InitialStateEntry> table =
+      Table<InitialStateEntry>("an initial state")
+          .required("channel", schema::text(&InitialStateEntry::channel),
+                    "the channel of the tracker's initial state")
+          .optional("at", schema::text(&InitialStateEntry::at))
+          .optional("position_fraction", schema::number(&InitialStateEntry::position_fraction,
+                                                        schema::Range::closed(0, 10)))
+          .optional("angle_deg", schema::number(&InitialStateEntry::angle_deg,
+                                                schema::Range::closed(0, 180, "deg")))
+          .optional("distribution", [](const Field& f, InitialStateEntry& e) {
+            std::string d;
+            CDFF_RETURN_IF_ERROR(f.choice(d, {"gaussian", "fixed"}));
+            e.fixed_size = d == "fixed";
+            return Status::ok();
+          });
+  return table;
+}
+
 const Table<DfpcEntry>& dfpcTable() {
   static const Table<DfpcEntry> table =
       Table<DfpcEntry>("a DFPC entry")
@@ -97,8 +117,15 @@ const Table<DfpcEntry>& dfpcTable() {
                     [](const Field& f, DfpcEntry& e) {
                       return f.words(e.settings, "settings NODE.PARAM=VALUE");
                     })
-          .optional("map", [](const Field& f, DfpcEntry& e) {
-            return f.words(e.maps, "input maps DFPC.INPUT=/channel");
+          .optional("map",
+                    [](const Field& f, DfpcEntry& e) {
+                      return f.words(e.maps, "input maps DFPC.INPUT=/channel");
+                    })
+          .optional("initial_state", [](const Field& f, DfpcEntry& e) {
+            InitialStateEntry entry;
+            CDFF_RETURN_IF_ERROR(initialStateTable().read(f, entry));
+            e.initial_state = entry;
+            return Status::ok();
           });
   return table;
 }
@@ -257,14 +284,25 @@ std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan) {
       fmt::format("cdff sim {} -o sim.mcap --seed {}", shellQuoted(plan.scenario->name), plan.draw);
   if (plan.scenario->duration) sim += fmt::format(" --duration {}", *plan.scenario->duration);
   for (const std::string& o : plan.overrides) sim += " --set " + shellQuoted(o);
+  std::string init, inputs = " -i sim.mcap";
+  for (std::size_t k = 0; k < campaign.dfpcs.size(); ++k) {
+    const std::optional<InitialStateEntry>& i = campaign.dfpcs[k].initial_state;
+    if (!i) continue;
+    init += fmt::format(
+        " && cdff initial-state sim.mcap -o init{}.mcap --channel {} --at {} "
+        "--position-fraction {} --angle-deg {} --distribution {} --seed {}",
+        k, shellQuoted(i->channel), shellQuoted(i->at), i->position_fraction, i->angle_deg,
+        i->fixed_size ? "fixed" : "gaussian", eval::drawOf(plan.draw).initial_error_seed);
+    inputs += fmt::format(" -i init{}.mcap", k);
+  }
   std::string run = "cdff run";
   for (const DfpcEntry& e : campaign.dfpcs) {
     run += " " + shellQuoted(e.graph);
     for (const std::string& s : e.settings) run += " --set " + shellQuoted(s);
     for (const std::string& m : e.maps) run += " --map " + shellQuoted(m);
   }
-  run += " -i sim.mcap -o out.mcap";
-  return sim + " && " + run + " && cdff eval out.mcap";
+  run += inputs + " -o out.mcap";
+  return sim + init + " && " + run + " && cdff eval out.mcap";
 }
 
 }  // namespace cdff::campaign

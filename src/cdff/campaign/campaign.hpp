@@ -38,10 +38,22 @@ struct Dispersion {
   SourceLocation where;             // the dispersion's place in the campaign file
 };
 
+/// A tracker started from the truth with an error drawn as a detection's would be (`cdff
+/// initial-state`): written on `channel` at the first message of `at`, the error's size an RMS
+/// fraction of the range and an RMS angle, drawn from the run's initial-error stream.
+struct InitialStateEntry {
+  std::string channel;                      // e.g. /cdff/visual_tracking/initial_state
+  std::string at = "/chaser/lidar/points";  // the state is at this channel's first message
+  double position_fraction = 0.10;
+  double angle_deg = 10.0;
+  bool fixed_size = false;  // exactly the sizes in random directions instead of the Gaussian
+};
+
 struct DfpcEntry {
   std::string graph;                  // a DFPC graph file
   std::vector<std::string> settings;  // "[DFPC/]NODE.PARAM=VALUE", as `cdff run --set`
   std::vector<std::string> maps;      // "DFPC.INPUT=/channel", as `cdff run --map`
+  std::optional<InitialStateEntry> initial_state;
 };
 
 /// What a campaign keeps of each run besides its result (result.json): nothing more, or the

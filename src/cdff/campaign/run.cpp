@@ -12,6 +12,8 @@
 #include "cdff/egse/mcap_sink.hpp"
 #include "cdff/egse/scenario.hpp"
 #include "cdff/egse/simulator.hpp"
+#include "cdff/eval/draws.hpp"
+#include "cdff/eval/initial_state.hpp"
 #include "cdff/eval/recording_evaluation.hpp"
 #include "cdff/eval/report.hpp"
 #include "cdff/io/replay.hpp"
@@ -37,7 +39,33 @@ Status simulate(const RunPlan& plan, const fs::path& output) {
   return (*sim)->run(**sink);
 }
 
-Status process(const Campaign& campaign, const fs::path& input, const fs::path& output) {
+/// The initial states the DFPCs that need one start from (one file each), drawn from the run's
+/// initial-error stream (eval::drawOf), as `cdff initial-state` would.
+Result<std::vector<std::string>> initialStates(const Campaign& campaign, const RunPlan& plan,
+                                               const fs::path& sim, const fs::path& dir) {
+  std::vector<std::string> files;
+  for (std::size_t k = 0; k < campaign.dfpcs.size(); ++k) {
+    const std::optional<InitialStateEntry>& i = campaign.dfpcs[k].initial_state;
+    if (!i) continue;
+    eval::InitialStateFromRecording from;
+    from.channel = i->channel;
+    from.at_channel = i->at;
+    from.perturbation.position_fraction = i->position_fraction;
+    from.perturbation.angle_rad = i->angle_deg * M_PI / 180.0;
+    from.perturbation.distribution = i->fixed_size ? eval::InitialErrorDistribution::kFixedSize
+                                                   : eval::InitialErrorDistribution::kGaussian;
+    from.perturbation.seed = eval::drawOf(plan.draw).initial_error_seed;
+    const fs::path file = dir / fmt::format("init{}.mcap", k);
+    Result<eval::WrittenInitialState> written =
+        eval::writeInitialState(sim.string(), file.string(), from);
+    if (!written) return written.status();
+    files.push_back(file.string());
+  }
+  return files;
+}
+
+Status process(const Campaign& campaign, const std::vector<std::string>& inputs,
+               const fs::path& output) {
   dfpc::ReplayOptions options;
   for (const DfpcEntry& e : campaign.dfpcs) {
     options.graph_files.push_back(e.graph);
@@ -50,7 +78,7 @@ Status process(const Campaign& campaign, const fs::path& input, const fs::path& 
     }
   }
   dfpc::McapInputStream in;
-  CDFF_RETURN_IF_ERROR(in.open({input.string()}));
+  CDFF_RETURN_IF_ERROR(in.open(inputs));
   dfpc::McapSink sink;
   CDFF_RETURN_IF_ERROR(sink.open(output.string()));
   Result<dfpc::ReplayResult> result = dfpc::replay(in, sink, options);
@@ -124,7 +152,11 @@ Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
   } else {
     r["wall_s"]["simulate"] = secondsSince(start);
     start = std::chrono::steady_clock::now();
-    if (Status p = process(campaign, sim, out); !p) {
+    Result<std::vector<std::string>> inputs = initialStates(campaign, plan, sim, dir);
+    if (inputs) inputs->insert(inputs->begin(), sim.string());
+    if (!inputs) {
+      fail("initial state", inputs.status());
+    } else if (Status p = process(campaign, *inputs, out); !p) {
       fail("run", p);
     } else {
       r["wall_s"]["run"] = secondsSince(start);
@@ -146,10 +178,9 @@ Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
       }
     }
   }
-  if (campaign.keep == Keep::kEvaluation) {
-    fs::remove(sim, ec);
-    fs::remove(out, ec);
-  }
+  if (campaign.keep == Keep::kEvaluation)
+    for (const fs::directory_entry& file : fs::directory_iterator(dir, ec))
+      if (file.path().extension() == ".mcap") fs::remove(file.path(), ec);
   CDFF_RETURN_IF_ERROR(writeResult(results, index, r));
   return r;
 }

@@ -9,6 +9,8 @@
 // the error. `kFixedSize` moves the truth by exactly the stated sizes in random directions (a
 // controlled test of a basin's edge); its covariance is the same.
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "cdff/types/geometry.hpp"
@@ -32,5 +34,25 @@ struct InitialStatePerturbation {
 /// `stamp`, or when a size is negative or not finite.
 Result<RigidBodyState> perturbedInitialState(const std::vector<Transform>& truth, Timestamp stamp,
                                              const InitialStatePerturbation& perturbation = {});
+
+/// Where a recording's initial state comes from and goes to (`cdff initial-state`).
+struct InitialStateFromRecording {
+  std::string truth_channel = "/truth/target_pose";            // RigidBodyState (or a pose)
+  std::string at_channel = "/chaser/lidar/points";             // the state is at its first message
+  std::string channel = "/cdff/lidar_tracking/initial_state";  // where it is written
+  InitialStatePerturbation perturbation;
+};
+
+struct WrittenInitialState {
+  RigidBodyState state;
+  Timestamp at = 0;
+  std::optional<Transform> truth;  // the truth at `at`
+};
+
+/// Reads the truth of the simulated recording `input`, draws the perturbed initial state at the
+/// first message of `at_channel` (a scan's own stamp, its start), and writes it to the MCAP file
+/// `output` on `channel`.
+Result<WrittenInitialState> writeInitialState(const std::string& input, const std::string& output,
+                                              const InitialStateFromRecording& options);
 
 }  // namespace cdff::eval
