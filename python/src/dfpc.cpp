@@ -70,16 +70,7 @@ py::dict runGraphs(const std::vector<std::string>& graphs, const std::vector<std
   Result<dfpc::ReplayResult> result = Status::ok();
   {
     py::gil_scoped_release release;
-    dfpc::McapInputStream input;
-    dfpc::McapSink sink;
-    result = [&]() -> Result<dfpc::ReplayResult> {
-      CDFF_RETURN_IF_ERROR(input.open(inputs));
-      CDFF_RETURN_IF_ERROR(sink.open(output));
-      Result<dfpc::ReplayResult> r = dfpc::replay(input, sink, options);
-      const Status closed = sink.close();  // also after a failed run: what was written is kept
-      if (r && !closed) return closed;
-      return r;
-    }();
+    result = dfpc::replayFiles(inputs, output, options);
   }
   const dfpc::ReplayResult& r = take(std::move(result));
   py::dict summary;

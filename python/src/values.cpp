@@ -65,13 +65,17 @@ Value valueOf(py::handle object, const std::string& type_name, const std::string
     return v;
   }
   // Classes first (they accept only their own instances), then the built-ins, most specific
-  // first: bool before int, int before float, Json last (it takes any JSON-able object).
-  std::vector<TypeId> order;
-  for (TypeId t : allTypes())
-    if (findConverter(t) && findConverter(t)->python_type.rfind("cdff.", 0) == 0)
-      order.push_back(t);
-  for (const char* name : {"Bool", "Int", "Timestamp", "Double", "String", "Json"})
-    order.push_back(findType(name));
+  // first: bool before int, int before float, Json last (it takes any JSON-able object). The
+  // converters are all added when the module loads, so the order is made once.
+  static const std::vector<TypeId> order = [] {
+    std::vector<TypeId> types;
+    for (TypeId t : allTypes())
+      if (const Converter* c = findConverter(t); c && c->python_type.rfind("cdff.", 0) == 0)
+        types.push_back(t);
+    for (const char* name : {"Bool", "Int", "Timestamp", "Double", "String", "Json"})
+      types.push_back(findType(name));
+    return types;
+  }();
   for (TypeId t : order) {
     const Converter* c = findConverter(t);
     if (!c) continue;

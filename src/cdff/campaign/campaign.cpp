@@ -224,9 +224,9 @@ Result<Campaign> parseCampaign(const std::string& text, const std::string& sourc
 }
 
 Result<Campaign> loadCampaign(const std::string& path) {
-  Result<schema::Document> doc = schema::Document::loadFile(path, "campaign");
-  if (!doc) return doc.status();
   std::ifstream in(path);
+  // The schema reader says why a file cannot be read, in the one error format.
+  if (!in) return schema::Document::loadFile(path, "campaign").status();
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   return parseCampaign(text, path);
 }

@@ -77,14 +77,8 @@ Status process(const Campaign& campaign, const std::vector<std::string>& inputs,
       options.remaps.push_back(*remap);
     }
   }
-  dfpc::McapInputStream in;
-  CDFF_RETURN_IF_ERROR(in.open(inputs));
-  dfpc::McapSink sink;
-  CDFF_RETURN_IF_ERROR(sink.open(output.string()));
-  Result<dfpc::ReplayResult> result = dfpc::replay(in, sink, options);
-  const Status closed = sink.close();
-  if (!result) return result.status();
-  return closed;
+  Result<dfpc::ReplayResult> result = dfpc::replayFiles(inputs, output.string(), options);
+  return result ? Status::ok() : result.status();
 }
 
 /// Whether the DFPCs' output holds a pose product (what evaluation measures): a DFPC that never

@@ -135,4 +135,16 @@ Status McapSink::flush() {
   return recorder_.flush();
 }
 
+Result<ReplayResult> replayFiles(const std::vector<std::string>& inputs, const std::string& output,
+                                 const ReplayOptions& options) {
+  McapInputStream input;
+  CDFF_RETURN_IF_ERROR(input.open(inputs));
+  McapSink sink;
+  CDFF_RETURN_IF_ERROR(sink.open(output));
+  Result<ReplayResult> result = replay(input, sink, options);
+  const Status closed = sink.close();
+  if (result && !closed) return closed;
+  return result;
+}
+
 }  // namespace cdff::dfpc

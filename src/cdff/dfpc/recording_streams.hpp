@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "cdff/dfpc/replay.hpp"
 #include "cdff/dfpc/stream.hpp"
 #include "cdff/io/recorder.hpp"
 #include "cdff/io/replay.hpp"
@@ -83,5 +84,11 @@ class McapSink final : public Sink {
 /// The event level recorded for each kind of event: "error" for faults that a DFN reported and
 /// failed recoveries, "warning" for other faults and warnings, "info" otherwise.
 const char* eventLevel(EventType type);
+
+/// replay() from MCAP files (merged by time) into an MCAP file, as a script or a campaign run
+/// wants it: the output is closed after a failed run too, so that what was produced is kept.
+/// (`cdff run` adds a time window, compression, Ctrl-C and a progress bar around the same calls.)
+Result<ReplayResult> replayFiles(const std::vector<std::string>& inputs, const std::string& output,
+                                 const ReplayOptions& options);
 
 }  // namespace cdff::dfpc
