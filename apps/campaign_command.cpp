@@ -106,10 +106,16 @@ int runCampaign(const CampaignArgs& args) {
     fmt::print("{}\n", r->dump(1));
     return 0;
   }
-  if (Status s = campaign::checkCampaign(*c); !s) return fail(s);
+  // A Slurm array task's campaign was checked when it was submitted: its tasks start at once.
+  if (args.slice.empty())
+    if (Status s = campaign::checkCampaign(*c); !s) return fail(s);
   if (args.check_only) {
-    fmt::print("{}: ok ({} runs, {} scenarios, {} dispersions, {} graphs)\n", args.file, c->runs,
-               c->scenarios.size(), c->dispersions.size(), c->dfpcs.size());
+    std::size_t own = 0;  // the scenario entries' own dispersions
+    for (const campaign::ScenarioEntry& s : c->scenarios) own += s.dispersions.size();
+    fmt::print("{}: ok ({} runs, {} scenarios, {} dispersions{}, {} graphs)\n", args.file, c->runs,
+               c->scenarios.size(), c->dispersions.size(),
+               own ? fmt::format(" + {} of scenario entries", own) : std::string(),
+               c->dfpcs.size());
     return 0;
   }
   if (Status s = campaign::prepareResults(*c, dir); !s) return fail(s);

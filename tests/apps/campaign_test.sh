@@ -47,6 +47,28 @@ sed 's/angle_deg: 5}/angle_deg: 500}/' "$work/init.yaml" > "$work/init_bad.yaml"
 check campaign-initial-state-range 1 'init_bad.yaml:[0-9]+:[0-9]+: dfpcs.0.initial_state.angle_deg = 500: out of range' -- \
   "$cdff" campaign "$work/init_bad.yaml" -o "$work/init_bad"
 
+# a tracker whose every frame faults publishes only invalid estimates: the run counts as one
+# without a pose (not as evaluated with no requirement applying), and its result says why (the
+# visual tracker started from a servicer-frame state where the graph expects a camera-frame one)
+cat > "$work/invalid.yaml" <<'YAML'
+name: invalid_estimates
+runs: 1
+scenarios:
+  - name: close_range_approach
+    duration: 2
+    set: {sensors.camera_left.rate: 2, sensors.camera_right.enabled: false, sensors.lidar.enabled: false,
+          sensors.tof.enabled: false, sensors.imu.enabled: false}
+dfpcs:
+  - graph: dfpcs/visual_tracking.yaml
+    initial_state: {channel: /cdff/visual_tracking/initial_pose, at: /chaser/camera/left/image}
+YAML
+check campaign-invalid-estimates 0 '1 of 1 runs done: 0 evaluated, 1 without a pose product' -- \
+  "$cdff" campaign "$work/invalid.yaml" -o "$work/invalid"
+check campaign-invalid-estimates-why 0 '"last_fault": "error at t = [0-9]+ us in to_servicer: .*expected a pose in frame .camera_left_optical.' -- \
+  cat "$work/invalid/runs/000000/result.json"
+check campaign-scenario-summary 0 'scenario close_range_approach: 1 runs, 0 evaluated \(0 meeting every requirement that applied\), 1 without a pose, 0 failed, 1 with DFPC faults' -- \
+  "$cdff" campaign-report "$work/invalid"
+
 # errors
 sed 's/^runs: 4/runs: 5/' "$work/small.yaml" > "$work/other.yaml"
 check campaign-other-folder 1 "holds the results of campaign 'lidar_tracking_smoke' \(.*small.yaml\)" -- \

@@ -98,6 +98,88 @@ TEST(RunPlan, EachRunIsItsDrawAndEachDispersionItsOwnStream) {
   EXPECT_GT(high, 0.0298);
 }
 
+// Scenario entries with faults of their own: an entry's dispersions are drawn for its runs only,
+// after the campaign's, and may draw its own faults' sizes; entries of one scenario need labels.
+constexpr const char* kFaultEntries = R"(name: t
+runs: 4
+scenarios:
+  - {name: mid_range_approach, duration: 2}
+  - name: mid_range_approach
+    label: occluded
+    duration: 2
+    set: {faults: [{type: occlusion, sensor: "*", start: 1, end: 2}]}
+    dispersions:
+      - {key: faults.0.fraction, choice: [0.25, 0.75]}
+dispersions:
+  - {key: sensors.lidar.range_noise, uniform: [0.01, 0.03]}
+dfpcs:
+  - graph: GRAPH
+    pair: /chaser/stereo/pair=/chaser/camera/left/image,/chaser/camera/right/image
+    initial_state: {channel: /x, at: /chaser/camera/left/image, truth: /truth/camera_left/target_pose,
+                    velocity_sigma: 0.05, angular_velocity_sigma_deg: 2}
+)";
+
+std::string faultEntries() {
+  std::string text = kFaultEntries;
+  return text.replace(text.find("GRAPH"), 5, kGraph);
+}
+
+TEST(CampaignFile, AScenarioEntryDrawsItsOwnDispersionsAfterTheCampaigns) {
+  Result<Campaign> c = parseCampaign(faultEntries(), "f.yaml");
+  ASSERT_TRUE(c) << c.status().message();
+  EXPECT_EQ(c->scenarios[0].label, "mid_range_approach");  // by default, the name
+  EXPECT_EQ(c->scenarios[1].label, "occluded");
+  EXPECT_TRUE(checkCampaign(*c).isOk()) << checkCampaign(*c).message();
+  const RunPlan nominal = planRun(*c, 2), occluded = planRun(*c, 3);
+  ASSERT_EQ(nominal.dispersed.size(), 1u);
+  ASSERT_EQ(occluded.dispersed.size(), 2u);
+  EXPECT_EQ(occluded.dispersed[1].first, "faults.0.fraction");
+  EXPECT_TRUE(occluded.dispersed[1].second == "0.25" || occluded.dispersed[1].second == "0.75");
+  EXPECT_EQ(occluded.overrides.back(), "faults.0.fraction=" + occluded.dispersed[1].second);
+  // the command that reproduces a run carries the entry's faults, its drawn size, the pairs and
+  // the initial state's truth and sigmas
+  const std::string command = reproduceCommand(*c, occluded);
+  for (const char* part : {"--set 'faults=[{type: occlusion", "--set faults.0.fraction=0.",
+                           "--pair /chaser/stereo/pair=/chaser/camera/left/image,",
+                           "--truth /truth/camera_left/target_pose", "--velocity-sigma 0.05",
+                           "--angular-velocity-sigma-deg 2"})
+    EXPECT_NE(command.find(part), std::string::npos) << part << " not in " << command;
+}
+
+TEST(CampaignFile, ScenarioEntryErrorsNameTheirPlace) {
+  auto error = [](std::string text, const std::string& from, const std::string& to) {
+    text.replace(text.find(from), from.size(), to);
+    Result<Campaign> c = parseCampaign(text, "f.yaml");
+    return c ? checkCampaign(*c).message() : c.status().message();
+  };
+  const std::string text = faultEntries();
+  // two entries of one scenario without labels
+  EXPECT_NE(error(text, "    label: occluded\n", "").find("f.yaml:5:5: scenarios.1"),
+            std::string::npos);
+  EXPECT_NE(error(text, "    label: occluded\n", "").find("add label"), std::string::npos);
+  // an entry's key the campaign disperses already
+  EXPECT_NE(error(text, "faults.0.fraction, choice: [0.25, 0.75]",
+                  "sensors.lidar.range_noise, uniform: [0, 1]")
+                .find("f.yaml:10:9: dispersions: 'sensors.lidar.range_noise' is dispersed for "
+                      "every scenario already (line 12)"),
+            std::string::npos);
+  // a fault key dispersed where the scenario has no fault: at the entry's dispersion
+  EXPECT_NE(
+      error(text, "    set: {faults: [{type: occlusion, sensor: \"*\", start: 1, end: 2}]}\n", "")
+          .find("f.yaml:9:9: dispersion 'faults.0.fraction' of scenario "
+                "'mid_range_approach'"),
+      std::string::npos);
+  // a pair and a run-while rule as `cdff run` would refuse them, at their line
+  EXPECT_EQ(error(text, "pair: /chaser/stereo/pair=", "pair: /chaser/stereo/pair")
+                .rfind("f.yaml:15:11: stereo pairing '/chaser/stereo/pair/chaser", 0),
+            0u);
+  EXPECT_EQ(error(text, "    pair:", "    run_while: detection=tracker:SOMETIMES\n    pair:")
+                .rfind("f.yaml:15:16: run-while rule 'detection=tracker:SOMETIMES': 'SOMETIMES' is "
+                       "not a track state",
+                       0),
+            0u);
+}
+
 TEST(Statistics, ClopperPearsonMatchesPublishedValues) {
   // Exact binomial intervals (e.g. the tables of Clopper and Pearson 1934, or R's binom.test)
   auto [l0, h0] = clopperPearson(0, 20);
@@ -119,6 +201,88 @@ TEST(Statistics, PercentileInterpolatesBetweenOrderStatistics) {
   EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4}, 50), 2.5);
   EXPECT_DOUBLE_EQ(percentile({1, 2, 3, 4}, 100), 4);
   EXPECT_DOUBLE_EQ(percentile({7}, 95), 7);
+}
+
+// The report from results written by hand: per requirement, a run without a pose fails what
+// applied to its entry's other runs; per scenario entry, its runs by outcome and its figures.
+TEST(Report, GathersRequirementsAndScenarioEntries) {
+  Result<Campaign> c = parseCampaign(faultEntries(), "f.yaml");
+  ASSERT_TRUE(c) << c.status().message();
+  const fs::path dir = fs::temp_directory_path() / "cdff_campaign_report_test";
+  fs::remove_all(dir);
+  ASSERT_TRUE(prepareResults(*c, dir).isOk());
+  auto evaluated = [](double p95_m, bool faults) {
+    const std::string verdict = p95_m < 1.0 ? "pass" : "fail";
+    return nlohmann::json{{"status", "ok"},
+                          {"dfpcs", {{{"name", "t"}, {"faults", faults ? 3 : 0}}}},
+                          {"evaluation",
+                           {{"all_pass", verdict == "pass"},
+                            {"products",
+                             {{{"channel", "/p"},
+                               {"position_error_m", {{"p95", p95_m}}},
+                               {"tracked_fraction", p95_m < 1.0 ? 0.95 : 0.2}}}},
+                            {"requirements",
+                             {{{"id", "SR"},
+                               {"channel", "/p"},
+                               {"quantity", "position_error_m"},
+                               {"comparison", "<"},
+                               {"threshold", 1.0},
+                               {"verdict", verdict},
+                               {"measured", p95_m}}}}}}};
+  };
+  // runs 0 and 2: the first entry, evaluated; run 1: the occluded entry, evaluated with faults;
+  // run 3: the occluded entry without a pose
+  std::vector<nlohmann::json> results = {evaluated(0.1, false),
+                                         evaluated(2.0, true),
+                                         evaluated(0.3, false),
+                                         {{"status", "no_product"}}};
+  for (std::uint64_t i = 0; i < results.size(); ++i) {
+    results[i]["index"] = i;
+    results[i]["reproduce"] = "run " + std::to_string(i);
+    results[i]["label"] = c->scenarios[i % 2].label;
+    results[i]["scenario"] = c->scenarios[i % 2].name;
+    ASSERT_TRUE(writeResult(dir, i, results[i]).isOk());
+  }
+  Result<nlohmann::json> report = campaignReport(*c, dir);
+  ASSERT_TRUE(report) << report.status().message();
+  const nlohmann::json& sr = (*report)["requirements"][0];
+  EXPECT_EQ(sr["pass"], 2);
+  EXPECT_EQ(sr["fail"], 2);  // run 1's 2 m, and run 3 without a pose (its entry had a verdict)
+  EXPECT_EQ(sr["failed_without_product"], 1);
+  EXPECT_EQ(sr["worst_runs"][0]["index"], 1);
+  EXPECT_DOUBLE_EQ(sr["measured"]["min"], 0.1);
+  EXPECT_DOUBLE_EQ(sr["measured"]["max"], 2.0);
+  const nlohmann::json& scenarios = (*report)["scenarios"];
+  ASSERT_EQ(scenarios.size(), 2u);
+  EXPECT_EQ(scenarios[0]["label"], "mid_range_approach");
+  EXPECT_EQ(scenarios[0]["ok"], 2);
+  EXPECT_EQ(scenarios[0]["all_pass"], 2);
+  EXPECT_EQ(scenarios[0]["with_dfpc_faults"], 0);
+  EXPECT_DOUBLE_EQ(scenarios[0]["products"]["/p"]["position_error_m_p95"]["max"], 0.3);
+  EXPECT_EQ(scenarios[1]["label"], "occluded");
+  EXPECT_EQ(scenarios[1]["ok"], 1);
+  EXPECT_EQ(scenarios[1]["no_product"], 1);
+  EXPECT_EQ(scenarios[1]["all_pass"], 0);
+  EXPECT_EQ(scenarios[1]["with_dfpc_faults"], 1);
+  // the tracked fraction is a lower bound: its low end is there
+  EXPECT_DOUBLE_EQ((*report)["products"]["/p"]["tracked_fraction"]["min"], 0.2);
+  EXPECT_NE(reportText(*report).find("scenario occluded: 2 runs, 1 evaluated (0 meeting every "
+                                     "requirement that applied), 1 without a pose, 0 failed, 1 "
+                                     "with DFPC faults"),
+            std::string::npos);
+  EXPECT_NE(reportHtml(*report).find("<h2>By scenario</h2>"), std::string::npos);
+  // a result edited by hand: an error that names its file, nothing thrown
+  results[2]["status"] = 7;
+  ASSERT_TRUE(writeResult(dir, 2, results[2]).isOk());
+  Result<nlohmann::json> edited = campaignReport(*c, dir);
+  ASSERT_FALSE(edited);
+  EXPECT_NE(edited.status().message().find("runs/000002/result.json' is not a run result"),
+            std::string::npos)
+      << edited.status().message();
+  std::ofstream(resultFile(dir, 2)) << "[1, 2]";
+  EXPECT_NE(campaignReport(*c, dir).status().message().find("is not a run result (a JSON object)"),
+            std::string::npos);
+  fs::remove_all(dir);
 }
 
 TEST(Pool, ARunWhoseProcessCrashesIsRetriedOnceThenRecorded) {

@@ -10,6 +10,9 @@
 #include <fmt/format.h>
 
 #include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/orchestrator.hpp"
+#include "cdff/dfpc/replay.hpp"
+#include "cdff/dfpc/stereo_pairing.hpp"
 #include "cdff/egse/rng.hpp"
 #include "cdff/egse/scenario.hpp"
 #include "cdff/eval/draws.hpp"
@@ -33,11 +36,14 @@ Status readOverrides(const Field& f, std::vector<std::string>& out) {
   return Status::ok();
 }
 
+Status readDispersions(const Field& f, std::vector<Dispersion>& out);
+
 const Table<ScenarioEntry>& scenarioTable() {
   static const Table<ScenarioEntry> table =
       Table<ScenarioEntry>("a scenario entry")
           .required("name", schema::text(&ScenarioEntry::name),
                     "a library scenario name or a YAML file")
+          .optional("label", schema::text(&ScenarioEntry::label))
           .optional("duration",
                     [](const Field& f, ScenarioEntry& s) {
                       double d = 0;
@@ -45,8 +51,10 @@ const Table<ScenarioEntry>& scenarioTable() {
                       s.duration = d;
                       return Status::ok();
                     })
-          .optional("set",
-                    [](const Field& f, ScenarioEntry& s) { return readOverrides(f, s.set); });
+          .optional("set", [](const Field& f, ScenarioEntry& s) { return readOverrides(f, s.set); })
+          .optional("dispersions", [](const Field& f, ScenarioEntry& s) {
+            return readDispersions(f, s.dispersions);
+          });
   return table;
 }
 
@@ -96,6 +104,12 @@ const Table<InitialStateEntry>& initialStateTable() {
           .required("channel", schema::text(&InitialStateEntry::channel),
                     "the channel of the tracker's initial state")
           .optional("at", schema::text(&InitialStateEntry::at))
+          .optional("truth", schema::text(&InitialStateEntry::truth))
+          .optional("velocity_sigma", schema::number(&InitialStateEntry::velocity_sigma,
+                                                     schema::Range::closed(0, 100, "m/s")))
+          .optional("angular_velocity_sigma_deg",
+                    schema::number(&InitialStateEntry::angular_velocity_sigma_deg,
+                                   schema::Range::closed(0, 1000, "deg/s")))
           .optional("position_fraction", schema::number(&InitialStateEntry::position_fraction,
                                                         schema::Range::closed(0, 10)))
           .optional("angle_deg", schema::number(&InitialStateEntry::angle_deg,
@@ -109,6 +123,18 @@ const Table<InitialStateEntry>& initialStateTable() {
   return table;
 }
 
+/// A word or a list of words, each checked by the parser `cdff run` uses for the same option, so
+/// that a malformed one is reported at its place in the campaign file.
+template <typename Parse>
+Status checkedWords(const Field& f, std::vector<std::string>& out, std::string_view expected,
+                    Parse parse) {
+  CDFF_RETURN_IF_ERROR(f.words(out, expected));
+  for (const std::string& word : out)
+    if (auto parsed = parse(word); !parsed)
+      return Status(StatusCode::kInvalidParameter, parsed.status().message(), f.location());
+  return Status::ok();
+}
+
 const Table<DfpcEntry>& dfpcTable() {
   static const Table<DfpcEntry> table =
       Table<DfpcEntry>("a DFPC entry")
@@ -119,7 +145,18 @@ const Table<DfpcEntry>& dfpcTable() {
                     })
           .optional("map",
                     [](const Field& f, DfpcEntry& e) {
-                      return f.words(e.maps, "input maps DFPC.INPUT=/channel");
+                      return checkedWords(f, e.maps, "input maps DFPC.INPUT=/channel",
+                                          dfpc::parseRemap);
+                    })
+          .optional("pair",
+                    [](const Field& f, DfpcEntry& e) {
+                      return checkedWords(f, e.pairs, "stereo pairs /PAIR=/LEFT,/RIGHT",
+                                          dfpc::parseStereoPairing);
+                    })
+          .optional("run_while",
+                    [](const Field& f, DfpcEntry& e) {
+                      return checkedWords(f, e.run_while, "rules DFPC=TRACKER:STATE[,STATE...]",
+                                          dfpc::parseActivationRule);
                     })
           .optional("initial_state", [](const Field& f, DfpcEntry& e) {
             InitialStateEntry entry;
@@ -130,18 +167,42 @@ const Table<DfpcEntry>& dfpcTable() {
   return table;
 }
 
-Status readDispersions(const Field& f, Campaign& c) {
+Status readDispersions(const Field& f, std::vector<Dispersion>& out) {
   if (!f.isList()) return f.fail("a list of dispersions ({key: ..., uniform: [low, high]})");
   for (const Field& e : f.elements()) {
     Dispersion d;
     CDFF_RETURN_IF_ERROR(dispersionTable().read(e, d));
     CDFF_RETURN_IF_ERROR(readDistribution(e, d));
     d.where = e.location();
-    for (const Dispersion& other : c.dispersions)
+    for (const Dispersion& other : out)
       if (other.key == d.key)
         return e["key"].fail("a key not dispersed twice", "already dispersed above");
-    c.dispersions.push_back(std::move(d));
+    out.push_back(std::move(d));
   }
+  return Status::ok();
+}
+
+/// Each scenario entry has a label of its own (the report's rows); a scenario's own dispersions
+/// may not repeat the campaign's (one key, one distribution).
+Status checkScenarioEntries(Campaign& c, const schema::Field& list) {
+  for (std::size_t i = 0; i < c.scenarios.size(); ++i) {
+    ScenarioEntry& s = c.scenarios[i];
+    if (s.label.empty()) s.label = s.name;
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.scenarios[j].label == s.label)
+        return list[i].fail(
+            "a label of its own for each scenario entry",
+            fmt::format("entries {} and {} are both '{}' (add label: ...)", j, i, s.label));
+  }
+  for (const ScenarioEntry& s : c.scenarios)
+    for (const Dispersion& d : s.dispersions)
+      for (const Dispersion& other : c.dispersions)
+        if (other.key == d.key)
+          return Status(StatusCode::kInvalidParameter,
+                        fmt::format("dispersions: '{}' is dispersed for every scenario already "
+                                    "(line {}); expected a key not dispersed twice",
+                                    d.key, other.where.line),
+                        d.where);
   return Status::ok();
 }
 
@@ -171,7 +232,8 @@ const Table<Campaign>& campaignTable() {
           .required("scenarios",
                     schema::listOf(&Campaign::scenarios, scenarioTable(), "scenario entries"),
                     "a list of scenario entries ({name: mid_range_approach})")
-          .optional("dispersions", readDispersions)
+          .optional("dispersions",
+                    [](const Field& f, Campaign& c) { return readDispersions(f, c.dispersions); })
           .required("dfpcs", schema::listOf(&Campaign::dfpcs, dfpcTable(), "DFPC entries"),
                     "a list of DFPC entries ({graph: dfpcs/lidar_tracking.yaml})");
   return table;
@@ -218,6 +280,7 @@ Result<Campaign> parseCampaign(const std::string& text, const std::string& sourc
   if (c.scenarios.empty())
     return doc->root()["scenarios"].fail("at least one scenario entry", "an empty list");
   if (c.dfpcs.empty()) return doc->root()["dfpcs"].fail("at least one DFPC entry", "an empty list");
+  CDFF_RETURN_IF_ERROR(checkScenarioEntries(c, doc->root()["scenarios"]));
   c.source = source;
   c.text = text;
   return c;
@@ -237,11 +300,12 @@ RunPlan planRun(const Campaign& campaign, std::uint64_t index) {
   plan.draw = campaign.first_draw + index;
   plan.scenario = &campaign.scenarios[index % campaign.scenarios.size()];
   plan.overrides = plan.scenario->set;
-  for (const Dispersion& d : campaign.dispersions) {
-    std::string value = drawValue(d, plan.draw);
-    plan.overrides.push_back(d.key + "=" + value);
-    plan.dispersed.emplace_back(d.key, std::move(value));
-  }
+  for (const std::vector<Dispersion>* list : {&campaign.dispersions, &plan.scenario->dispersions})
+    for (const Dispersion& d : *list) {
+      std::string value = drawValue(d, plan.draw);
+      plan.overrides.push_back(d.key + "=" + value);
+      plan.dispersed.emplace_back(d.key, std::move(value));
+    }
   return plan;
 }
 
@@ -250,7 +314,9 @@ Status checkCampaign(const Campaign& campaign) {
     Result<std::filesystem::path> path = egse::resolveScenario(s.name);
     if (!path) return path.status();
     if (Result<egse::Scenario> sc = egse::loadScenario(*path, s.set); !sc) return sc.status();
-    for (const Dispersion& d : campaign.dispersions) {
+    std::vector<Dispersion> dispersions = campaign.dispersions;
+    dispersions.insert(dispersions.end(), s.dispersions.begin(), s.dispersions.end());
+    for (const Dispersion& d : dispersions) {
       std::vector<std::string> extremes;
       if (d.kind == DistributionKind::kUniform)
         extremes = {fmt::format("{}", d.low), fmt::format("{}", d.high)};
@@ -290,8 +356,10 @@ std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan) {
     if (!i) continue;
     init += fmt::format(
         " && cdff initial-state sim.mcap -o init{}.mcap --channel {} --at {} "
-        "--position-fraction {} --angle-deg {} --distribution {} --seed {}",
-        k, shellQuoted(i->channel), shellQuoted(i->at), i->position_fraction, i->angle_deg,
+        "--truth {} --position-fraction {} --angle-deg {} --velocity-sigma {} "
+        "--angular-velocity-sigma-deg {} --distribution {} --seed {}",
+        k, shellQuoted(i->channel), shellQuoted(i->at), shellQuoted(i->truth), i->position_fraction,
+        i->angle_deg, i->velocity_sigma, i->angular_velocity_sigma_deg,
         i->fixed_size ? "fixed" : "gaussian", eval::drawOf(plan.draw).initial_error_seed);
     inputs += fmt::format(" -i init{}.mcap", k);
   }
@@ -300,6 +368,8 @@ std::string reproduceCommand(const Campaign& campaign, const RunPlan& plan) {
     run += " " + shellQuoted(e.graph);
     for (const std::string& s : e.settings) run += " --set " + shellQuoted(s);
     for (const std::string& m : e.maps) run += " --map " + shellQuoted(m);
+    for (const std::string& p : e.pairs) run += " --pair " + shellQuoted(p);
+    for (const std::string& w : e.run_while) run += " --run-while " + shellQuoted(w);
   }
   run += inputs + " -o out.mcap";
   return sim + init + " && " + run + " && cdff eval out.mcap";

@@ -21,12 +21,6 @@
 
 namespace cdff::campaign {
 
-struct ScenarioEntry {
-  std::string name;                // a library scenario or a YAML file
-  std::optional<double> duration;  // s; the scenario's own when absent
-  std::vector<std::string> set;    // fixed overrides, "dotted.key=value"
-};
-
 enum class DistributionKind { kUniform, kNormal, kChoice };
 
 struct Dispersion {
@@ -38,21 +32,36 @@ struct Dispersion {
   SourceLocation where;             // the dispersion's place in the campaign file
 };
 
+struct ScenarioEntry {
+  std::string name;                // a library scenario or a YAML file
+  std::string label;               // names the entry in the report (by default its name)
+  std::optional<double> duration;  // s; the scenario's own when absent
+  std::vector<std::string> set;    // fixed overrides, "dotted.key=value"
+  /// Drawn for this scenario only, after the campaign's: keys only it has (its faults' times and
+  /// sizes: faults.0.fraction).
+  std::vector<Dispersion> dispersions;
+};
+
 /// A tracker started from the truth with an error drawn as a detection's would be (`cdff
 /// initial-state`): written on `channel` at the first message of `at`, the error's size an RMS
 /// fraction of the range and an RMS angle, drawn from the run's initial-error stream.
 struct InitialStateEntry {
-  std::string channel;                      // e.g. /cdff/visual_tracking/initial_state
-  std::string at = "/chaser/lidar/points";  // the state is at this channel's first message
+  std::string channel;                       // e.g. /cdff/visual_tracking/initial_state
+  std::string at = "/chaser/lidar/points";   // the state is at this channel's first message
+  std::string truth = "/truth/target_pose";  // the truth perturbed (its frame is the state's)
   double position_fraction = 0.10;
   double angle_deg = 10.0;
+  double velocity_sigma = 0.3;  // m/s, the (zero) twist's stated uncertainty
+  double angular_velocity_sigma_deg = 5.729577951308232;  // deg/s (0.1 rad/s)
   bool fixed_size = false;  // exactly the sizes in random directions instead of the Gaussian
 };
 
 struct DfpcEntry {
-  std::string graph;                  // a DFPC graph file
-  std::vector<std::string> settings;  // "[DFPC/]NODE.PARAM=VALUE", as `cdff run --set`
-  std::vector<std::string> maps;      // "DFPC.INPUT=/channel", as `cdff run --map`
+  std::string graph;                   // a DFPC graph file
+  std::vector<std::string> settings;   // "[DFPC/]NODE.PARAM=VALUE", as `cdff run --set`
+  std::vector<std::string> maps;       // "DFPC.INPUT=/channel", as `cdff run --map`
+  std::vector<std::string> pairs;      // "/pair=/left,/right", as `cdff run --pair`
+  std::vector<std::string> run_while;  // "DFPC=TRACKER:STATE,...", as `cdff run --run-while`
   std::optional<InitialStateEntry> initial_state;
 };
 

@@ -23,6 +23,8 @@ using nlohmann::json;
 json distribution(const std::vector<double>& v) {
   if (v.empty()) return json::object({{"count", 0}});
   return {{"count", v.size()},
+          {"min", *std::min_element(v.begin(), v.end())},
+          {"p5", percentile(v, 5)},
           {"p50", percentile(v, 50)},
           {"p95", percentile(v, 95)},
           {"p99", percentile(v, 99)},
@@ -50,13 +52,18 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
                     const std::map<std::uint64_t, json>& runs, double confidence) {
   json out = json::array();
   for (auto& [key, t] : tallies) {
-    json r = {{"id", t.first["id"]},
-              {"title", t.first["title"]},
-              {"channel", t.first["channel"]},
-              {"quantity", t.first["quantity"]},
-              {"statistic", t.first["statistic"]},
-              {"comparison", t.first["comparison"]},
-              {"threshold", t.first["threshold"]},
+    // Each field with a default of its type: a result edited by hand, or of an older version,
+    // still gives a report.
+    const auto text = [&t](const char* key, const char* otherwise) {
+      return t.first.value(key, std::string(otherwise));
+    };
+    json r = {{"id", text("id", "?")},
+              {"title", text("title", "")},
+              {"channel", text("channel", "?")},
+              {"quantity", text("quantity", "?")},
+              {"statistic", text("statistic", "p95")},
+              {"comparison", text("comparison", "<")},
+              {"threshold", t.first.value("threshold", json())},
               {"pass", t.pass},
               {"fail", t.fail},
               {"not_applicable", t.not_applicable},
@@ -75,9 +82,9 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
     json worst = json::array();
     for (std::size_t i = 0; i < std::min<std::size_t>(3, t.by_run.size()); ++i) {
       const json& run = runs.at(t.by_run[i].second);
-      worst.push_back({{"index", run["index"]},
+      worst.push_back({{"index", t.by_run[i].second},
                        {"measured", t.by_run[i].first},
-                       {"reproduce", run["reproduce"]}});
+                       {"reproduce", run.value("reproduce", std::string())}});
     }
     r["worst_runs"] = worst;
     out.push_back(r);
@@ -85,11 +92,26 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
   return out;
 }
 
-json productsOf(const std::map<std::uint64_t, json>& runs) {
+/// A run's evaluation (an empty object when it has none, or none that is an object).
+json evaluationOf(const json& run) {
+  const json e = run.value("evaluation", json::object());
+  return e.is_object() ? e : json::object();
+}
+
+/// The scenario entry a run belongs to (its label; results written before labels: its scenario).
+std::string labelOf(const json& run) {
+  return run.value("label", run.value("scenario", std::string()));
+}
+
+/// Per product channel, the distribution over the evaluated runs of each run's p95 errors and
+/// tracked fraction; `label` restricts it to one scenario entry's runs ("" for all).
+json productsOf(const std::map<std::uint64_t, json>& runs, const std::string& label = {}) {
   std::map<std::string, std::map<std::string, std::vector<double>>> figures;
   for (const auto& [index, run] : runs) {
     if (run.value("status", "") != "ok") continue;
-    for (const json& p : run["evaluation"]["products"]) {
+    if (!label.empty() && labelOf(run) != label) continue;
+    for (const json& p : evaluationOf(run).value("products", json::array())) {
+      if (!p.is_object()) continue;
       auto& f = figures[p.value("channel", "?")];
       for (const char* quantity :
            {"position_error_m", "position_error_pct_range", "angle_error_deg"})
@@ -102,6 +124,37 @@ json productsOf(const std::map<std::uint64_t, json>& runs) {
   json out = json::object();
   for (const auto& [channel, f] : figures)
     for (const auto& [name, values] : f) out[channel][name] = distribution(values);
+  return out;
+}
+
+/// Per scenario entry: its runs by outcome, those where every applicable requirement passed, those
+/// where a DFPC reported faults, and its products' figures: where the campaign's dispersed faults
+/// and conditions (glare, occlusion, a failed camera) cost accuracy.
+json scenariosOf(const std::map<std::uint64_t, json>& runs, const Campaign& campaign) {
+  json out = json::array();
+  for (const ScenarioEntry& s : campaign.scenarios) {
+    std::uint64_t done = 0, ok = 0, no_product = 0, all_pass = 0, with_faults = 0;
+    for (const auto& [index, run] : runs) {
+      if (labelOf(run) != s.label) continue;
+      ++done;
+      const std::string status = run.value("status", "");
+      ok += status == "ok";
+      no_product += status == "no_product";
+      all_pass += status == "ok" && evaluationOf(run).value("all_pass", false);
+      bool faults = false;
+      for (const json& d : run.value("dfpcs", json::array())) faults |= d.value("faults", 0) > 0;
+      with_faults += faults;
+    }
+    out.push_back({{"label", s.label},
+                   {"scenario", s.name},
+                   {"runs", done},
+                   {"ok", ok},
+                   {"no_product", no_product},
+                   {"failed", done - ok - no_product},
+                   {"all_pass", all_pass},
+                   {"with_dfpc_faults", with_faults},
+                   {"products", productsOf(runs, s.label)}});
+  }
   return out;
 }
 
@@ -131,15 +184,18 @@ double percentile(std::vector<double> values, double p) {
   return values[below] + (rank - below) * (values[above] - values[below]);
 }
 
-Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
+namespace {
+
+json gatherReport(const Campaign& campaign, const fs::path& results, std::string& bad_file) {
   std::map<std::uint64_t, json> runs;
   json failed = json::array();
   std::map<std::string, RequirementTally> tallies;
   for (std::uint64_t i = 0; i < campaign.runs; ++i) {
     const fs::path file = resultFile(results, i);
     if (!fs::exists(file)) continue;
+    bad_file = file.string();
     json r = json::parse(std::ifstream(file), nullptr, false);
-    if (r.is_discarded()) return corruptData("'{}' is not a run result (JSON)", file.string());
+    if (r.is_discarded() || !r.is_object()) return json();
     runs[i] = r;
     if (r.value("status", "") == "no_product") continue;  // counted below, once all are read
     if (r.value("status", "") != "ok") {
@@ -149,7 +205,7 @@ Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
                         {"reproduce", r.value("reproduce", "")}});
       continue;
     }
-    for (const json& row : r["evaluation"]["requirements"]) {
+    for (const json& row : evaluationOf(r).value("requirements", json::array())) {
       const std::string key = fmt::format("{}|{}|{}", row.value("id", ""), row.value("channel", ""),
                                           row.value("quantity", ""));
       RequirementTally& t = tallies[key];
@@ -161,13 +217,14 @@ Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
         ++t.fail;
       else
         ++t.not_applicable;
-      if (verdict == "pass" || verdict == "fail") t.applicable_in.insert(r.value("scenario", ""));
+      if (verdict == "pass" || verdict == "fail") t.applicable_in.insert(labelOf(r));
       if (row.contains("measured") && row["measured"].is_number()) {
         t.measured.push_back(row["measured"]);
         t.by_run.emplace_back(row["measured"].get<double>(), i);
       }
     }
   }
+  bad_file.clear();  // every result read; what follows reads them again with defaults
   // A run whose DFPCs produced no pose fails every requirement that applied to the runs of its
   // scenario that did produce one (the truth's range is the scenario's): no estimate is a miss.
   json no_product = json::array();
@@ -175,7 +232,7 @@ Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
     if (r.value("status", "") != "no_product") continue;
     no_product.push_back({{"index", i}, {"reproduce", r.value("reproduce", "")}});
     for (auto& [key, t] : tallies)
-      if (t.applicable_in.count(r.value("scenario", ""))) {
+      if (t.applicable_in.count(labelOf(r))) {
         ++t.fail;
         ++t.no_product;
       }
@@ -197,8 +254,25 @@ Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
               {"confidence", 0.95},
               {"requirements", requirementsOf(tallies, runs, 0.95)},
               {"products", productsOf(runs)},
+              {"scenarios", scenariosOf(runs, campaign)},
               {"no_product_runs", no_product},
               {"failed_runs", failed}};
+}
+
+}  // namespace
+
+Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
+  // A result is read with defaults where a key is missing; one whose values have other types
+  // than a run writes (edited by hand, truncated) is reported with its file, not thrown.
+  std::string file;
+  try {
+    json report = gatherReport(campaign, results, file);
+    if (!file.empty()) return corruptData("'{}' is not a run result (a JSON object)", file);
+    return report;
+  } catch (const json::exception& e) {
+    return corruptData("'{}' is not a run result as `cdff campaign` writes it: {}",
+                       file.empty() ? results.string() : file, e.what());
+  }
 }
 
 std::string reportText(const json& report) {
@@ -222,6 +296,14 @@ std::string reportText(const json& report) {
         100 * r["pass_interval"][0].get<double>(), 100 * r["pass_interval"][1].get<double>(),
         m.value("p50", NAN), m.value("p95", NAN), m.value("max", NAN));
   }
+  for (const json& sc : report.value("scenarios", json::array()))
+    out += fmt::format(
+        "  scenario {}: {} runs, {} evaluated ({} meeting every requirement that applied), {} "
+        "without a pose, {} failed, {} with DFPC faults\n",
+        sc["label"].get<std::string>(), sc["runs"].get<std::uint64_t>(),
+        sc["ok"].get<std::uint64_t>(), sc["all_pass"].get<std::uint64_t>(),
+        sc["no_product"].get<std::uint64_t>(), sc["failed"].get<std::uint64_t>(),
+        sc["with_dfpc_faults"].get<std::uint64_t>());
   for (const json& f : report["failed_runs"])
     out += fmt::format("  run {} failed at {}: {}\n    reproduce: {}\n", f["index"].get<int>(),
                        f["stage"].get<std::string>(), f["error"].get<std::string>(),
@@ -268,6 +350,36 @@ std::string requirementPlot(const json& r) {
       r["threshold"].is_number() ? r["threshold"].get<double>() : NAN);
 }
 
+/// One row per scenario entry and product channel: the runs by outcome and the distribution over
+/// its runs of the p95 position and angle errors.
+std::string scenariosHtml(const json& scenarios) {
+  using eval::escapeHtml;
+  if (scenarios.empty()) return {};
+  std::string html =
+      "<h2>By scenario</h2><table><tr><th>scenario</th><th>runs</th><th>evaluated</th>"
+      "<th>all met</th><th>no pose</th><th>failed</th><th>DFPC faults</th><th>product</th>"
+      "<th>p95 position (m): p50 / p95 / max</th><th>p95 angle (deg): p50 / p95 / max</th></tr>\n";
+  auto triple = [](const json& d) {
+    if (!d.is_object() || d.value("count", 0) == 0) return std::string("-");
+    return fmt::format("{:.3g} / {:.3g} / {:.3g}", d.value("p50", NAN), d.value("p95", NAN),
+                       d.value("max", NAN));
+  };
+  for (const json& sc : scenarios) {
+    const std::string counts = fmt::format(
+        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+        escapeHtml(sc["label"]), sc["runs"].get<std::uint64_t>(), sc["ok"].get<std::uint64_t>(),
+        sc["all_pass"].get<std::uint64_t>(), sc["no_product"].get<std::uint64_t>(),
+        sc["failed"].get<std::uint64_t>(), sc["with_dfpc_faults"].get<std::uint64_t>());
+    if (sc["products"].empty()) html += "<tr>" + counts + "<td colspan='3'>-</td></tr>\n";
+    for (const auto& [channel, figures] : sc["products"].items())
+      html +=
+          fmt::format("<tr>{}<td>{}</td><td>{}</td><td>{}</td></tr>\n", counts, escapeHtml(channel),
+                      triple(figures.value("position_error_m_p95", json())),
+                      triple(figures.value("angle_error_deg_p95", json())));
+  }
+  return html + "</table>\n";
+}
+
 std::string runListHtml(const json& runs, const char* title) {
   if (runs.empty()) return {};
   std::string html = fmt::format(
@@ -308,6 +420,7 @@ std::string reportHtml(const json& report) {
       "<th>pass</th><th>fraction [95 % CI]</th><th>p50</th><th>p95</th><th>max</th></tr>\n";
   for (const json& r : report["requirements"]) html += requirementRowHtml(r);
   html += "</table>\n";
+  html += scenariosHtml(report.value("scenarios", json::array()));
   for (const json& r : report["requirements"]) html += requirementPlot(r);
   html += runListHtml(report["no_product_runs"], "Runs without a pose product");
   html += runListHtml(report["failed_runs"], "Failed runs");

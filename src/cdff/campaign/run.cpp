@@ -50,8 +50,11 @@ Result<std::vector<std::string>> initialStates(const Campaign& campaign, const R
     eval::InitialStateFromRecording from;
     from.channel = i->channel;
     from.at_channel = i->at;
+    from.truth_channel = i->truth;
     from.perturbation.position_fraction = i->position_fraction;
     from.perturbation.angle_rad = i->angle_deg * M_PI / 180.0;
+    from.perturbation.linear_velocity_sigma = i->velocity_sigma;
+    from.perturbation.angular_velocity_sigma = i->angular_velocity_sigma_deg * M_PI / 180.0;
     from.perturbation.distribution = i->fixed_size ? eval::InitialErrorDistribution::kFixedSize
                                                    : eval::InitialErrorDistribution::kGaussian;
     from.perturbation.seed = eval::drawOf(plan.draw).initial_error_seed;
@@ -64,21 +67,55 @@ Result<std::vector<std::string>> initialStates(const Campaign& campaign, const R
   return files;
 }
 
-Status process(const Campaign& campaign, const std::vector<std::string>& inputs,
-               const fs::path& output) {
+/// Each word parsed as `cdff run` parses its option, appended to `out`.
+template <typename Parse, typename T>
+Status parsedInto(const std::vector<std::string>& words, Parse parse, std::vector<T>& out) {
+  for (const std::string& word : words) {
+    Result<T> parsed = parse(word);
+    if (!parsed) return parsed.status();
+    out.push_back(std::move(*parsed));
+  }
+  return Status::ok();
+}
+
+/// Runs the campaign's DFPCs over the run's inputs, as `cdff run` would with the entries' options.
+Result<dfpc::ReplayResult> process(const Campaign& campaign, const std::vector<std::string>& inputs,
+                                   const fs::path& output) {
   dfpc::ReplayOptions options;
   for (const DfpcEntry& e : campaign.dfpcs) {
     options.graph_files.push_back(e.graph);
     options.parameter_settings.insert(options.parameter_settings.end(), e.settings.begin(),
                                       e.settings.end());
-    for (const std::string& m : e.maps) {
-      Result<dfpc::ChannelRemap> remap = dfpc::parseRemap(m);
-      if (!remap) return remap.status();
-      options.remaps.push_back(*remap);
-    }
+    CDFF_RETURN_IF_ERROR(parsedInto(e.maps, dfpc::parseRemap, options.remaps));
+    CDFF_RETURN_IF_ERROR(parsedInto(e.pairs, dfpc::parseStereoPairing, options.stereo_pairs));
+    CDFF_RETURN_IF_ERROR(parsedInto(e.run_while, dfpc::parseActivationRule, options.run_while));
   }
-  Result<dfpc::ReplayResult> result = dfpc::replayFiles(inputs, output.string(), options);
-  return result ? Status::ok() : result.status();
+  return dfpc::replayFiles(inputs, output.string(), options);
+}
+
+/// What each DFPC reported at the end of the run: its faults and recoveries (an injected sensor
+/// fault shows there), its products and its last track state.
+nlohmann::json dfpcOutcomes(const dfpc::ReplayResult& result) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const dfpc::DfpcStatus& d : result.dfpcs) {
+    nlohmann::json j = {{"name", d.name},
+                        {"products", d.products},
+                        {"faults", d.faults},
+                        {"recoveries", d.recoveries}};
+    if (d.track_state) j["track_state"] = std::string(toString(*d.track_state));
+    if (!d.last_fault.empty()) j["last_fault"] = d.last_fault;
+    out.push_back(std::move(j));
+  }
+  return out;
+}
+
+/// Whether some evaluated product holds a valid estimate: a tracker that never acquired, or that
+/// faulted on every frame, publishes only invalid ones, and the requirements then do not apply
+/// to it; such a run is counted as one without a pose.
+bool hasValidEstimate(const eval::EvaluationReport& report) {
+  for (const eval::PoseEvaluation& p : report.products)
+    if (p.valid_frames > 0) return true;
+  return false;
 }
 
 /// Whether the DFPCs' output holds a pose product (what evaluation measures): a DFPC that never
@@ -131,6 +168,7 @@ Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
   nlohmann::json r = {{"index", index},
                       {"draw", plan.draw},
                       {"scenario", plan.scenario->name},
+                      {"label", plan.scenario->label},
                       {"dispersed", nlohmann::json::object()},
                       {"reproduce", reproduceCommand(campaign, plan)}};
   for (const auto& [key, value] : plan.dispersed) r["dispersed"][key] = value;
@@ -150,10 +188,11 @@ Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
     if (inputs) inputs->insert(inputs->begin(), sim.string());
     if (!inputs) {
       fail("initial state", inputs.status());
-    } else if (Status p = process(campaign, *inputs, out); !p) {
-      fail("run", p);
+    } else if (Result<dfpc::ReplayResult> p = process(campaign, *inputs, out); !p) {
+      fail("run", p.status());
     } else {
       r["wall_s"]["run"] = secondsSince(start);
+      r["dfpcs"] = dfpcOutcomes(*p);
       start = std::chrono::steady_clock::now();
       Result<bool> produced = hasPoseProduct(out);
       eval::RecordingEvaluationNotes notes;
@@ -166,7 +205,7 @@ Result<nlohmann::json> executeRun(const Campaign& campaign, std::uint64_t index,
         fail("evaluate", report.status());
       } else {
         r["wall_s"]["evaluate"] = secondsSince(start);
-        r["status"] = "ok";
+        r["status"] = hasValidEstimate(*report) ? "ok" : "no_product";
         r["evaluation"] = eval::toJson(*report);
         r["evaluation"]["notes"] = notes.notes;
       }

@@ -81,11 +81,15 @@ Result<SlurmSubmission> submitArrayJob(const Campaign& campaign, const fs::path&
   // The job has ended when squeue no longer lists it. Asking squeue costs the controller and a
   // process each time, so while runs are missing their results (a stat each) are what is
   // watched every second, and squeue is asked every 15 s (a task that died leaves runs without
-  // results) and every second once every run has one.
+  // results); once every run has one, squeue is asked every 0.2 s, so that the report follows
+  // the job's end at once.
+  bool all_done = false;
   for (int tick = 0;; ++tick) {
-    bool all_done = true;
-    for (std::uint64_t i = 0; i < campaign.runs && all_done; ++i)
-      all_done = fs::exists(results / "runs" / fmt::format("{:06d}", i) / "result.json");
+    if (!all_done) {
+      all_done = true;
+      for (std::uint64_t i = 0; i < campaign.runs && all_done; ++i)
+        all_done = fs::exists(results / "runs" / fmt::format("{:06d}", i) / "result.json");
+    }
     if (all_done || tick % 15 == 14) {
       const auto [status, listed] =
           runCommand(fmt::format("{} -h -j {} -o %i", shellQuoted(options.squeue), s.job_id));
@@ -95,7 +99,8 @@ Result<SlurmSubmission> submitArrayJob(const Campaign& campaign, const fs::path&
                        status, listed);
       if (gone) break;
     }
-    std::this_thread::sleep_for(std::chrono::seconds(1));
+    std::this_thread::sleep_for(all_done ? std::chrono::milliseconds(200)
+                                         : std::chrono::milliseconds(1000));
   }
   s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - submitted_at).count();
   return s;
