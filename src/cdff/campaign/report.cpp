@@ -365,17 +365,20 @@ std::string scenariosHtml(const json& scenarios) {
                        d.value("max", NAN));
   };
   for (const json& sc : scenarios) {
-    const std::string counts = fmt::format(
-        "<td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
-        escapeHtml(sc["label"]), sc["runs"].get<std::uint64_t>(), sc["ok"].get<std::uint64_t>(),
-        sc["all_pass"].get<std::uint64_t>(), sc["no_product"].get<std::uint64_t>(),
-        sc["failed"].get<std::uint64_t>(), sc["with_dfpc_faults"].get<std::uint64_t>());
-    if (sc["products"].empty()) html += "<tr>" + counts + "<td colspan='3'>-</td></tr>\n";
-    for (const auto& [channel, figures] : sc["products"].items())
-      html +=
-          fmt::format("<tr>{}<td>{}</td><td>{}</td><td>{}</td></tr>\n", counts, escapeHtml(channel),
-                      triple(figures.value("position_error_m_p95", json())),
-                      triple(figures.value("angle_error_deg_p95", json())));
+    // The entry's counts once, spanning its product rows.
+    const std::size_t rows = std::max<std::size_t>(1, sc["products"].size());
+    std::string cells;
+    for (const char* key : {"runs", "ok", "all_pass", "no_product", "failed", "with_dfpc_faults"})
+      cells += fmt::format("<td rowspan='{}'>{}</td>", rows, sc[key].get<std::uint64_t>());
+    std::string row =
+        fmt::format("<tr><td rowspan='{}'>{}</td>{}", rows, escapeHtml(sc["label"]), cells);
+    if (sc["products"].empty()) html += row + "<td colspan='3'>-</td></tr>\n";
+    for (const auto& [channel, figures] : sc["products"].items()) {
+      html += fmt::format("{}<td>{}</td><td>{}</td><td>{}</td></tr>\n", row, escapeHtml(channel),
+                          triple(figures.value("position_error_m_p95", json())),
+                          triple(figures.value("angle_error_deg_p95", json())));
+      row = "<tr>";
+    }
   }
   return html + "</table>\n";
 }
