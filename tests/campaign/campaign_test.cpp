@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -243,8 +244,27 @@ TEST(Report, GathersRequirementsAndScenarioEntries) {
     results[i]["scenario"] = c->scenarios[i % 2].name;
     ASSERT_TRUE(writeResult(dir, i, results[i]).isOk());
   }
+  // run 0 also has the graph's pose product at mid range: the graph's goals apply to it
+  // (dfpcs/lidar_tracking.yaml: beyond 5 m, p95 below 0.5 % of the range and 1 degree)
+  results[0]["evaluation"]["products"].push_back({{"channel", "/cdff/lidar_tracking/pose"},
+                                                  {"matched_frames", 10},
+                                                  {"range_m", {{"min", 15.0}, {"max", 17.0}}},
+                                                  {"position_error_pct_range", {{"p95", 0.3}}},
+                                                  {"angle_error_deg", {{"p95", 1.5}}}});
+  ASSERT_TRUE(writeResult(dir, 0, results[0]).isOk());
   Result<nlohmann::json> report = campaignReport(*c, dir);
   ASSERT_TRUE(report) << report.status().message();
+  std::map<std::string, std::pair<int, int>> goals;  // title: pass, fail
+  for (const nlohmann::json& row : (*report)["requirements"])
+    if (row["id"] == "goal lidar_tracking")
+      goals[row["title"]] = {row["pass"].get<int>(), row["fail"].get<int>()};
+  ASSERT_EQ(goals.size(), 4u);  // its four goals, two of them in a band no run was in
+  EXPECT_EQ(goals["lidar_tracking goal: p95 position_error_pct_range < 0.5 over 5-1000 m"],
+            std::make_pair(1, 0));
+  EXPECT_EQ(goals["lidar_tracking goal: p95 angle_error_deg < 1 over 5-1000 m"],
+            std::make_pair(0, 1));
+  EXPECT_EQ(goals["lidar_tracking goal: p95 angle_error_deg < 0.5 over 0-5 m"],
+            std::make_pair(0, 0));
   const nlohmann::json& sr = (*report)["requirements"][0];
   EXPECT_EQ(sr["pass"], 2);
   EXPECT_EQ(sr["fail"], 2);  // run 1's 2 m, and run 3 without a pose (its entry had a verdict)

@@ -147,6 +147,31 @@ TEST(GraphYaml, StructuralErrorsNameLineAndColumn) {
                   "graph.yaml:1:1: nodes: missing; expected its DFN instances");
 }
 
+// A pose output's goals: a bound on a statistic within a band of range, checked by campaigns.
+TEST(GraphYaml, GoalsAreReadWithTheirBoundAndBand) {
+  const std::string goals =
+      "  - name: y\n    type: Double\n    goals:\n"
+      "      - {quantity: angle_error_deg, below: 0.5, range_m: [0, 5]}\n"
+      "      - {quantity: tracked_fraction, at_least: 0.9}\n";
+  const std::string text = replaced(kChain, "  - {name: y, type: Double}\n", goals);
+  Result<GraphSpec> spec = parseGraph(text, "graph.yaml");
+  ASSERT_OK(spec.status());
+  ASSERT_EQ(spec->outputs[0].goals.size(), 2u);
+  const GoalSpec& angle = spec->outputs[0].goals[0];
+  EXPECT_EQ(angle.quantity, "angle_error_deg");
+  EXPECT_DOUBLE_EQ(angle.threshold, 0.5);
+  EXPECT_DOUBLE_EQ(angle.max_range_m, 5.0);
+  EXPECT_FALSE(angle.atLeast());
+  EXPECT_TRUE(spec->outputs[0].goals[1].atLeast());
+  EXPECT_CONTAINS(graphErrors(replaced(text, "angle_error_deg,", "angle_eror_deg,")),
+                  "graph.yaml:8:20: outputs.0.goals.0.quantity = angle_eror_deg");
+  EXPECT_CONTAINS(graphErrors(replaced(text, "at_least: 0.9", "below: 0.9")),
+                  "graph.yaml:9:9: outputs.0.goals.1 = {quantity: tracked_fraction, below: 0.9}: "
+                  "expected 'at_least' for tracked_fraction (the only bound it takes)");
+  EXPECT_CONTAINS(graphErrors(replaced(text, "range_m: [0, 5]", "range_m: [5, 0]")),
+                  "expected [min, max] with min < max");
+}
+
 TEST(GraphYaml, ParameterErrorsPointIntoTheGraphFile) {
   const std::string e = graphErrors(replaced(kChain, "{offset: 1}", "{offest: 1}"));
   EXPECT_CONTAINS(e,

@@ -12,6 +12,7 @@
 #include <boost/math/distributions/beta.hpp>
 
 #include "cdff/campaign/run.hpp"
+#include "cdff/dfpc/graph.hpp"
 #include "cdff/eval/html.hpp"
 
 namespace cdff::campaign {
@@ -96,6 +97,70 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
 json evaluationOf(const json& run) {
   const json e = run.value("evaluation", json::object());
   return e.is_object() ? e : json::object();
+}
+
+/// A goal a campaign's graph states for one of its pose outputs (dfpc::GoalSpec).
+struct ProductGoal {
+  std::string dfpc, channel;
+  dfpc::GoalSpec goal;
+};
+
+/// The goals of the campaign's graphs, loaded as the runs loaded them (with their settings); a
+/// graph that no longer loads is a note, and its goals are not checked.
+std::vector<ProductGoal> goalsOf(const Campaign& campaign, json& notes) {
+  std::vector<ProductGoal> goals;
+  for (const DfpcEntry& e : campaign.dfpcs) {
+    Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(e.graph, e.settings);
+    if (!graph) {
+      notes.push_back(
+          fmt::format("the goals of {} are not checked: {}", e.graph, graph.status().message()));
+      continue;
+    }
+    for (const dfpc::DfpcOutputSpec& out : graph->outputs)
+      for (const dfpc::GoalSpec& goal : out.goals)
+        goals.push_back({graph->name, graph->outputChannel(out), goal});
+  }
+  return goals;
+}
+
+/// A run's verdicts on the goals, as rows like its evaluation's requirement rows: a goal applies
+/// to a product whose valid estimates' true range stays in the goal's band; it measures the p95
+/// of an error over the run, or its tracked fraction.
+json goalRows(const std::vector<ProductGoal>& goals, const json& run) {
+  json rows = json::array();
+  for (const json& p : evaluationOf(run).value("products", json::array())) {
+    if (!p.is_object()) continue;
+    for (const ProductGoal& g : goals) {
+      if (p.value("channel", "") != g.channel) continue;
+      const dfpc::GoalSpec& goal = g.goal;
+      const json range = p.value("range_m", json::object());
+      const double low = range.value("min", 0.0), high = range.value("max", 0.0);
+      const bool matched = p.value("matched_frames", 0) > 0;
+      const bool applies = matched && low >= goal.min_range_m && high < goal.max_range_m;
+      const json stat = goal.atLeast()
+                            ? p.value("tracked_fraction", json())
+                            : p.value(goal.quantity, json::object()).value("p95", json());
+      json row = {{"id", "goal " + g.dfpc},
+                  {"title", fmt::format("{} goal: {} {} {} {} over {}-{} m", g.dfpc,
+                                        goal.atLeast() ? "value" : "p95", goal.quantity,
+                                        goal.atLeast() ? ">=" : "<", goal.threshold,
+                                        goal.min_range_m, goal.max_range_m)},
+                  {"channel", g.channel},
+                  {"quantity", goal.quantity},
+                  {"statistic", goal.atLeast() ? "value" : "p95"},
+                  {"comparison", goal.atLeast() ? ">=" : "<"},
+                  {"threshold", goal.threshold},
+                  {"verdict", "not_applicable"}};
+      if (applies && stat.is_number()) {
+        const double v = stat.get<double>();
+        row["measured"] = v;
+        row["verdict"] =
+            (goal.atLeast() ? v >= goal.threshold : v < goal.threshold) ? "pass" : "fail";
+      }
+      rows.push_back(std::move(row));
+    }
+  }
+  return rows;
 }
 
 /// The scenario entry a run belongs to (its label; results written before labels: its scenario).
@@ -187,6 +252,8 @@ double percentile(std::vector<double> values, double p) {
 namespace {
 
 json gatherReport(const Campaign& campaign, const fs::path& results, std::string& bad_file) {
+  json notes = json::array();
+  const std::vector<ProductGoal> goals = goalsOf(campaign, notes);
   std::map<std::uint64_t, json> runs;
   json failed = json::array();
   std::map<std::string, RequirementTally> tallies;
@@ -205,9 +272,12 @@ json gatherReport(const Campaign& campaign, const fs::path& results, std::string
                         {"reproduce", r.value("reproduce", "")}});
       continue;
     }
-    for (const json& row : evaluationOf(r).value("requirements", json::array())) {
-      const std::string key = fmt::format("{}|{}|{}", row.value("id", ""), row.value("channel", ""),
-                                          row.value("quantity", ""));
+    json rows = evaluationOf(r).value("requirements", json::array());
+    for (json& row : goalRows(goals, r)) rows.push_back(std::move(row));
+    for (const json& row : rows) {
+      const std::string key =
+          fmt::format("{}|{}|{}|{}", row.value("id", ""), row.value("channel", ""),
+                      row.value("quantity", ""), row.value("title", ""));
       RequirementTally& t = tallies[key];
       if (t.first.is_null()) t.first = row;
       const std::string verdict = row.value("verdict", "");
@@ -256,7 +326,8 @@ json gatherReport(const Campaign& campaign, const fs::path& results, std::string
               {"products", productsOf(runs)},
               {"scenarios", scenariosOf(runs, campaign)},
               {"no_product_runs", no_product},
-              {"failed_runs", failed}};
+              {"failed_runs", failed},
+              {"notes", notes}};
 }
 
 }  // namespace
@@ -287,11 +358,14 @@ std::string reportText(const json& report) {
         r["pass"].get<std::uint64_t>() + r["fail"].get<std::uint64_t>();
     if (applicable == 0) continue;
     const json& m = r["measured"];
+    // A DFPC's goal says its band and statistic (its title); a requirement is known by its id.
+    const bool goal = r["id"].get<std::string>().rfind("goal ", 0) == 0;
     out += fmt::format(
-        "  {} {} {} {} {}: pass {}/{} = {:.1f} % (95 % CI {:.1f}-{:.1f} %); over runs p50 {:.4g} "
-        "p95 {:.4g} max {:.4g}\n",
+        "  {} {} {} {} {}{}: pass {}/{} = {:.1f} % (95 % CI {:.1f}-{:.1f} %); over runs p50 "
+        "{:.4g} p95 {:.4g} max {:.4g}\n",
         r["id"].get<std::string>(), r["channel"].get<std::string>(),
         r["quantity"].get<std::string>(), r["comparison"].get<std::string>(), r["threshold"].dump(),
+        goal ? " (" + r["title"].get<std::string>() + ")" : std::string(),
         r["pass"].get<std::uint64_t>(), applicable, 100 * r["pass_fraction"].get<double>(),
         100 * r["pass_interval"][0].get<double>(), 100 * r["pass_interval"][1].get<double>(),
         m.value("p50", NAN), m.value("p95", NAN), m.value("max", NAN));
@@ -304,6 +378,8 @@ std::string reportText(const json& report) {
         sc["ok"].get<std::uint64_t>(), sc["all_pass"].get<std::uint64_t>(),
         sc["no_product"].get<std::uint64_t>(), sc["failed"].get<std::uint64_t>(),
         sc["with_dfpc_faults"].get<std::uint64_t>());
+  for (const json& note : report.value("notes", json::array()))
+    out += "  note: " + note.get<std::string>() + "\n";
   for (const json& f : report["failed_runs"])
     out += fmt::format("  run {} failed at {}: {}\n    reproduce: {}\n", f["index"].get<int>(),
                        f["stage"].get<std::string>(), f["error"].get<std::string>(),
@@ -318,18 +394,18 @@ std::string requirementRowHtml(const json& r) {
   const std::uint64_t applicable = r["pass"].get<std::uint64_t>() + r["fail"].get<std::uint64_t>();
   if (applicable == 0)
     return fmt::format(
-        "<tr class='not_applicable'><td>{}</td><td>{}</td><td>{}</td><td>{} {}</td>"
+        "<tr class='not_applicable'><td title='{}'>{}</td><td>{}</td><td>{}</td><td>{} {}</td>"
         "<td colspan='5'>applies to no run</td></tr>\n",
-        escapeHtml(r["id"]), escapeHtml(r["channel"]), escapeHtml(r["quantity"]),
-        escapeHtml(r["comparison"]), r["threshold"].dump());
+        escapeHtml(r["title"]), escapeHtml(r["id"]), escapeHtml(r["channel"]),
+        escapeHtml(r["quantity"]), escapeHtml(r["comparison"]), r["threshold"].dump());
   const json& m = r["measured"];
   return fmt::format(
-      "<tr class='{}'><td>{}</td><td>{}</td><td>{}</td><td>{} {}</td><td>{}/{}</td>"
+      "<tr class='{}'><td title='{}'>{}</td><td>{}</td><td>{}</td><td>{} {}</td><td>{}/{}</td>"
       "<td>{:.1f} % [{:.1f}, {:.1f}]</td><td>{:.4g}</td><td>{:.4g}</td><td>{:.4g}</td></tr>\n",
-      r["fail"].get<std::uint64_t>() == 0 ? "pass" : "fail", escapeHtml(r["id"]),
-      escapeHtml(r["channel"]), escapeHtml(r["quantity"]), escapeHtml(r["comparison"]),
-      r["threshold"].dump(), r["pass"].get<std::uint64_t>(), applicable,
-      100 * r["pass_fraction"].get<double>(), 100 * r["pass_interval"][0].get<double>(),
+      r["fail"].get<std::uint64_t>() == 0 ? "pass" : "fail", escapeHtml(r["title"]),
+      escapeHtml(r["id"]), escapeHtml(r["channel"]), escapeHtml(r["quantity"]),
+      escapeHtml(r["comparison"]), r["threshold"].dump(), r["pass"].get<std::uint64_t>(),
+      applicable, 100 * r["pass_fraction"].get<double>(), 100 * r["pass_interval"][0].get<double>(),
       100 * r["pass_interval"][1].get<double>(), m.value("p50", NAN), m.value("p95", NAN),
       m.value("max", NAN));
 }
@@ -423,6 +499,8 @@ std::string reportHtml(const json& report) {
       "<th>pass</th><th>fraction [95 % CI]</th><th>p50</th><th>p95</th><th>max</th></tr>\n";
   for (const json& r : report["requirements"]) html += requirementRowHtml(r);
   html += "</table>\n";
+  for (const json& note : report.value("notes", json::array()))
+    html += "<p class='note'>" + escapeHtml(note.get<std::string>()) + "</p>\n";
   html += scenariosHtml(report.value("scenarios", json::array()));
   for (const json& r : report["requirements"]) html += requirementPlot(r);
   html += runListHtml(report["no_product_runs"], "Runs without a pose product");

@@ -121,6 +121,20 @@ struct DfpcInputSpec {
   SourceLocation at;
 };
 
+/// A performance goal a DFPC states for a pose output (docs/dfpc.md, "Goals"): the p95 of an
+/// error over a run's valid estimates below a bound, or the tracked fraction at least one,
+/// applying to runs whose true range stays in a band. Campaigns check them per run, beside the
+/// seed's requirements (docs/campaigns.md).
+struct GoalSpec {
+  /// position_error_m, position_error_pct_range, angle_error_deg (p95, below) or
+  /// tracked_fraction (at least).
+  std::string quantity;
+  double threshold = 0;
+  double min_range_m = 0, max_range_m = 1e9;  // the band of true range it applies in
+  SourceLocation at;
+  bool atLeast() const { return quantity == "tracked_fraction"; }
+};
+
 struct DfpcOutputSpec {
   std::string name;
   std::string type;
@@ -129,6 +143,7 @@ struct DfpcOutputSpec {
   std::size_t history = 0;  // samples the Data Product Manager keeps; 0: its default
   double timeout_s = 0;     // no product for this long (stream time) is a fault; 0: no watchdog
   RecoverySpec on_timeout;
+  std::vector<GoalSpec> goals;
   SourceLocation at;
 };
 

@@ -114,6 +114,36 @@ const Table<DfpcInputSpec>& inputTable() {
   return table;
 }
 
+/// A goal: {quantity: angle_error_deg, below: 1.0, range_m: [5, 1000]}, or {quantity:
+/// tracked_fraction, at_least: 0.99}.
+Status readGoal(const Field& f, GoalSpec& goal) {
+  static const Table<GoalSpec> table =
+      Table<GoalSpec>("a goal {quantity, below or at_least, range_m}")
+          .required(
+              "quantity",
+              [](const Field& q, GoalSpec& g) {
+                return q.choice(g.quantity, {"position_error_m", "position_error_pct_range",
+                                             "angle_error_deg", "tracked_fraction"});
+              },
+              "the quantity it bounds")
+          .optional("below", schema::number(&GoalSpec::threshold, schema::Range::above(0)))
+          .optional("at_least", schema::number(&GoalSpec::threshold, schema::Range::closed(0, 1)))
+          .optional("range_m", [](const Field& r, GoalSpec& g) {
+            std::vector<double> band;
+            CDFF_RETURN_IF_ERROR(r.numbers(band, 2, 2, schema::Range::atLeast(0, "m")));
+            if (!(band[0] < band[1])) return r.fail("[min, max] with min < max");
+            g.min_range_m = band[0];
+            g.max_range_m = band[1];
+            return Status::ok();
+          });
+  goal.at = f.location();
+  CDFF_RETURN_IF_ERROR(table.read(f, goal));
+  const char* bound = goal.atLeast() ? "at_least" : "below";
+  if (!f.has(bound) || f.has(goal.atLeast() ? "below" : "at_least"))
+    return f.fail(fmt::format("'{}' for {} (the only bound it takes)", bound, goal.quantity));
+  return Status::ok();
+}
+
 const Table<DfpcOutputSpec>& outputTable() {
   static const Table<DfpcOutputSpec> table =
       Table<DfpcOutputSpec>("a DFPC output")
@@ -136,9 +166,20 @@ const Table<DfpcOutputSpec>& outputTable() {
                     })
           .optional("timeout_s",
                     schema::number(&DfpcOutputSpec::timeout_s, schema::Range::atLeast(0, "s")))
-          .optional("on_timeout", [](const Field& f, DfpcOutputSpec& out) -> Status {
-            CDFF_RETURN_IF_ERROR(recovery(f, out.on_timeout));
-            if (out.timeout_s <= 0) return f.fail("a timeout_s > 0 with on_timeout", "no timeout");
+          .optional("on_timeout",
+                    [](const Field& f, DfpcOutputSpec& out) -> Status {
+                      CDFF_RETURN_IF_ERROR(recovery(f, out.on_timeout));
+                      if (out.timeout_s <= 0)
+                        return f.fail("a timeout_s > 0 with on_timeout", "no timeout");
+                      return Status::ok();
+                    })
+          .optional("goals", [](const Field& f, DfpcOutputSpec& out) -> Status {
+            if (!f.isList()) return f.fail("a list of goals ({quantity: ..., below: ...})");
+            for (const Field& e : f.elements()) {
+              GoalSpec goal;
+              CDFF_RETURN_IF_ERROR(readGoal(e, goal));
+              out.goals.push_back(std::move(goal));
+            }
             return Status::ok();
           });
   return table;
