@@ -153,6 +153,11 @@ TEST(GraphYaml, GoalsAreReadWithTheirBoundAndBand) {
       "  - name: y\n    type: Double\n    goals:\n"
       "      - {quantity: angle_error_deg, below: 0.5, range_m: [0, 5]}\n"
       "      - {quantity: tracked_fraction, at_least: 0.9}\n";
+  // on a number: refused, goals are measured against the truth pose
+  EXPECT_CONTAINS(graphErrors(replaced(kChain, "  - {name: y, type: Double}\n", goals)),
+                  "graph.yaml:8:9: DFPC output 'y' has goals but type Double; expected a pose");
+  // the chain's output as a pose, fed by a pose-typed relay, would need other DFNs: the goals
+  // are read from the spec here
   const std::string text = replaced(kChain, "  - {name: y, type: Double}\n", goals);
   Result<GraphSpec> spec = parseGraph(text, "graph.yaml");
   ASSERT_OK(spec.status());

@@ -95,6 +95,14 @@ class GraphChecker {
           error(out.at, "DFPC output '{}' has role '{}' but type {}; expected {}", out.name,
                 out.role, out.type, fmt::join(it->second, " or "));
       }
+      // Goals are measured against the truth pose (cdff eval's products).
+      static const std::set<std::string> poses = {"RigidBodyState", "PoseWithCovariance",
+                                                  "Transform"};
+      if (!out.goals.empty() && !poses.count(out.type))
+        error(out.goals.front().at,
+              "DFPC output '{}' has goals but type {}; expected a pose (RigidBodyState, "
+              "PoseWithCovariance or Transform)",
+              out.name, out.type);
       checkRecovery(out.on_timeout, nullptr);
     }
   }
