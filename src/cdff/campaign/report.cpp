@@ -93,10 +93,11 @@ json requirementsOf(std::map<std::string, RequirementTally>& tallies,
   return out;
 }
 
-/// A run's evaluation (an empty object when it has none, or none that is an object).
-json evaluationOf(const json& run) {
-  const json e = run.value("evaluation", json::object());
-  return e.is_object() ? e : json::object();
+/// A run's evaluation (an empty object when it has none, or none that is an object), not copied.
+const json& evaluationOf(const json& run) {
+  static const json kNone = json::object();
+  const auto it = run.find("evaluation");
+  return it != run.end() && it->is_object() ? *it : kNone;
 }
 
 /// A goal a campaign's graph states for one of its pose outputs (dfpc::GoalSpec).
@@ -251,7 +252,8 @@ double percentile(std::vector<double> values, double p) {
 
 namespace {
 
-json gatherReport(const Campaign& campaign, const fs::path& results, std::string& bad_file) {
+/// `reading` names the result being read while results are read (for an error thrown there).
+Result<json> gatherReport(const Campaign& campaign, const fs::path& results, std::string& reading) {
   json notes = json::array();
   const std::vector<ProductGoal> goals = goalsOf(campaign, notes);
   std::map<std::uint64_t, json> runs;
@@ -260,9 +262,10 @@ json gatherReport(const Campaign& campaign, const fs::path& results, std::string
   for (std::uint64_t i = 0; i < campaign.runs; ++i) {
     const fs::path file = resultFile(results, i);
     if (!fs::exists(file)) continue;
-    bad_file = file.string();
+    reading = file.string();
     json r = json::parse(std::ifstream(file), nullptr, false);
-    if (r.is_discarded() || !r.is_object()) return json();
+    if (r.is_discarded() || !r.is_object())
+      return corruptData("'{}' is not a run result (a JSON object)", reading);
     runs[i] = r;
     if (r.value("status", "") == "no_product") continue;  // counted below, once all are read
     if (r.value("status", "") != "ok") {
@@ -294,7 +297,7 @@ json gatherReport(const Campaign& campaign, const fs::path& results, std::string
       }
     }
   }
-  bad_file.clear();  // every result read; what follows reads them again with defaults
+  reading.clear();  // every result read; what follows reads them again with defaults
   // A run whose DFPCs produced no pose fails every requirement that applied to the runs of its
   // scenario that did produce one (the truth's range is the scenario's): no estimate is a miss.
   json no_product = json::array();
@@ -335,14 +338,12 @@ json gatherReport(const Campaign& campaign, const fs::path& results, std::string
 Result<json> campaignReport(const Campaign& campaign, const fs::path& results) {
   // A result is read with defaults where a key is missing; one whose values have other types
   // than a run writes (edited by hand, truncated) is reported with its file, not thrown.
-  std::string file;
+  std::string reading;
   try {
-    json report = gatherReport(campaign, results, file);
-    if (!file.empty()) return corruptData("'{}' is not a run result (a JSON object)", file);
-    return report;
+    return gatherReport(campaign, results, reading);
   } catch (const json::exception& e) {
     return corruptData("'{}' is not a run result as `cdff campaign` writes it: {}",
-                       file.empty() ? results.string() : file, e.what());
+                       reading.empty() ? results.string() : reading, e.what());
   }
 }
 
