@@ -1,6 +1,6 @@
 // cdff run GRAPH.yaml... -i IN.mcap [-i MORE.mcap] -o OUT.mcap [--set NODE.PARAM=VALUE ...]
 //          [--map DFPC.INPUT=/channel] [--pair /pair=/left,/right] [--run-while
-//          DFPC=TRACKER:STATES]
+//          DFPC=TRACKER:STATES] [--roi X,Y,W,H@TIME]
 //
 // Replays recordings through one or several DFPCs and records the ground truth of the inputs,
 // every product, every event and one timing record per DFN call into OUT.
@@ -12,6 +12,7 @@
 #include <csignal>
 #include <memory>
 
+#include "cdff/dfpc/designation.hpp"
 #include "cdff/dfpc/recording_streams.hpp"
 #include "cdff/dfpc/replay.hpp"
 #include "commands.hpp"
@@ -29,6 +30,7 @@ struct RunArguments {
   std::vector<std::string> maps;
   std::vector<std::string> pairs;
   std::vector<std::string> run_while;
+  std::vector<std::string> rois;
   std::vector<std::string> settings;
   std::vector<std::string> passthrough = {"/truth/"};
   bool no_timing = false;
@@ -67,6 +69,9 @@ bool parseRepeatedOptions(const RunArguments& args, dfpc::ReplayOptions& options
     if (!pairing) return fail("--pair: ", pairing.status());
     options.stereo_pairs.push_back(std::move(pairing).value());
   }
+  for (const std::string& text : args.rois)
+    if (Result<dfpc::Designation> d = dfpc::parseDesignation(text); !d)
+      return fail("--roi: ", d.status());
   for (const std::string& text : args.run_while) {
     Result<dfpc::ActivationRule> rule = dfpc::parseActivationRule(text);
     if (!rule) return fail("--run-while: ", rule.status());
@@ -101,8 +106,8 @@ int runGraphs(const RunArguments& args) {
   // A window keeps what was recorded once at the beginning (the mountings a graph needs).
   window.keep_static = true;
   {
-    // --start/--end are seconds from the beginning of the inputs: open once to learn it.
-    if (args.start_s || args.end_s) {
+    // --start/--end and --roi are seconds from the beginning of the inputs: open once to learn it.
+    if (args.start_s || args.end_s || !args.rois.empty()) {
       io::Replay probe;
       if (Status s = probe.open(args.inputs); !s.isOk()) {
         fmt::print(stderr, "error: {}\n", s.message());
@@ -111,6 +116,12 @@ int runGraphs(const RunArguments& args) {
       const Timestamp t0 = probe.startTime();
       if (args.start_s) window.start = t0 + static_cast<Timestamp>(*args.start_s * 1e6);
       if (args.end_s) window.end = t0 + static_cast<Timestamp>(*args.end_s * 1e6);
+      for (const std::string& text : args.rois) {
+        dfpc::Designation d = dfpc::parseDesignation(text).value();
+        d.region.stamp = t0 + static_cast<Timestamp>(std::llround(d.time_s * 1e6));
+        options.injected.push_back(
+            dfpc::Message::of(dfpc::kDesignationChannel, d.region.stamp, d.region));
+      }
     }
   }
   if (Status s = input.open(args.inputs, window); !s.isOk()) {
@@ -198,6 +209,9 @@ void addRunCommand(CLI::App& root, int& exit_code) {
   run->add_option("--run-while", args->run_while,
                   "Run a DFPC only while another's track state is one of some states: "
                   "DFPC=TRACKER:STATE[,STATE] (repeatable)");
+  run->add_option("--roi", args->rois,
+                  "Designate the target: the box X,Y,W,H (pixels) of the image at TIME s from "
+                  "the start, sent on /cdff/designation (far-range tracking; repeatable)");
   run->add_option("--set", args->settings,
                   "Set an instance's parameter without editing the graph: "
                   "[DFPC/]NODE.PARAM=VALUE, the value YAML (repeatable)");

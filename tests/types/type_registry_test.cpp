@@ -131,6 +131,31 @@ Detections detections() {
   return d;
 }
 
+ImageRegion imageRegion() {
+  ImageRegion r = ImageRegion::box(503.25, 498.5, 21, 17);
+  r.stamp = kStamp;
+  r.frame_id = "camera_far_optical";
+  r.homography(0, 0) = 1.25;
+  r.homography(1, 1) = 1.25;
+  r.homography(2, 0) = 1e-5;  // a perspective term: every element travels
+  r.score = 0.9375;
+  r.covariance << 0.0625, 0.015625, 0.015625, 0.09375;
+  r.source = "match";
+  return r;
+}
+
+Bearing bearing() {
+  Bearing b;
+  b.stamp = kStamp;
+  b.frame_id = "servicer";
+  b.direction = Eigen::Vector3d(1.0, 0.02, -0.01).normalized();
+  b.covariance = Eigen::Vector3d(0.0, 1e-8, 2e-8).asDiagonal();
+  b.range = 1234.5;
+  b.range_variance = 25.0;  // range rate unknown: NaN
+  b.designation = "automatic";
+  return b;
+}
+
 /// One sample value of every registered type, keyed by the type's name.
 std::map<std::string, Value> samples() {
   const testing::IoSamples s = testing::makeIoSamples(3, kStamp);
@@ -159,6 +184,8 @@ std::map<std::string, Value> samples() {
                                Value::of(s.joints),
                                Value::of(lidarInfo()),
                                Value::of(detections()),
+                               Value::of(imageRegion()),
+                               Value::of(bearing()),
                                Value::of(s.record),
                                Value::of(TrackState::kDegraded),
                                Value::of(-2.5e-3),

@@ -6,6 +6,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "cdff/dfpc/designation.hpp"
+
 namespace cdff::dfpc {
 
 Result<ChannelRemap> parseRemap(const std::string& text) {
@@ -116,7 +118,9 @@ Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions&
   run.progress = options.progress;
   run.cancel = options.cancel;
   StereoPairStream paired(input, options.stereo_pairs);
-  InputStream& source = options.stereo_pairs.empty() ? input : paired;
+  InputStream& unmerged = options.stereo_pairs.empty() ? input : paired;
+  const std::unique_ptr<InputStream> merged = withMessages(unmerged, options.injected);
+  InputStream& source = options.injected.empty() ? unmerged : *merged;
   Result<RunSummary> summary = orchestrator.run(source, run);
   if (!summary) {
     // The DFPCs stop where the input failed, so that what was recorded ends with their stop.

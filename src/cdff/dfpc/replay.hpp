@@ -42,6 +42,8 @@ struct ReplayOptions {
   /// DFPCs that run only while another's track state is in given states (detection while a
   /// tracker is UNINITIALISED or LOST).
   std::vector<ActivationRule> run_while;
+  /// Messages merged into the input by stamp (a user's designation, `cdff run --roi`).
+  std::vector<Message> injected;
   /// Instance parameters set without editing the graphs: "[DFPC/]NODE.PARAM=VALUE"
   /// (ParameterSetting); each must address exactly one graph's instance.
   std::vector<std::string> parameter_settings;

@@ -52,6 +52,9 @@ struct ImuSpec {
 struct AhrsSpec {
   double attitude_sigma = 0.0035;  // rad, 1 sigma per axis
   bool noise = true;               // false: exact truth
+  /// true: the attitude in the target's orbital frame (lvlh_T_servicer), as the servicer's
+  /// navigation composes it from the AHRS and its orbit (far-range tracking's input).
+  bool lvlh_frame = false;
 
   Status validate(const std::string& name) const;
 };

@@ -377,6 +377,7 @@ Result<RangeMeasurement> measureRadar(const RadarSpec& spec, const RayCaster& ta
   // Draws first, so that the stream does not depend on detection.
   const double n_range = rng.normal(), n_rate = rng.normal(), n_a = rng.normal(),
                n_b = rng.normal();
+  const bool dropped = rng.uniform() < spec.dropout_probability;
   const Eigen::Isometry3d pose = sensor_T_target(t);
   const Eigen::Vector3d centre = pose.translation();  // the target's centre of mass
   const double distance = centre.norm();
@@ -389,7 +390,7 @@ Result<RangeMeasurement> measureRadar(const RadarSpec& spec, const RayCaster& ta
                                        (target_T_sensor.linear() * los).cast<float>(), 0.0f,
                                        static_cast<float>(distance * 2)});
   const double range = hit.hit ? hit.distance : distance;
-  if (range < spec.min_range || range > spec.max_range) return m;
+  if (range < spec.min_range || range > spec.max_range || dropped) return m;
   constexpr double h = 1e-3;
   const double rate =
       (sensor_T_target(t + h).translation().norm() - sensor_T_target(t - h).translation().norm()) /

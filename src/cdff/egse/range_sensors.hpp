@@ -110,6 +110,7 @@ struct RadarSpec {
   double range_noise = 0.05;                   // m
   double range_rate_noise = 0.005;             // m/s
   double angle_noise = 0.003;                  // rad, per axis
+  double dropout_probability = 0.0;            // each measurement lost (no detection) with it
 
   Status validate(const std::string& name) const;
 };

@@ -127,6 +127,7 @@ struct Scenario {
   ServicerAttitudeKind servicer_attitude = ServicerAttitudeKind::kTargetPointing;
   Eigen::Vector3d up = Eigen::Vector3d::UnitX();  // target pointing: body z towards this (lvlh)
   double yaw_offset = 0.0, pitch_offset = 0.0;    // rad
+  double servicer_jitter = 0.0;                   // rad RMS per axis (pointing jitter)
   Eigen::Quaterniond servicer_orientation = Eigen::Quaterniond::Identity();  // lvlh / inertial
   bool servicer_mockup = false;
   ServicerSpec servicer_spec;

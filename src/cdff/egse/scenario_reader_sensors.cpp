@@ -274,7 +274,9 @@ const Table<Sensor>& radarTable() {
           .optional("range_rate_noise",
                     radar(schema::number(&R::range_rate_noise, Range::closed(0, 1e3, "m/s"))))
           .optional("angle_noise_deg",
-                    radar(degrees(&R::angle_noise, Range::closed(0, 90, "deg"))));
+                    radar(degrees(&R::angle_noise, Range::closed(0, 90, "deg"))))
+          .optional("dropout_probability",
+                    radar(schema::number(&R::dropout_probability, Range::closed(0, 1, ""))));
   return table;
 }
 
@@ -284,7 +286,9 @@ const Table<Sensor>& ahrsTable() {
           .optional("attitude_sigma",
                     via(&Sensor::ahrs,
                         schema::number(&AhrsSpec::attitude_sigma, Range::closed(0, M_PI, "rad"))))
-          .optional("noise", via(&Sensor::ahrs, schema::flag(&AhrsSpec::noise)));
+          .optional("noise", via(&Sensor::ahrs, schema::flag(&AhrsSpec::noise)))
+          .optional("frame", via(&Sensor::ahrs, schema::named(&AhrsSpec::lvlh_frame,
+                                                              {{"inertial", false}, {"lvlh", true}})));
   return table;
 }
 

@@ -131,7 +131,8 @@ Status readTrajectory(const Field& f, Scenario& sc) {
 const Table<Scenario>& servicerAttitudeTable() {
   static const Table<Scenario> table =
       Table<Scenario>(
-          "the servicer's attitude {mode, up, yaw_offset_deg, pitch_offset_deg, rpy_deg}")
+          "the servicer's attitude {mode, up, yaw_offset_deg, pitch_offset_deg, jitter_deg, "
+          "rpy_deg}")
           .optional("mode",
                     schema::named(&S::servicer_attitude,
                                   {{"target_pointing", ServicerAttitudeKind::kTargetPointing},
@@ -139,6 +140,7 @@ const Table<Scenario>& servicerAttitudeTable() {
                                    {"inertial", ServicerAttitudeKind::kInertial}}))
           .optional("up", direction(&S::up))
           .optional("yaw_offset_deg", degrees(&S::yaw_offset, Range::closed(-180, 180, "deg")))
+          .optional("jitter_deg", degrees(&S::servicer_jitter, Range::closed(0, 10, "deg")))
           .optional("pitch_offset_deg", degrees(&S::pitch_offset, Range::closed(-90, 90, "deg")))
           .optional("rpy_deg", rpy(&S::servicer_orientation));
   return table;

@@ -75,7 +75,8 @@ Result<std::unique_ptr<Translation>> makeTranslation(const Scenario& sc, double 
   return translation;
 }
 
-std::unique_ptr<Attitude> makeServicerAttitude(const Scenario& sc, const Translation* translation) {
+std::unique_ptr<Attitude> makeServicerAttitude(const Scenario& sc, const Translation* translation,
+                                               std::uint64_t seed) {
   const Orbit& orbit = sc.orbit;
   std::unique_ptr<Attitude> servicer_attitude;
   switch (sc.servicer_attitude) {
@@ -90,6 +91,9 @@ std::unique_ptr<Attitude> makeServicerAttitude(const Scenario& sc, const Transla
       servicer_attitude = inertialAttitude(orbit, sc.servicer_orientation);
       break;
   }
+  if (sc.servicer_jitter > 0)
+    servicer_attitude =
+        jitteredAttitude(orbit, std::move(servicer_attitude), sc.servicer_jitter, seed);
   return servicer_attitude;
 }
 
@@ -127,7 +131,7 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
   // World.
   auto translation = makeTranslation(sc, sim->duration_);
   if (!translation) return translation.status();
-  std::unique_ptr<Attitude> servicer_attitude = makeServicerAttitude(sc, translation->get());
+  std::unique_ptr<Attitude> servicer_attitude = makeServicerAttitude(sc, translation->get(), sim->seed_);
   std::unique_ptr<Attitude> target_attitude = makeTargetAttitude(sc, sim->duration_);
   sim->world_ =
       std::make_unique<World>(sc.orbit, std::move(translation).value(),
@@ -616,7 +620,7 @@ Status Simulator::processAhrs(SensorState& sensor, double t, Timestamp available
   // with a zero covariance block.
   Eigen::Quaterniond attitude(world_->servicer(t).lvlh_T_body.linear());
   std::string inertial = "lvlh";
-  if (scenario_.orbit.enabled) {
+  if (scenario_.orbit.enabled && !c.ahrs.lvlh_frame) {
     attitude = Eigen::Quaterniond(scenario_.orbit.eciRotationLvlh(t)) * attitude;
     inertial = "eci";
   }

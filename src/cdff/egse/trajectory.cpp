@@ -1,10 +1,12 @@
 #include "cdff/egse/trajectory.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <optional>
 
+#include "cdff/egse/rng.hpp"
 #include "cdff/types/geometry.hpp"
 
 namespace cdff::egse {
@@ -369,6 +371,49 @@ std::unique_ptr<Attitude> pointingAttitude(const Orbit& orbit, const Translation
                                            const Translation* aim_at, const Eigen::Vector3d& up,
                                            double yaw_offset, double pitch_offset) {
   return std::make_unique<Pointing>(orbit, self, aim_at, up, yaw_offset, pitch_offset);
+}
+
+namespace {
+
+class Jittered final : public Attitude {
+ public:
+  Jittered(const Orbit& orbit, std::unique_ptr<Attitude> base, double rms, std::uint64_t seed)
+      : orbit_(orbit), base_(std::move(base)), amplitude_(rms * std::sqrt(2.0 / 3.0)) {
+    Rng rng(seed ^ 0x6a177e5ULL);
+    for (auto& axis : waves_)
+      for (Wave& w : axis) {
+        w.frequency = std::exp(rng.uniform(std::log(0.03), std::log(0.5)));  // Hz
+        w.phase = rng.uniform(0, 2 * M_PI);
+      }
+  }
+  AttitudeState at(double t) const override {
+    return differentiate(orbit_, t, [this](double s) {
+      return Eigen::Quaterniond(base_->at(s).lvlh_R_body * expSO3(angles(s)));
+    });
+  }
+
+ private:
+  struct Wave {
+    double frequency = 0, phase = 0;
+  };
+  Eigen::Vector3d angles(double t) const {
+    Eigen::Vector3d a = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i)
+      for (const Wave& w : waves_[static_cast<std::size_t>(i)])
+        a[i] += amplitude_ * std::sin(2 * M_PI * w.frequency * t + w.phase);
+    return a;
+  }
+  Orbit orbit_;
+  std::unique_ptr<Attitude> base_;
+  double amplitude_;
+  std::array<std::array<Wave, 3>, 3> waves_{};
+};
+
+}  // namespace
+
+std::unique_ptr<Attitude> jitteredAttitude(const Orbit& orbit, std::unique_ptr<Attitude> base,
+                                           double rms, std::uint64_t seed) {
+  return std::make_unique<Jittered>(orbit, std::move(base), rms, seed);
 }
 
 }  // namespace cdff::egse

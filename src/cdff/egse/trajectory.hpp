@@ -88,5 +88,10 @@ std::unique_ptr<Attitude> tumblingAttitude(const Orbit& orbit,
 std::unique_ptr<Attitude> pointingAttitude(const Orbit& orbit, const Translation* self,
                                            const Translation* aim_at, const Eigen::Vector3d& up,
                                            double yaw_offset, double pitch_offset);
+/// `base` turned by a pointing jitter (an attitude controller's residual motion): about each
+/// body axis a sum of three sinusoids of 0.03-0.5 Hz with phases and frequencies drawn from
+/// `seed`, of `rms` radians RMS per axis.
+std::unique_ptr<Attitude> jitteredAttitude(const Orbit& orbit, std::unique_ptr<Attitude> base,
+                                           double rms, std::uint64_t seed);
 
 }  // namespace cdff::egse

@@ -72,6 +72,8 @@ enum class ProductForm { kInline, kPly, kMessage };
   X(::cdff::JointState, "JointState", "cdff.JointState", Json, Inline)                           \
   X(::cdff::LidarInfo, "LidarInfo", "cdff.LidarInfo", Json, Inline)                              \
   X(::cdff::Detections, "Detections", "cdff.Detections", Json, Inline)                           \
+  X(::cdff::ImageRegion, "ImageRegion", "cdff.ImageRegion", Json, Inline)                        \
+  X(::cdff::Bearing, "Bearing", "cdff.Bearing", Json, Inline)                                    \
   X(::nlohmann::json, "Json", "cdff.Record", Json, Inline)                                       \
   X(::cdff::TrackState, "TrackState", "cdff.TrackState", Json, Inline)                           \
   X(double, "Double", "cdff.Double", Json, Inline)                                               \

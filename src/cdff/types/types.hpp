@@ -1,11 +1,13 @@
 #pragma once
 // All CDFF core data types (without the OpenCV and PCL conversions).
+#include "cdff/types/bearing.hpp"
 #include "cdff/types/buffer.hpp"
 #include "cdff/types/contours.hpp"
 #include "cdff/types/detection.hpp"
 #include "cdff/types/features.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/image_region.hpp"
 #include "cdff/types/lidar_info.hpp"
 #include "cdff/types/mesh.hpp"
 #include "cdff/types/point_cloud.hpp"

@@ -317,6 +317,46 @@ std::string detectionsSchema() {
                   kTimeSchema, kTransformSchema));
 }
 
+std::string imageRegionSchema() {
+  return jsonSchema(
+      "cdff.ImageRegion",
+      "Where a template lies in one image (far-range tracking): the homography from template "
+      "pixels to image pixels (row-major 3x3), the template's size [width, height] (px), its "
+      "centre's image position (px), the matching score (ZNCC, null for a designation or a "
+      "prediction), the centre's covariance (px^2, row-major 2x2) and the source (user, "
+      "automatic, prediction, match)",
+      fmt::format(R"("timestamp":{},"frame_id":{{"type":"string"}},)"
+                  R"("homography":{{"type":"array","items":{{"type":["number","null"]}},)"
+                  R"("minItems":9,"maxItems":9}},)"
+                  R"("size":{{"type":"array","items":{{"type":"integer"}},"minItems":2,)"
+                  R"("maxItems":2}},)"
+                  R"("centre":{{"type":"array","items":{{"type":["number","null"]}}}},)"
+                  R"("score":{{"type":["number","null"]}},)"
+                  R"("covariance":{{"type":"array","items":{{"type":["number","null"]}},)"
+                  R"("minItems":4,"maxItems":4}},"source":{{"type":"string"}})",
+                  kTimeSchema));
+}
+
+std::string bearingSchema() {
+  return jsonSchema(
+      "cdff.Bearing",
+      "The direction to the target (unit vector in frame_id, the servicer's body frame) with "
+      "its covariance (rad^2, row-major 3x3), its azimuth and elevation (deg, REP-103), and the "
+      "range (m) and range rate (m/s) with their variances where a sensor measures them (null "
+      "otherwise); the designation that started the track",
+      fmt::format(R"("timestamp":{},"frame_id":{{"type":"string"}},)"
+                  R"("direction":{{"type":"array","items":{{"type":["number","null"]}}}},)"
+                  R"("covariance":{{"type":"array","items":{{"type":["number","null"]}}}},)"
+                  R"("azimuth_deg":{{"type":["number","null"]}},)"
+                  R"("elevation_deg":{{"type":["number","null"]}},)"
+                  R"("range":{{"type":["number","null"]}},)"
+                  R"("range_variance":{{"type":["number","null"]}},)"
+                  R"("range_rate":{{"type":["number","null"]}},)"
+                  R"("range_rate_variance":{{"type":["number","null"]}},)"
+                  R"("designation":{{"type":"string"}})",
+                  kTimeSchema));
+}
+
 std::string recordSchema() {
   return jsonSchema("cdff.Record",
                     "A free-form JSON record (events, DFN timings, reports); see "
@@ -344,6 +384,8 @@ const std::map<std::string, std::string, std::less<>>& jsonSchemas() {
       {"cdff.JointState", jointSchema()},
       {"cdff.LidarInfo", lidarInfoSchema()},
       {"cdff.Detections", detectionsSchema()},
+      {"cdff.ImageRegion", imageRegionSchema()},
+      {"cdff.Bearing", bearingSchema()},
       {"cdff.Record", recordSchema()},
       {"cdff.PolygonModel",
        objectSchema("cdff.PolygonModel",

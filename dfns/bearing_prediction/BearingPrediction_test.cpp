@@ -1,0 +1,126 @@
+// BearingPrediction: a state known to a few metres, propagated 10 s and projected into a 35 mm
+// camera, must land where the true relative motion takes the target (the closed form, checked
+// against integration in BearingFilter's test) within a small fraction of its own predicted
+// uncertainty, with the attitude interpolated between AHRS samples; the last match's region is
+// moved there and scaled by the range change. Bad input: a state in another frame, an image
+// older than the state; no attitude near the image's time gives no prediction and a warning.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "BearingPrediction.gen.hpp"
+#include "cdff/tracking/relative_motion.hpp"
+#include "support/dfn_testing.hpp"
+
+namespace cdff::dfn {
+namespace {
+
+CameraModel farCamera() {
+  CameraModel c;
+  c.width = c.height = 1024;
+  c.fx = c.fy = 0.035 / 5.5e-6;
+  c.cx = c.cy = 511.5;
+  return c;
+}
+
+Transform cameraMount() {
+  Transform t = Transform::identity("servicer", "camera_far_optical");
+  Eigen::Matrix3d r;
+  r << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // optical z = servicer x, x = -y, y = -z
+  t.rotation = Eigen::Quaterniond(r);
+  return t;
+}
+
+Eigen::Matrix3d servicerAttitude(double yaw) {
+  // x along-track (towards a target ahead on V-bar), z radial, turned by `yaw` about z.
+  Eigen::Matrix3d r;
+  r << 0, 0, 1, 1, 0, 0, 0, 1, 0;
+  return r * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+class BearingPredictionTest : public ::testing::Test {
+ protected:
+  std::unique_ptr<BearingPrediction> dfn_ =
+      testing::makeDfn<BearingPrediction>("BearingPrediction", "ClohessyWiltshire");
+  tracking::RelativeState state_;
+
+  void SetUp() override {
+    state_.stamp = 0;
+    state_.x << 5, 1500, -3, 0.01, -1.0, 0.002;
+    state_.covariance.diagonal() << 4, 100, 4, 1e-4, 1e-2, 1e-4;
+    dfn_->in.state.set(tracking::toRigidBodyState(state_));
+    dfn_->in.camera_mount.set(cameraMount());
+  }
+
+  void attitudeAt(Timestamp stamp, double yaw) {
+    PoseWithCovariance a;
+    a.pose = Transform::identity("lvlh", "servicer", stamp);
+    a.pose.rotation = Eigen::Quaterniond(servicerAttitude(yaw));
+    a.covariance.block<3, 3>(3, 3) = 1e-10 * Eigen::Matrix3d::Identity();
+    dfn_->in.attitude.set(a);
+    ASSERT_TRUE(dfn_->process().isOk());
+  }
+
+  Image imageAt(Timestamp stamp) {
+    Image image;
+    image.stamp = stamp;
+    image.frame_id = "camera_far_optical";
+    image.camera = farCamera();
+    return image;
+  }
+};
+
+TEST_F(BearingPredictionTest, LandsWhereTheRelativeMotionTakesTheTarget) {
+  attitudeAt(9'500'000, 1e-3);
+  attitudeAt(10'500'000, 3e-3);  // the image at 10 s sees yaw 2e-3 (slerp half-way)
+  ImageRegion reference = ImageRegion::box(490, 480, 40, 30);
+  reference.homography(0, 0) = reference.homography(1, 1) = 1.5;
+  dfn_->in.reference.set(reference);
+  dfn_->in.image.set(imageAt(10'000'000));
+  ASSERT_TRUE(dfn_->process().isOk()) << dfn_->diagnostics().last_error;
+  const ImageRegion& p = *dfn_->out.prediction;
+  const tracking::Vector6d truth =
+      tracking::cwTransition(tracking::meanMotion(500e3), 10.0) * state_.x;
+  const tracking::BearingGeometry g{farCamera(), cameraMount().rotation.toRotationMatrix(),
+                                    servicerAttitude(2e-3)};
+  const Eigen::Vector2d expected = *g.pixelOf(truth.head<3>());
+  EXPECT_LT((p.centre() - expected).norm(), 0.05);
+  EXPECT_EQ(p.source, "prediction");
+  EXPECT_EQ(p.width, 40);
+  // Closing by 10 m from 1500 m: the region grows by 1500/1490.
+  EXPECT_NEAR(p.scale() / reference.scale(), state_.x.head<3>().norm() / truth.head<3>().norm(),
+              1e-4);
+  // The lateral uncertainty (2 m at 1.5 km, plus the velocity's over 10 s) in pixels.
+  const double lateral_px = std::sqrt(4 + 1e-4 * 100) / 1500 * farCamera().fx;
+  EXPECT_NEAR(std::sqrt(p.covariance(0, 0)), lateral_px, 0.1 * lateral_px);
+}
+
+TEST_F(BearingPredictionTest, NoAttitudeNearTheImageGivesNoPredictionAndAWarning) {
+  attitudeAt(0, 0);
+  dfn_->in.image.set(imageAt(10'000'000));
+  ASSERT_TRUE(dfn_->process().isOk());
+  EXPECT_EQ(dfn_->out.prediction.get(), nullptr);
+  ASSERT_FALSE(dfn_->diagnostics().warnings.empty());
+  EXPECT_NE(dfn_->diagnostics().warnings.back().find("no servicer attitude within"),
+            std::string::npos);
+}
+
+TEST_F(BearingPredictionTest, AStateInAnotherFrame) {
+  attitudeAt(0, 0);
+  RigidBodyState wrong = tracking::toRigidBodyState(state_);
+  wrong.pose.parent_frame = "servicer";
+  dfn_->in.state.set(wrong);
+  dfn_->in.image.set(imageAt(1'000'000));
+  testing::expectRejected(*dfn_, "expected lvlh_T_target");
+}
+
+TEST_F(BearingPredictionTest, AnImageOlderThanTheState) {
+  state_.stamp = 5'000'000;
+  dfn_->in.state.set(tracking::toRigidBodyState(state_));
+  attitudeAt(4'000'000, 0);
+  dfn_->in.image.set(imageAt(4'000'000));
+  testing::expectRejected(*dfn_, "is older than the state");
+}
+
+}  // namespace
+}  // namespace cdff::dfn

@@ -1,0 +1,77 @@
+#pragma once
+// Far-range relative navigation (seed §4.1.1): the target's position and velocity relative to
+// the servicer in the target's orbital frame (LVLH: x radial, y along-track, z orbit normal),
+// propagated with the Clohessy-Wiltshire equations, and the camera geometry that turns it into
+// an image position. Shared by BearingPrediction and BearingFilter, so that the prediction the
+// matcher searches around and the filter's own prediction are the same.
+
+#include <optional>
+
+#include <Eigen/Core>
+
+#include "cdff/types/geometry.hpp"
+#include "cdff/types/image.hpp"
+#include "cdff/types/status.hpp"
+
+namespace cdff::tracking {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+/// The state: x = [p, v], p the target's centre minus the servicer's (m, LVLH axes), v its rate.
+struct RelativeState {
+  Timestamp stamp = 0;
+  Vector6d x = Vector6d::Zero();
+  Matrix6d covariance = Matrix6d::Zero();
+};
+
+/// The mean motion (rad/s) of a circular orbit `altitude` metres above the Earth's equatorial
+/// radius; 0 for altitude 0 (free space).
+double meanMotion(double altitude);
+/// The closed-form Clohessy-Wiltshire transition over dt seconds at mean motion n (rad/s; 0:
+/// free space, straight lines). The difference of two free-flying positions obeys the same
+/// linear equations, so it applies to the target relative to the servicer.
+Matrix6d cwTransition(double n, double dt);
+/// The covariance a white acceleration of `psd` (m^2/s^3 per axis) adds over dt seconds.
+Matrix6d whiteAccelerationNoise(double psd, double dt);
+/// Propagates `s` to `stamp` (forward only; an earlier stamp is an error).
+Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd);
+
+/// As a RigidBodyState: lvlh_T_target with the servicer at the origin of "lvlh" (axes only),
+/// the rotation identity with a zero attitude covariance block; twist.linear = v.
+RigidBodyState toRigidBodyState(const RelativeState& s);
+/// The inverse; the error names the field that is not a far-range state.
+Result<RelativeState> fromRigidBodyState(const RigidBodyState& state);
+
+/// Where an LVLH direction lands in the camera at one instant: the camera's intrinsics, its
+/// mounting on the servicer and the servicer's attitude in LVLH.
+struct BearingGeometry {
+  CameraModel camera;
+  Eigen::Matrix3d servicer_R_camera = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d lvlh_R_servicer = Eigen::Matrix3d::Identity();
+
+  /// The pixel of an LVLH vector (distorted as the camera is); nullopt behind the camera.
+  std::optional<Eigen::Vector2d> pixelOf(const Eigen::Vector3d& p_lvlh) const;
+  /// The unit ray of a pixel in the camera frame (undistorted).
+  Eigen::Vector3d rayOf(const Eigen::Vector2d& pixel) const;
+  /// d pixel / d p_lvlh and d pixel / d theta for an attitude error theta of the servicer
+  /// (lvlh_R_servicer exp(theta)), by central differences.
+  Eigen::Matrix<double, 2, 3> positionJacobian(const Eigen::Vector3d& p_lvlh) const;
+  Eigen::Matrix<double, 2, 3> attitudeJacobian(const Eigen::Vector3d& p_lvlh) const;
+};
+
+/// The servicer's attitude at `stamp` from a short history of samples lvlh_T_servicer: slerp
+/// between the two that bracket it, or the nearest within `tolerance` seconds; the attitude
+/// covariance block (rad^2) of the nearer sample.
+class AttitudeHistory {
+ public:
+  Status add(const PoseWithCovariance& lvlh_T_servicer);
+  Result<std::pair<Eigen::Quaterniond, Eigen::Matrix3d>> at(Timestamp stamp,
+                                                            double tolerance) const;
+  bool empty() const { return samples_.empty(); }
+
+ private:
+  std::vector<PoseWithCovariance> samples_;  // by stamp, the last 64
+};
+
+}  // namespace cdff::tracking
