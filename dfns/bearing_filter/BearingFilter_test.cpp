@@ -99,7 +99,8 @@ class BearingFilterOnADrift : public ::testing::Test {
  protected:
   std::unique_ptr<BearingFilter> filter_ = testing::makeDfn<BearingFilter>(
       "BearingFilter", "ExtendedKalman",
-      "{initial_range: 1500, initial_range_sigma: 1000, acceleration_psd: 1.0e-6}");
+      "{initial_range: 1500, initial_range_sigma: 1000, acceleration_psd: 1.0e-6, "
+      "centre_offset_sigma: 0, min_measurement_sigma: 0}");  // the measurements: the centre
   std::mt19937 rng_{11};
   std::normal_distribution<double> unit_{0.0, 1.0};
   const double pixel_sigma_ = 0.1, attitude_sigma_ = 5.0 / 3600 * M_PI / 180;
@@ -133,8 +134,9 @@ class BearingFilterOnADrift : public ::testing::Test {
     Vector6d x;
     x << 20, 2000, -10, 0.01, -1.5, 0.005;  // closing at 1.5 m/s along V-bar
     Flight run;
-    const tracking::BearingGeometry truth_geometry{farCamera(),
-                                                   cameraMount().rotation.toRotationMatrix()};
+    const tracking::BearingGeometry truth_geometry{
+        farCamera(), cameraMount().rotation.toRotationMatrix(), Eigen::Matrix3d::Identity(),
+        cameraMount().translation};
     for (int k = 0; k <= seconds; ++k) {
       const Timestamp stamp = static_cast<Timestamp>(k) * 1'000'000;
       const Vector6d xk = integrate(x, k);

@@ -83,6 +83,13 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
 
  private:
   double meanMotion() const { return tracking::meanMotion(params_.orbit_altitude); }
+  /// The measurement's covariance, each eigenvalue at least min_measurement_sigma^2 (px^2).
+  Eigen::Matrix2d measurementCovariance(const ImageRegion& m) const {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m.covariance);
+    const double floor = params_.min_measurement_sigma * params_.min_measurement_sigma;
+    return eig.eigenvectors() * eig.eigenvalues().cwiseMax(std::max(floor, 1e-4)).asDiagonal() *
+           eig.eigenvectors().transpose();
+  }
   Result<tracking::BearingGeometry> geometryAt(Timestamp stamp, const std::string& frame,
                                                Eigen::Matrix3d& attitude_cov) const;
   Status fuseRadar(const RadarSample& r, RelativeState& s);
@@ -115,7 +122,7 @@ Result<tracking::BearingGeometry> BearingFilterExtendedKalman::geometryAt(
   if (!attitude) return attitude.status();
   attitude_cov = attitude->second;
   return tracking::BearingGeometry{camera, mount.rotation.toRotationMatrix(),
-                                   attitude->first.toRotationMatrix()};
+                                   attitude->first.toRotationMatrix(), mount.translation};
 }
 
 Status BearingFilterExtendedKalman::fuseRadar(const RadarSample& r, RelativeState& s) {
@@ -149,6 +156,7 @@ Result<RelativeState> BearingFilterExtendedKalman::initialise(const ImageRegion&
   auto g = geometryAt(m.stamp, m.frame_id, attitude_cov);
   if (!g) return g.status();
   const Eigen::Vector3d ray = g->lvlh_R_servicer * g->servicer_R_camera * g->rayOf(m.centre());
+  const Eigen::Vector3d camera_lvlh = g->lvlh_R_servicer * g->servicer_t_camera;
   double range = params_.initial_range, range_sigma = params_.initial_range_sigma;
   const bool radar = latest_radar_ && latest_radar_->valid &&
                      std::llabs(latest_radar_->stamp - m.stamp) <= 2'000'000;
@@ -156,12 +164,12 @@ Result<RelativeState> BearingFilterExtendedKalman::initialise(const ImageRegion&
     range = latest_radar_->range;
     range_sigma = latest_radar_->range_sigma;
   }
-  const double pixel_var = std::max(0.01, m.covariance.trace() / 2);
+  const double pixel_var = measurementCovariance(m).trace() / 2;
   const double across_var =
       range * range * (pixel_var / (g->camera.fx * g->camera.fy) + attitude_cov.trace() / 3);
   RelativeState s;
   s.stamp = m.stamp;
-  s.x.head<3>() = range * ray;
+  s.x.head<3>() = camera_lvlh + range * ray;
   const Eigen::Matrix3d along = ray * ray.transpose();
   s.covariance.topLeftCorner<3, 3>() =
       range_sigma * range_sigma * along + across_var * (Eigen::Matrix3d::Identity() - along);
@@ -188,8 +196,7 @@ Status BearingFilterExtendedKalman::fuseImage(const ImageRegion& m, RelativeStat
   Eigen::Matrix<double, 2, 6> h = Eigen::Matrix<double, 2, 6>::Zero();
   h.leftCols<3>() = g->positionJacobian(p);
   const Eigen::Matrix<double, 2, 3> ja = g->attitudeJacobian(p);
-  Eigen::Matrix2d r = m.covariance + ja * attitude_cov * ja.transpose();
-  r += 0.01 * Eigen::Matrix2d::Identity() * (r.trace() < 0.02 ? 1.0 : 0.0);
+  Eigen::Matrix2d r = measurementCovariance(m) + ja * attitude_cov * ja.transpose();
   const Eigen::Vector2d y = m.centre() - *predicted;
   nis = y.dot((h * s.covariance * h.transpose() + r).inverse() * y);
   if (params_.gate > 0 && nis > params_.gate) {
@@ -219,7 +226,9 @@ Bearing BearingFilterExtendedKalman::bearingOf(const RelativeState& s,
   const Eigen::Matrix3d sk = skew(b.direction);
   b.covariance = servicer_R_lvlh * j * s.covariance.topLeftCorner<3, 3>() * j.transpose() *
                      servicer_R_lvlh.transpose() +
-                 sk * attitude_cov * sk.transpose();
+                 sk * attitude_cov * sk.transpose() +
+                 std::pow(params_.centre_offset_sigma / n, 2) *
+                     (Eigen::Matrix3d::Identity() - b.direction * b.direction.transpose());
   b.covariance = 0.5 * (b.covariance + b.covariance.transpose()).eval();
   if (s.stamp - last_range_ <= static_cast<Timestamp>(params_.lost_after * 1e6)) {
     b.range = n;

@@ -47,7 +47,7 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
       return Status::ok();
     }
     tracking::BearingGeometry g{*image.camera, mount.rotation.toRotationMatrix(),
-                                attitude->first.toRotationMatrix()};
+                                attitude->first.toRotationMatrix(), mount.translation};
     const Eigen::Vector3d p = state->x.head<3>();
     const std::optional<Eigen::Vector2d> centre = g.pixelOf(p);
     if (!centre) {

@@ -47,7 +47,7 @@ class TemplateMatchingEcc final : public TemplateMatchingEccBase {
     const tm::Settings settings{params_.min_score,         params_.search_sigmas,
                                 params_.min_search_radius, params_.max_search_radius,
                                 params_.min_extent_for_scale, params_.update_scale_ratio,
-                                params_.min_update_score,  params_.retake_score,
+                                params_.min_update_score,  params_.template_memory,
                                 params_.max_template_size, params_.max_iterations,
                                 params_.pixel_correlation};
     Result<tm::StepResult> r =

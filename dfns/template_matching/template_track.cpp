@@ -165,7 +165,8 @@ Result<Template> takeTemplate(const Image& image, const ImageRegion& region, con
         region.width * scale, region.height * scale, region.centre().x(), region.centre().y(),
         max_value - median, floor);
   t.scale_at_taking = t.region.scale();
-  t.estimates_scale = contrastExtent(t.pixels, median) * k >= s.min_extent_for_scale;
+  t.extent_at_taking = contrastExtent(t.pixels, median) * k;
+  t.estimates_scale = t.extent_at_taking >= s.min_extent_for_scale;
   return t;
 }
 
@@ -346,16 +347,47 @@ Fit evaluateFit(const Crop& crop, int level, const Template& t, const Eigen::Mat
   return fit;
 }
 
+namespace {
+
+/// The image sampled on the template's grid at `match` (the level its pixels are at); empty when
+/// the match reaches outside the image.
+cv::Mat alignedSample(const Image& image, const Template& t, const ImageRegion& match) {
+  const int level = levelFor(match);
+  const cv::Rect2d box = footprint(match, 2.0 * std::ldexp(1.0, level));
+  Result<Crop> crop = cropOf(image, box.x, box.y, box.br().x, box.br().y, level);
+  if (!crop || static_cast<int>(crop->levels.size()) <= level) return {};
+  std::vector<Eigen::Vector2f> xy;
+  for (int y = 0; y < t.pixels.rows; ++y)
+    for (int x = 0; x < t.pixels.cols; ++x) xy.emplace_back(x, y);
+  const Eigen::VectorXf v = sampleAt(crop->levels[static_cast<std::size_t>(level)],
+                                     crop->imageToLevel(level) * match.homography, xy);
+  if (!v.allFinite()) return {};
+  cv::Mat out(t.pixels.rows, t.pixels.cols, CV_32F);
+  std::copy(v.data(), v.data() + v.size(), out.ptr<float>());
+  return out;
+}
+
+}  // namespace
+
 Result<Template> afterMatch(const Image& image, Template t, const ImageRegion& match,
                             const Settings& s) {
   t.region = match;
   if (match.score < s.min_update_score) return t;
+  // The template is the running mean of the confident matches, aligned on its grid: the noise of
+  // one image averages out and the template follows a slowly changing appearance; the mean of
+  // aligned samples keeps the tracked point where it was.
+  if (const cv::Mat sample = alignedSample(image, t, match); !sample.empty()) {
+    t.averaged = std::min(t.averaged + 1, s.template_memory);
+    cv::addWeighted(t.pixels, 1.0 - 1.0 / t.averaged, sample, 1.0 / t.averaged, 0.0, t.pixels);
+  }
   ImageRegion region = match;
   if (!t.estimates_scale) {
-    // A template too small to see scale sees the target grow as a falling score: taken again,
-    // about the same centre, in a box that keeps a margin of a target extent around it.
-    if (match.score >= s.retake_score) return t;
-    const double extent = contrastExtent(t.pixels, medianAndMad(t.pixels).first) * match.scale();
+    // A template too small to see scale is taken again when the target it holds has grown by
+    // update_scale_ratio, about the same centre, in a box with a margin of a target extent.
+    const cv::Mat sample = alignedSample(image, t, match);
+    if (sample.empty()) return t;
+    const double extent = contrastExtent(sample, medianAndMad(sample).first) * match.scale();
+    if (extent < s.update_scale_ratio * t.extent_at_taking) return t;
     const int side = static_cast<int>(std::ceil(2.0 * extent + 6.0));
     if (side > region.width || side > region.height) {
       const Eigen::Vector2d c = match.centre();

@@ -25,7 +25,7 @@ struct Settings {
   double min_extent_for_scale = 8;
   double update_scale_ratio = 1.25;
   double min_update_score = 0.8;
-  double retake_score = 0.9;
+  int template_memory = 10;
   int max_template_size = 96;
   int max_iterations = 30;
   double pixel_correlation = 1;
@@ -55,8 +55,10 @@ int levelFor(const ImageRegion& region);
 struct Template {
   cv::Mat pixels;
   ImageRegion region;          // the last match (or the designation): template -> image
-  double scale_at_taking = 1;  // the region's scale when the template was taken
+  double scale_at_taking = 1;   // the region's scale when the template was taken
+  double extent_at_taking = 0;  // the target's extent in it then (image px)
   bool estimates_scale = false;
+  int averaged = 1;  // the matches averaged into the pixels (at most template_memory)
 };
 
 /// Takes a template from `crop` along `region` (its homography maps template pixels to image

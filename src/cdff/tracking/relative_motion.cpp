@@ -84,7 +84,8 @@ Result<RelativeState> fromRigidBodyState(const RigidBodyState& state) {
 }
 
 std::optional<Eigen::Vector2d> BearingGeometry::pixelOf(const Eigen::Vector3d& p_lvlh) const {
-  const Eigen::Vector3d p = servicer_R_camera.transpose() * (lvlh_R_servicer.transpose() * p_lvlh);
+  const Eigen::Vector3d p =
+      servicer_R_camera.transpose() * (lvlh_R_servicer.transpose() * p_lvlh - servicer_t_camera);
   if (p.z() <= 0) return std::nullopt;
   if (!camera.hasDistortion()) return camera.project(p);
   std::vector<cv::Point3d> object{{p.x(), p.y(), p.z()}};
