@@ -10,57 +10,13 @@
 #include <cmath>
 #include <random>
 
-#include <opencv2/imgproc.hpp>
-
 #include "TemplateMatching.gen.hpp"
 #include "cdff/types/opencv.hpp"
 #include "support/dfn_testing.hpp"
+#include "support/far_target.hpp"
 
 namespace cdff::dfn {
 namespace {
-
-constexpr int kSize = 384;
-
-/// A soft edge: 0 outside, 1 inside, `d` the signed distance inside (px), 0.3 px wide, so that
-/// the rendered image is a smooth function of the target's sub-pixel position (a hard edge
-/// sampled on a grid moves in steps of the grid).
-double inside(double d) { return 0.5 + 0.5 * std::tanh(d / 0.3); }
-
-/// Brightness of the target at target coordinates (u, v), `scale` px per unit: a bus spanning
-/// [-1, 1] x [-0.8, 0.8] with a radiator and a dish, between two solar wings with cells.
-double targetAt(double u, double v, double scale) {
-  auto box = [&](double cu, double cv, double hu, double hv) {
-    return inside((hu - std::abs(u - cu)) * scale) * inside((hv - std::abs(v - cv)) * scale);
-  };
-  const double bus = box(0, 0, 1.0, 0.8), radiator = box(0.4, -0.3, 0.15, 0.2);
-  const double dish = inside((0.2 - std::hypot(u + 0.5, v - 0.4)) * scale);
-  const double wings = box(0, 0, 3.2, 0.35) * (1 - bus);
-  return bus * (180 + 60 * radiator - 90 * dish) + wings * (90 + 25 * std::cos(2 * M_PI * u / 0.5));
-}
-
-/// The target with its centre at `centre` (px) and `scale` px per target unit, in-plane angle
-/// `angle`; 4x4 supersampling, a Gaussian blur of 0.7 px, background 3 DN, read noise 1.5 DN.
-Image render(const Eigen::Vector2d& centre, double scale, double angle, std::mt19937& rng,
-             Timestamp stamp) {
-  cv::Mat fine(kSize * 4, kSize * 4, CV_32F);
-  const double c = std::cos(angle), s = std::sin(angle);
-  for (int y = 0; y < fine.rows; ++y)
-    for (int x = 0; x < fine.cols; ++x) {
-      const double px = (x + 0.5) / 4.0 - 0.5 - centre.x(), py = (y + 0.5) / 4.0 - 0.5 - centre.y();
-      fine.at<float>(y, x) =
-          static_cast<float>(targetAt((c * px + s * py) / scale, (-s * px + c * py) / scale, scale));
-    }
-  cv::Mat pixels;
-  cv::resize(fine, pixels, cv::Size(kSize, kSize), 0, 0, cv::INTER_AREA);
-  cv::GaussianBlur(pixels, pixels, cv::Size(0, 0), 0.7);
-  std::normal_distribution<float> noise(3.0f, 1.5f);
-  for (float& p : cv::Mat_<float>(pixels)) p += noise(rng);
-  cv::Mat bytes;
-  pixels.convertTo(bytes, CV_8U);
-  Result<Image> image = fromMat(bytes, stamp, "camera_far_optical");
-  EXPECT_TRUE(image.isOk());
-  return std::move(image).value();
-}
 
 /// A designation: the box of `half` px around `point`.
 ImageRegion designationAt(const Eigen::Vector2d& point, int half, const std::string& source) {
@@ -80,7 +36,7 @@ TEST_P(TemplateMatchingTracks, FindsASmallTargetMovedBySubPixelAmounts) {
   const Eigen::Vector2d c0(190.3, 170.6);
   const double scale = 2.5;  // the body 5 px, the wings 16 px: a target at about 2 km
   const Eigen::Vector2d designated = c0 + Eigen::Vector2d(0.4, -0.3);
-  dfn_->in.image.set(render(c0, scale, 0, rng_, 0));
+  dfn_->in.image.set(testing::renderFarTarget(c0, scale, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(designated, 12, "user"));
   ASSERT_TRUE(dfn_->process().isOk());
   ASSERT_TRUE(*dfn_->out.found);
@@ -89,7 +45,7 @@ TEST_P(TemplateMatchingTracks, FindsASmallTargetMovedBySubPixelAmounts) {
   const int frames = 30;
   for (int k = 1; k <= frames; ++k) {
     const Eigen::Vector2d ck = c0 + Eigen::Vector2d(move(rng_), move(rng_));
-    dfn_->in.image.set(render(ck, scale, 0, rng_, k * 1'000'000));
+    dfn_->in.image.set(testing::renderFarTarget(ck, scale, 0, rng_, k * 1'000'000));
     ASSERT_TRUE(dfn_->process().isOk()) << dfn_->diagnostics().last_error;
     ASSERT_TRUE(*dfn_->out.found) << "frame " << k << " score " << *dfn_->out.score;
     const Eigen::Vector2d truth = ck + (designated - c0);
@@ -110,7 +66,7 @@ TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyf
     return c + s * Eigen::Vector2d(std::cos(a) * offset.x() - std::sin(a) * offset.y(),
                                    std::sin(a) * offset.x() + std::cos(a) * offset.y());
   };
-  dfn_->in.image.set(render(ck, scale, angle, rng_, 0));
+  dfn_->in.image.set(testing::renderFarTarget(ck, scale, angle, rng_, 0));
   dfn_->in.designation.set(designationAt(pointIn(ck, scale, angle), 8, "automatic"));
   ASSERT_TRUE(dfn_->process().isOk());
   std::uniform_real_distribution<double> move(-3, 3);
@@ -121,7 +77,7 @@ TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyf
     ck = ck.cwiseMax(Eigen::Vector2d(150, 150)).cwiseMin(Eigen::Vector2d(234, 234));
     scale *= growth;
     angle += 0.2 * M_PI / 180;
-    dfn_->in.image.set(render(ck, scale, angle, rng_, k * 1'000'000));
+    dfn_->in.image.set(testing::renderFarTarget(ck, scale, angle, rng_, k * 1'000'000));
     ASSERT_TRUE(dfn_->process().isOk()) << dfn_->diagnostics().last_error;
     ASSERT_TRUE(*dfn_->out.found) << "frame " << k << " scale " << scale;
     last = (dfn_->out.match->centre() - pointIn(ck, scale, angle)).norm();
@@ -135,16 +91,16 @@ TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyf
 
 TEST_P(TemplateMatchingTracks, ReportsNotFoundWhenTheTargetIsGoneAndFindsItAgain) {
   const Eigen::Vector2d c0(200, 200);
-  dfn_->in.image.set(render(c0, 3.0, 0, rng_, 0));
+  dfn_->in.image.set(testing::renderFarTarget(c0, 3.0, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(c0, 14, "user"));
   ASSERT_TRUE(dfn_->process().isOk());
-  dfn_->in.image.set(render(Eigen::Vector2d(-500, -500), 3.0, 0, rng_, 1'000'000));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(-500, -500), 3.0, 0, rng_, 1'000'000));
   ASSERT_TRUE(dfn_->process().isOk());
   EXPECT_FALSE(*dfn_->out.found);
   EXPECT_LT(*dfn_->out.score, 0.6);
   ImageRegion prediction = designationAt(c0 + Eigen::Vector2d(20, -15), 14, "prediction");
   prediction.covariance = Eigen::Matrix2d::Identity() * 100.0;  // 10 px: search 40 px
-  dfn_->in.image.set(render(c0 + Eigen::Vector2d(25, -18), 3.0, 0, rng_, 2'000'000));
+  dfn_->in.image.set(testing::renderFarTarget(c0 + Eigen::Vector2d(25, -18), 3.0, 0, rng_, 2'000'000));
   dfn_->in.prediction.set(prediction);
   ASSERT_TRUE(dfn_->process().isOk());
   ASSERT_TRUE(*dfn_->out.found);
@@ -157,14 +113,14 @@ TEST_P(TemplateMatchingTracks, ItsCovarianceMatchesItsErrors) {
   // little accuracy in the filter, one too small makes it reject good matches).
   const Eigen::Vector2d c0(190, 190);
   const double scale = 6.0;
-  dfn_->in.image.set(render(c0, scale, 0, rng_, 0));
+  dfn_->in.image.set(testing::renderFarTarget(c0, scale, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(c0, 24, "user"));
   ASSERT_TRUE(dfn_->process().isOk());
   std::uniform_real_distribution<double> move(-2, 2);
   double nees = 0;
   for (int k = 1; k <= 60; ++k) {
     const Eigen::Vector2d ck = c0 + Eigen::Vector2d(move(rng_), move(rng_));
-    dfn_->in.image.set(render(ck, scale, 0, rng_, k * 1'000'000));
+    dfn_->in.image.set(testing::renderFarTarget(ck, scale, 0, rng_, k * 1'000'000));
     ASSERT_TRUE(dfn_->process().isOk());
     ASSERT_TRUE(*dfn_->out.found);
     const Eigen::Vector2d e = dfn_->out.match->centre() - ck;
@@ -180,21 +136,21 @@ class TemplateMatchingBadInput : public TemplateMatchingTracks {};
 
 TEST_P(TemplateMatchingBadInput, ADesignationOffTheImage) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(render(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
   dfn_->in.designation.set(designationAt(Eigen::Vector2d(380, 200), 12, "user"));
   testing::expectRejected(*dfn_, "leaves the 384x384 image");
 }
 
 TEST_P(TemplateMatchingBadInput, ADesignationOnEmptySky) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(render(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
   dfn_->in.designation.set(designationAt(Eigen::Vector2d(60, 60), 12, "user"));
   testing::expectRejected(*dfn_, "holds nothing to follow");
 }
 
 TEST_P(TemplateMatchingBadInput, ANonFiniteDesignation) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(render(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
   ImageRegion d = designationAt(Eigen::Vector2d(200, 200), 12, "user");
   d.homography(0, 2) = std::numeric_limits<double>::quiet_NaN();
   dfn_->in.designation.set(d);
@@ -213,7 +169,7 @@ TEST_P(TemplateMatchingBadInput, AnEmptyOrFloatImage) {
 
 TEST_P(TemplateMatchingBadInput, NothingIsFoundBeforeADesignation) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(render(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
   ASSERT_TRUE(dfn_->process().isOk());
   EXPECT_FALSE(*dfn_->out.found);
   EXPECT_TRUE(std::isnan(*dfn_->out.score));

@@ -373,21 +373,25 @@ Result<Template> afterMatch(const Image& image, Template t, const ImageRegion& m
                             const Settings& s) {
   t.region = match;
   if (match.score < s.min_update_score) return t;
-  // The template is the running mean of the confident matches, aligned on its grid: the noise of
-  // one image averages out and the template follows a slowly changing appearance; the mean of
-  // aligned samples keeps the tracked point where it was.
-  if (const cv::Mat sample = alignedSample(image, t, match); !sample.empty()) {
+  // A template too small to estimate scale is the running mean of the confident matches, aligned
+  // on its grid: the noise of a faint target averages out and the mean of aligned samples keeps
+  // the tracked point where it was. A larger template is not averaged: the alignment of a growing
+  // target by an estimated scale would blur it and move the point.
+  if (const cv::Mat sample = t.estimates_scale ? cv::Mat() : alignedSample(image, t, match);
+      !sample.empty()) {
     t.averaged = std::min(t.averaged + 1, s.template_memory);
     cv::addWeighted(t.pixels, 1.0 - 1.0 / t.averaged, sample, 1.0 / t.averaged, 0.0, t.pixels);
   }
   ImageRegion region = match;
   if (!t.estimates_scale) {
     // A template too small to see scale is taken again when the target it holds has grown by
-    // update_scale_ratio, about the same centre, in a box with a margin of a target extent.
+    // update_scale_ratio or fills half its box (where the box clips what it measures), about the
+    // same centre, in a box with a margin of a target extent.
     const cv::Mat sample = alignedSample(image, t, match);
     if (sample.empty()) return t;
     const double extent = contrastExtent(sample, medianAndMad(sample).first) * match.scale();
-    if (extent < s.update_scale_ratio * t.extent_at_taking) return t;
+    const double box = std::min(region.width, region.height) * match.scale();
+    if (extent < s.update_scale_ratio * t.extent_at_taking && extent < 0.5 * box) return t;
     const int side = static_cast<int>(std::ceil(2.0 * extent + 6.0));
     if (side > region.width || side > region.height) {
       const Eigen::Vector2d c = match.centre();

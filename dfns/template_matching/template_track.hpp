@@ -22,7 +22,7 @@ struct Settings {
   double search_sigmas = 4;
   double min_search_radius = 8;
   double max_search_radius = 200;
-  double min_extent_for_scale = 8;
+  double min_extent_for_scale = 4;
   double update_scale_ratio = 1.25;
   double min_update_score = 0.8;
   int template_memory = 10;
