@@ -40,8 +40,8 @@ Sequence makeSequence(double scale) {
     s.truth.push_back(centre + offset);
   }
   const int half = static_cast<int>(std::ceil(3.5 * scale)) + 6;
-  s.designation = ImageRegion::box(s.truth[0].x() - half, s.truth[0].y() - half, 2 * half + 1,
-                                   2 * half + 1);
+  s.designation =
+      ImageRegion::box(s.truth[0].x() - half, s.truth[0].y() - half, 2 * half + 1, 2 * half + 1);
   s.designation.source = "user";
   return s;
 }
@@ -78,14 +78,20 @@ void BM_TemplateMatching(benchmark::State& state, const char* dfi) {
   state.counters["error_rms_px"] = matched ? std::sqrt(sum_sq / matched) : NAN;
   state.counters["matched"] = frames ? static_cast<double>(matched) / frames : 0;
 }
-BENCHMARK_CAPTURE(BM_TemplateMatching, Zncc, "Zncc")->Arg(5)->Arg(40)->Arg(250)
+BENCHMARK_CAPTURE(BM_TemplateMatching, Zncc, "Zncc")
+    ->Arg(5)
+    ->Arg(40)
+    ->Arg(250)
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_TemplateMatching, Ecc, "Ecc")->Arg(5)->Arg(40)->Arg(250)
+BENCHMARK_CAPTURE(BM_TemplateMatching, Ecc, "Ecc")
+    ->Arg(5)
+    ->Arg(40)
+    ->Arg(250)
     ->Unit(benchmark::kMillisecond);
 
 void BM_BearingFilterStep(benchmark::State& state) {
-  auto node = dfn::Registry::instance().createAs<dfn::BearingFilter>("BearingFilter",
-                                                                     "ExtendedKalman");
+  auto node =
+      dfn::Registry::instance().createAs<dfn::BearingFilter>("BearingFilter", "ExtendedKalman");
   if (!node || !(*node)->configure(YAML::Load("{}"))) {
     state.SkipWithError("cannot create the DFI");
     return;
@@ -97,15 +103,15 @@ void BM_BearingFilterStep(benchmark::State& state) {
   camera.cx = camera.cy = 511.5;
   f.in.calibration.set(camera);
   Transform mount = Transform::identity("servicer", "camera_far_optical");
-  mount.rotation = Eigen::Quaterniond(
-      (Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished());
+  mount.rotation =
+      Eigen::Quaterniond((Eigen::Matrix3d() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished());
   f.in.camera_mount.set(mount);
   Timestamp t = 0;
   for (auto _ : state) {
     PoseWithCovariance attitude;
     attitude.pose = Transform::identity("lvlh", "servicer", t);
-    attitude.pose.rotation = Eigen::Quaterniond(
-        (Eigen::Matrix3d() << 0, 0, 1, 1, 0, 0, 0, 1, 0).finished());
+    attitude.pose.rotation =
+        Eigen::Quaterniond((Eigen::Matrix3d() << 0, 0, 1, 1, 0, 0, 0, 1, 0).finished());
     attitude.covariance.block<3, 3>(3, 3) = 1e-9 * Eigen::Matrix3d::Identity();
     f.in.attitude.set(attitude);
     ImageRegion m = ImageRegion::box(511.5, 511.5, 1, 1);

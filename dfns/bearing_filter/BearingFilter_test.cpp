@@ -84,8 +84,8 @@ TEST(RelativeMotion, TheClosedFormMatchesTheIntegratedEquations) {
     EXPECT_LT((closed - integrate(x0, t)).head<3>().norm(), 1e-6 * (1 + t)) << t;
   }
   EXPECT_TRUE(tracking::cwTransition(0.0, 2.0).isApprox(
-      (Eigen::Matrix<double, 6, 6>() << Eigen::Matrix3d::Identity(), 2 * Eigen::Matrix3d::Identity(),
-       Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Identity())
+      (Eigen::Matrix<double, 6, 6>() << Eigen::Matrix3d::Identity(),
+       2 * Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Identity())
           .finished()));
 }
 
@@ -115,7 +115,8 @@ class BearingFilterOnADrift : public ::testing::Test {
     a.pose = Transform::identity("lvlh", "servicer", stamp);
     const Eigen::Vector3d e(unit_(rng_), unit_(rng_), unit_(rng_));
     a.pose.rotation = Eigen::Quaterniond(truth * expSO3(attitude_sigma_ * e).toRotationMatrix());
-    a.covariance.block<3, 3>(3, 3) = attitude_sigma_ * attitude_sigma_ * Eigen::Matrix3d::Identity();
+    a.covariance.block<3, 3>(3, 3) =
+        attitude_sigma_ * attitude_sigma_ * Eigen::Matrix3d::Identity();
     return a;
   }
 
@@ -140,7 +141,8 @@ class BearingFilterOnADrift : public ::testing::Test {
     for (int k = 0; k <= seconds; ++k) {
       const Timestamp stamp = static_cast<Timestamp>(k) * 1'000'000;
       const Vector6d xk = integrate(x, k);
-      const Eigen::Vector3d jitter = 2e-4 * Eigen::Vector3d(std::sin(0.3 * k), std::cos(0.21 * k), std::sin(0.17 * k + 1));
+      const Eigen::Vector3d jitter =
+          2e-4 * Eigen::Vector3d(std::sin(0.3 * k), std::cos(0.21 * k), std::sin(0.17 * k + 1));
       tracking::BearingGeometry g = truth_geometry;
       g.lvlh_R_servicer = pointingAt(xk.head<3>(), jitter);
       filter_->in.attitude.set(attitudeSample(g.lvlh_R_servicer, stamp));
@@ -173,8 +175,9 @@ class BearingFilterOnADrift : public ::testing::Test {
       run.nees += e2.dot((u.transpose() * b.covariance * u).inverse() * e2);
       run.range_reported = !std::isnan(b.range);
       if (run.range_reported)
-        run.worst_range_pct = std::max(
-            run.worst_range_pct, 100 * std::abs(b.range - xk.head<3>().norm()) / xk.head<3>().norm());
+        run.worst_range_pct =
+            std::max(run.worst_range_pct,
+                     100 * std::abs(b.range - xk.head<3>().norm()) / xk.head<3>().norm());
       ++run.bearings;
     }
     run.bearing_rms_px = std::sqrt(run.bearing_rms_px / run.bearings);

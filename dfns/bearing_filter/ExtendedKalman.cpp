@@ -45,8 +45,9 @@ Result<RadarSample> parseRadar(const nlohmann::json& j) {
         e.what());
   }
   if (!(r.range > 0) || !std::isfinite(r.range))
-    return invalidInput("input 'radar' range at t = {} us is {} m; expected a positive finite value",
-                        r.stamp, r.range);
+    return invalidInput(
+        "input 'radar' range at t = {} us is {} m; expected a positive finite value", r.stamp,
+        r.range);
   if (!std::isfinite(r.range_rate) || !(r.range_sigma > 0) || !(r.range_rate_sigma > 0))
     return invalidInput(
         "input 'radar' at t = {} us: range rate {} m/s, sigmas {} m and {} m/s; expected a finite "
@@ -270,7 +271,8 @@ Status BearingFilterExtendedKalman::onProcess() {
   bool fused = false;
   const ImageRegion* at = nullptr;  // the image whose time the bearing is published at
   const bool designation = m && (m->source == "user" || m->source == "automatic");
-  const bool lost = next && next->stamp - last_fix_ > static_cast<Timestamp>(params_.lost_after * 1e6);
+  const bool lost =
+      next && next->stamp - last_fix_ > static_cast<Timestamp>(params_.lost_after * 1e6);
   if (m && (!next || (designation && lost))) {
     Result<RelativeState> started = initialise(*m);
     if (!started) return fail(started.status().withContext("input 'measurement'"));
@@ -286,8 +288,8 @@ Status BearingFilterExtendedKalman::onProcess() {
           "input 'prediction' at t = {} us is older than the filter's time (t = {} us); expected "
           "images in time order",
           prediction->stamp, next->stamp));
-    if (Status s = tracking::propagate(*next, prediction->stamp, meanMotion(),
-                                       params_.acceleration_psd);
+    if (Status s =
+            tracking::propagate(*next, prediction->stamp, meanMotion(), params_.acceleration_psd);
         !s)
       return fail(s);
     at = prediction;
@@ -308,7 +310,7 @@ Status BearingFilterExtendedKalman::onProcess() {
   if (state_) out.state.set(tracking::toRigidBodyState(*state_));
   const bool tracking =
       state_ && state_->stamp - last_fix_ <= static_cast<Timestamp>(params_.lost_after * 1e6);
-  out.track_state.set(!state_   ? TrackState::kUninitialised
+  out.track_state.set(!state_    ? TrackState::kUninitialised
                       : tracking ? TrackState::kTracking
                                  : TrackState::kLost);
   out.innovation_nis.set(nis);

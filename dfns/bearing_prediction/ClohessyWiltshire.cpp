@@ -19,13 +19,13 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
     if (!in.image.isFresh()) return Status::ok();  // an attitude sample, kept for later
     for (const auto& [set, name] : {std::pair{in.state.get() != nullptr, "state"},
                                     std::pair{in.camera_mount.get() != nullptr, "camera_mount"}})
-      if (!set)
-        return invalidInput("input '{}' is not set; expected it with every image", name);
+      if (!set) return invalidInput("input '{}' is not set; expected it with every image", name);
     const Image& image = *in.image;
     if (!image.camera)
-      return invalidInput("input 'image' at t = {} us has no camera model; expected a calibrated "
-                          "image",
-                          image.stamp);
+      return invalidInput(
+          "input 'image' at t = {} us has no camera model; expected a calibrated "
+          "image",
+          image.stamp);
     CDFF_RETURN_IF_ERROR(image.camera->validate().withContext("input 'image' camera model"));
     Result<tracking::RelativeState> state = tracking::fromRigidBodyState(*in.state);
     if (!state) return state.status().withContext("input 'state'");
@@ -73,7 +73,8 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
     prediction.source = "prediction";
     prediction.covariance = jp * state->covariance.topLeftCorner<3, 3>() * jp.transpose() +
                             ja * attitude->second * ja.transpose();
-    prediction.covariance = 0.5 * (prediction.covariance + prediction.covariance.transpose()).eval();
+    prediction.covariance =
+        0.5 * (prediction.covariance + prediction.covariance.transpose()).eval();
     out.prediction.set(std::move(prediction));
     return Status::ok();
   }

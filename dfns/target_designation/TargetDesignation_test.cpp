@@ -16,10 +16,12 @@ namespace {
 
 /// A Gaussian spot of `sigma` px and peak `peak` at (x, y), added to `image`.
 void spot(cv::Mat& image, double x, double y, double sigma, double peak) {
-  for (int v = std::max(0, static_cast<int>(y) - 8); v < std::min(image.rows, static_cast<int>(y) + 9); ++v)
-    for (int u = std::max(0, static_cast<int>(x) - 8); u < std::min(image.cols, static_cast<int>(x) + 9); ++u)
-      image.at<float>(v, u) +=
-          static_cast<float>(peak * std::exp(-((u - x) * (u - x) + (v - y) * (v - y)) / (2 * sigma * sigma)));
+  for (int v = std::max(0, static_cast<int>(y) - 8);
+       v < std::min(image.rows, static_cast<int>(y) + 9); ++v)
+    for (int u = std::max(0, static_cast<int>(x) - 8);
+         u < std::min(image.cols, static_cast<int>(x) + 9); ++u)
+      image.at<float>(v, u) += static_cast<float>(
+          peak * std::exp(-((u - x) * (u - x) + (v - y) * (v - y)) / (2 * sigma * sigma)));
 }
 
 class TargetDesignationTest : public ::testing::Test {

@@ -51,7 +51,9 @@ TEST_P(TemplateMatchingTracks, FindsASmallTargetMovedBySubPixelAmounts) {
     const Eigen::Vector2d truth = ck + (designated - c0);
     const double err = (dfn_->out.match->centre() - truth).norm();
     sum_sq += err * err;
-    EXPECT_LT(err, 0.15) << "frame " << k << " error " << (dfn_->out.match->centre() - truth).transpose() << " move " << (ck-c0).transpose();
+    EXPECT_LT(err, 0.15) << "frame " << k << " error "
+                         << (dfn_->out.match->centre() - truth).transpose() << " move "
+                         << (ck - c0).transpose();
   }
   EXPECT_LT(std::sqrt(sum_sq / frames), 0.08);
 }
@@ -94,13 +96,15 @@ TEST_P(TemplateMatchingTracks, ReportsNotFoundWhenTheTargetIsGoneAndFindsItAgain
   dfn_->in.image.set(testing::renderFarTarget(c0, 3.0, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(c0, 14, "user"));
   ASSERT_TRUE(dfn_->process().isOk());
-  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(-500, -500), 3.0, 0, rng_, 1'000'000));
+  dfn_->in.image.set(
+      testing::renderFarTarget(Eigen::Vector2d(-500, -500), 3.0, 0, rng_, 1'000'000));
   ASSERT_TRUE(dfn_->process().isOk());
   EXPECT_FALSE(*dfn_->out.found);
   EXPECT_LT(*dfn_->out.score, 0.6);
   ImageRegion prediction = designationAt(c0 + Eigen::Vector2d(20, -15), 14, "prediction");
   prediction.covariance = Eigen::Matrix2d::Identity() * 100.0;  // 10 px: search 40 px
-  dfn_->in.image.set(testing::renderFarTarget(c0 + Eigen::Vector2d(25, -18), 3.0, 0, rng_, 2'000'000));
+  dfn_->in.image.set(
+      testing::renderFarTarget(c0 + Eigen::Vector2d(25, -18), 3.0, 0, rng_, 2'000'000));
   dfn_->in.prediction.set(prediction);
   ASSERT_TRUE(dfn_->process().isOk());
   ASSERT_TRUE(*dfn_->out.found);

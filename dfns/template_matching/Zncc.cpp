@@ -34,8 +34,8 @@ std::optional<Eigen::Matrix3d> refineInverseCompositional(const tm::Crop& crop, 
     if (!dp.allFinite()) return std::nullopt;
     h = h * tm::warpOf(dp, n.centre).inverse();
     const double size = 0.5 * std::max(t.pixels.cols, t.pixels.rows);
-    const double step = dp.size() == 4 ? dp.head<2>().norm() + size * dp.tail<2>().norm()
-                                       : dp.head<2>().norm();
+    const double step =
+        dp.size() == 4 ? dp.head<2>().norm() + size * dp.tail<2>().norm() : dp.head<2>().norm();
     if (step < 1e-3) break;
   }
   return h;
@@ -51,12 +51,11 @@ class TemplateMatchingZncc final : public TemplateMatchingZnccBase {
   }
 
   Status onProcess() override {
-    const tm::Settings settings{params_.min_score,         params_.search_sigmas,
-                                params_.min_search_radius, params_.max_search_radius,
-                                params_.min_extent_for_scale, params_.update_scale_ratio,
-                                params_.min_update_score,  params_.template_memory,
-                                params_.max_template_size, params_.max_iterations,
-                                params_.pixel_correlation};
+    const tm::Settings settings{
+        params_.min_score,         params_.search_sigmas,        params_.min_search_radius,
+        params_.max_search_radius, params_.min_extent_for_scale, params_.update_scale_ratio,
+        params_.min_update_score,  params_.template_memory,      params_.max_template_size,
+        params_.max_iterations,    params_.pixel_correlation};
     Result<tm::StepResult> r =
         tm::step(*in.image, in.designation.isFresh() ? in.designation.get() : nullptr,
                  in.prediction.isFresh() ? in.prediction.get() : nullptr, settings, track_,

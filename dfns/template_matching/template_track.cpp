@@ -24,7 +24,9 @@ Eigen::Vector2d apply(const Eigen::Matrix3d& h, double x, double y) {
 }
 
 /// The grey value of one full-range step of the format (8-bit: 1; 16-bit: 1; float: 0).
-double quantum(PixelFormat format) { return format == PixelFormat::kFloat32 ? 0.0 : 1.0; }
+double quantum(PixelFormat format) {
+  return format == PixelFormat::kFloat32 ? 0.0 : 1.0;
+}
 
 /// Median and normalised median absolute deviation of a float patch.
 std::pair<double, double> medianAndMad(const cv::Mat& patch) {
@@ -131,8 +133,8 @@ Result<Template> takeTemplate(const Image& image, const ImageRegion& region, con
   t.region.width = w;
   t.region.height = h;
   const cv::Rect2d box = footprint(t.region, 2.0 * k);
-  if (box.x + 2.0 * k < -0.5 || box.y + 2.0 * k < -0.5 || box.br().x - 2.0 * k > image.width - 0.5 ||
-      box.br().y - 2.0 * k > image.height - 0.5)
+  if (box.x + 2.0 * k < -0.5 || box.y + 2.0 * k < -0.5 ||
+      box.br().x - 2.0 * k > image.width - 0.5 || box.br().y - 2.0 * k > image.height - 0.5)
     return invalidInput(
         "the region [{:.1f}, {:.1f}] x [{:.1f}, {:.1f}] leaves the {}x{} image; expected a region "
         "inside it",
@@ -246,10 +248,11 @@ std::optional<Coarse> coarseSearch(const Image& image, const Template& t,
   ImageRegion r = t.region;
   r.homography = translation(moved.x(), moved.y()) * warp;
   const cv::Rect2d fp = footprint(r, 0);
-  const int level = std::max(0, static_cast<int>(std::floor(std::log2(std::min(fp.width, fp.height) / 8.0))));
+  const int level =
+      std::max(0, static_cast<int>(std::floor(std::log2(std::min(fp.width, fp.height) / 8.0))));
   const double margin = radius + std::ldexp(2.0, level);
-  Result<Crop> crop = cropOf(image, fp.x - margin, fp.y - margin, fp.br().x + margin,
-                             fp.br().y + margin, level);
+  Result<Crop> crop =
+      cropOf(image, fp.x - margin, fp.y - margin, fp.br().x + margin, fp.br().y + margin, level);
   if (!crop) return std::nullopt;
   const int l = std::min(level, static_cast<int>(crop->levels.size()) - 1);
   const cv::Mat& window = crop->levels[l];
@@ -273,7 +276,8 @@ std::optional<Coarse> coarseSearch(const Image& image, const Template& t,
   level_region.width = source.cols;
   level_region.height = source.rows;
   const cv::Rect2d box = footprint(level_region, 0);
-  const int px0 = static_cast<int>(std::floor(box.x + 0.5)), py0 = static_cast<int>(std::floor(box.y + 0.5));
+  const int px0 = static_cast<int>(std::floor(box.x + 0.5)),
+            py0 = static_cast<int>(std::floor(box.y + 0.5));
   const int pw = std::max(2, static_cast<int>(std::ceil(box.width))),
             ph = std::max(2, static_cast<int>(std::ceil(box.height)));
   if (pw >= window.cols || ph >= window.rows) return std::nullopt;
@@ -283,8 +287,7 @@ std::optional<Coarse> coarseSearch(const Image& image, const Template& t,
     for (int j = 0; j < 3; ++j) map.at<double>(i, j) = to_patch(i, j);
   cv::Scalar fill = cv::mean(source);
   cv::Mat patch;
-  cv::warpAffine(source, patch, map, cv::Size(pw, ph), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-                 fill);
+  cv::warpAffine(source, patch, map, cv::Size(pw, ph), cv::INTER_LINEAR, cv::BORDER_CONSTANT, fill);
   cv::Mat score;
   cv::matchTemplate(window, patch, score, cv::TM_CCOEFF_NORMED);
   // Placements within the radius of the expected one (level pixels).
@@ -305,9 +308,11 @@ std::optional<Coarse> coarseSearch(const Image& image, const Template& t,
   };
   double sx = at.x, sy = at.y;
   if (at.x > 0 && at.x + 1 < score.cols)
-    sx += peak(score.at<float>(at.y, at.x - 1), score.at<float>(at), score.at<float>(at.y, at.x + 1));
+    sx +=
+        peak(score.at<float>(at.y, at.x - 1), score.at<float>(at), score.at<float>(at.y, at.x + 1));
   if (at.y > 0 && at.y + 1 < score.rows)
-    sy += peak(score.at<float>(at.y - 1, at.x), score.at<float>(at), score.at<float>(at.y + 1, at.x));
+    sy +=
+        peak(score.at<float>(at.y - 1, at.x), score.at<float>(at), score.at<float>(at.y + 1, at.x));
   const double f = std::ldexp(1.0, l);
   return Coarse{translation((sx - px0) * f, (sy - py0) * f) * r.homography, best};
 }
@@ -316,8 +321,8 @@ Fit evaluateFit(const Crop& crop, int level, const Template& t, const Eigen::Mat
                 const Settings& s) {
   Fit fit;
   const NormalisedTemplate n = normalise(t);
-  Eigen::VectorXf sampled =
-      sampleAt(crop.levels[static_cast<std::size_t>(level)], crop.imageToLevel(level) * homography, n.xy);
+  Eigen::VectorXf sampled = sampleAt(crop.levels[static_cast<std::size_t>(level)],
+                                     crop.imageToLevel(level) * homography, n.xy);
   if (!sampled.allFinite()) return fit;
   fit.inside = true;
   sampled.array() -= sampled.mean();

@@ -54,7 +54,7 @@ int levelFor(const ImageRegion& region);
 /// A template: its pixels (CV_32F) and where they are in the image the last match was in.
 struct Template {
   cv::Mat pixels;
-  ImageRegion region;          // the last match (or the designation): template -> image
+  ImageRegion region;           // the last match (or the designation): template -> image
   double scale_at_taking = 1;   // the region's scale when the template was taken
   double extent_at_taking = 0;  // the target's extent in it then (image px)
   bool estimates_scale = false;
@@ -112,9 +112,9 @@ Result<Template> afterMatch(const Image& image, Template t, const ImageRegion& m
 
 /// A DFI's refinement: the warp (template -> image) that maximises the ZNCC, started from
 /// `start`, on level `level` of `crop`; nullopt when it failed (left the crop, diverged).
-using Refine = std::function<std::optional<Eigen::Matrix3d>(
-    const Crop& crop, int level, const Template& t, const Eigen::Matrix3d& start,
-    const Settings& s)>;
+using Refine =
+    std::function<std::optional<Eigen::Matrix3d>(const Crop& crop, int level, const Template& t,
+                                                 const Eigen::Matrix3d& start, const Settings& s)>;
 
 struct StepResult {
   std::optional<ImageRegion> match;

@@ -30,17 +30,20 @@ const Segment kEnd{"end",
                    "--duration 120 --set servicer.trajectory.start=[0,-400,0] "
                    "--set servicer.trajectory.end=[0,-100,0]"};
 
-Evaluation runDraw(const Segment& segment, std::uint64_t seed, const std::string& run_options) {
+/// Simulates and runs one draw; `tracking_at_end` says whether the DFPC ended TRACKING.
+Evaluation runDraw(const Segment& segment, std::uint64_t seed, const std::string& run_options,
+                   bool* tracking_at_end = nullptr) {
   const std::filesystem::path dir = testing::scratchDirectory("far_range");
   const std::string sim = (dir / fmt::format("{}_{}.mcap", segment.name, seed)).string();
   const std::string out = (dir / fmt::format("{}_{}_out.mcap", segment.name, seed)).string();
   const testing::CommandResult s = testing::runCdff(
       fmt::format("sim far_range_approach -q --seed {} {} -o {}", seed, segment.settings, sim));
   EXPECT_EQ(s.status, 0) << s.output;
-  const testing::CommandResult r = testing::runCdff(
-      fmt::format("run {}/dfpcs/far_range_tracking.yaml -q -i {} -o {} {}", CDFF_SOURCE_DIR, sim,
-                  out, run_options));
+  const testing::CommandResult r =
+      testing::runCdff(fmt::format("run {}/dfpcs/far_range_tracking.yaml -q -i {} -o {} {}",
+                                   CDFF_SOURCE_DIR, sim, out, run_options));
   EXPECT_EQ(r.status, 0) << r.output;
+  if (tracking_at_end) *tracking_at_end = r.output.find("(track TRACKING)") != std::string::npos;
   Result<Evaluation> e = evaluateFarRange(out, kFocalPx);
   EXPECT_TRUE(e.isOk()) << e.status().toString();
   std::filesystem::remove(sim);
@@ -75,7 +78,9 @@ struct Bounds {
 void expectTracking(const Segment& segment, const Bounds& bounds) {
   for (int k = 0; k < kCiDraws; ++k) {
     const std::uint64_t seed = kFirstEvaluationSeed + k;
-    const Evaluation e = runDraw(segment, seed, "");
+    bool tracking = false;
+    const Evaluation e = runDraw(segment, seed, "", &tracking);
+    EXPECT_TRUE(tracking) << "draw " << seed << ": the track did not hold to the end";
     ASSERT_TRUE(e.designated) << "draw " << seed << ": nothing designated";
     EXPECT_EQ(e.designation, "automatic");
     EXPECT_LT(*e.designated * 1e-6, bounds.designated_s) << "draw " << seed;

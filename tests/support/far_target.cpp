@@ -12,7 +12,9 @@ namespace {
 /// A soft edge: 0 outside, 1 inside, `d` the signed distance inside (px), 0.3 px wide, so that
 /// the rendered image is a smooth function of the target's sub-pixel position (a hard edge
 /// sampled on a grid moves in steps of the grid).
-double inside(double d) { return 0.5 + 0.5 * std::tanh(d / 0.3); }
+double inside(double d) {
+  return 0.5 + 0.5 * std::tanh(d / 0.3);
+}
 
 /// Brightness of the target at target coordinates (u, v), `scale` px per unit: a bus spanning
 /// [-1, 1] x [-0.8, 0.8] with a radiator and a dish, between two solar wings with cells.
@@ -37,8 +39,8 @@ Image renderFarTarget(const Eigen::Vector2d& centre, double scale, double angle,
   for (int y = 0; y < fine.rows; ++y)
     for (int x = 0; x < fine.cols; ++x) {
       const double px = (x + 0.5) / 4.0 - 0.5 - centre.x(), py = (y + 0.5) / 4.0 - 0.5 - centre.y();
-      fine.at<float>(y, x) =
-          static_cast<float>(targetAt((c * px + s * py) / scale, (-s * px + c * py) / scale, scale));
+      fine.at<float>(y, x) = static_cast<float>(
+          targetAt((c * px + s * py) / scale, (-s * px + c * py) / scale, scale));
     }
   cv::Mat pixels;
   cv::resize(fine, pixels, cv::Size(size, size), 0, 0, cv::INTER_AREA);

@@ -273,8 +273,7 @@ const Table<Sensor>& radarTable() {
                     radar(schema::number(&R::range_noise, Range::closed(0, 1e4, "m"))))
           .optional("range_rate_noise",
                     radar(schema::number(&R::range_rate_noise, Range::closed(0, 1e3, "m/s"))))
-          .optional("angle_noise_deg",
-                    radar(degrees(&R::angle_noise, Range::closed(0, 90, "deg"))))
+          .optional("angle_noise_deg", radar(degrees(&R::angle_noise, Range::closed(0, 90, "deg"))))
           .optional("dropout_probability",
                     radar(schema::number(&R::dropout_probability, Range::closed(0, 1, ""))));
   return table;
@@ -287,8 +286,9 @@ const Table<Sensor>& ahrsTable() {
                     via(&Sensor::ahrs,
                         schema::number(&AhrsSpec::attitude_sigma, Range::closed(0, M_PI, "rad"))))
           .optional("noise", via(&Sensor::ahrs, schema::flag(&AhrsSpec::noise)))
-          .optional("frame", via(&Sensor::ahrs, schema::named(&AhrsSpec::lvlh_frame,
-                                                              {{"inertial", false}, {"lvlh", true}})));
+          .optional("frame",
+                    via(&Sensor::ahrs, schema::named(&AhrsSpec::lvlh_frame,
+                                                     {{"inertial", false}, {"lvlh", true}})));
   return table;
 }
 

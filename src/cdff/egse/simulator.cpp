@@ -131,7 +131,8 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
   // World.
   auto translation = makeTranslation(sc, sim->duration_);
   if (!translation) return translation.status();
-  std::unique_ptr<Attitude> servicer_attitude = makeServicerAttitude(sc, translation->get(), sim->seed_);
+  std::unique_ptr<Attitude> servicer_attitude =
+      makeServicerAttitude(sc, translation->get(), sim->seed_);
   std::unique_ptr<Attitude> target_attitude = makeTargetAttitude(sc, sim->duration_);
   sim->world_ =
       std::make_unique<World>(sc.orbit, std::move(translation).value(),

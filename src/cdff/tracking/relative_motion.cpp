@@ -23,8 +23,8 @@ Matrix6d cwTransition(double n, double dt) {
   }
   const double s = std::sin(n * dt), c = std::cos(n * dt);
   phi.topLeftCorner<3, 3>() << 4 - 3 * c, 0, 0, 6 * (s - n * dt), 1, 0, 0, 0, c;
-  phi.topRightCorner<3, 3>() << s / n, 2 * (1 - c) / n, 0, 2 * (c - 1) / n, (4 * s - 3 * n * dt) / n,
-      0, 0, 0, s / n;
+  phi.topRightCorner<3, 3>() << s / n, 2 * (1 - c) / n, 0, 2 * (c - 1) / n,
+      (4 * s - 3 * n * dt) / n, 0, 0, 0, s / n;
   phi.bottomLeftCorner<3, 3>() << 3 * n * s, 0, 0, 6 * n * (c - 1), 0, 0, 0, 0, -n * s;
   phi.bottomRightCorner<3, 3>() << c, 2 * s, 0, -2 * s, 4 * c - 3, 0, 0, 0, c;
   return phi;
@@ -129,7 +129,8 @@ Eigen::Matrix<double, 2, 3> BearingGeometry::attitudeJacobian(const Eigen::Vecto
   const double h = 1e-7;
   for (int i = 0; i < 3; ++i) {
     BearingGeometry plus = *this, minus = *this;
-    plus.lvlh_R_servicer = lvlh_R_servicer * expSO3(h * Eigen::Vector3d::Unit(i)).toRotationMatrix();
+    plus.lvlh_R_servicer =
+        lvlh_R_servicer * expSO3(h * Eigen::Vector3d::Unit(i)).toRotationMatrix();
     minus.lvlh_R_servicer =
         lvlh_R_servicer * expSO3(-h * Eigen::Vector3d::Unit(i)).toRotationMatrix();
     const auto a = plus.pixelOf(p), b = minus.pixelOf(p);
@@ -153,14 +154,14 @@ Status AttitudeHistory::add(const PoseWithCovariance& m) {
   return Status::ok();
 }
 
-Result<std::pair<Eigen::Quaterniond, Eigen::Matrix3d>> AttitudeHistory::at(
-    Timestamp stamp, double tolerance) const {
+Result<std::pair<Eigen::Quaterniond, Eigen::Matrix3d>> AttitudeHistory::at(Timestamp stamp,
+                                                                           double tolerance) const {
   if (samples_.empty())
     return invalidInput(
         "no servicer attitude yet; expected an 'attitude' sample (lvlh_T_servicer)");
-  const auto after = std::lower_bound(
-      samples_.begin(), samples_.end(), stamp,
-      [](const PoseWithCovariance& s, Timestamp t) { return s.pose.stamp < t; });
+  const auto after =
+      std::lower_bound(samples_.begin(), samples_.end(), stamp,
+                       [](const PoseWithCovariance& s, Timestamp t) { return s.pose.stamp < t; });
   const Timestamp tol = static_cast<Timestamp>(tolerance * 1e6);
   if (after != samples_.end() && after != samples_.begin() &&
       after->pose.stamp - std::prev(after)->pose.stamp <= 4 * tol) {

@@ -6,7 +6,9 @@
 
 namespace cdff {
 
-double Bearing::azimuth() const { return std::atan2(direction.y(), direction.x()); }
+double Bearing::azimuth() const {
+  return std::atan2(direction.y(), direction.x());
+}
 
 double Bearing::elevation() const {
   return std::atan2(direction.z(), std::hypot(direction.x(), direction.y()));

@@ -35,8 +35,8 @@ double ImageRegion::scale() const {
 }
 
 Status ImageRegion::validate() const {
-  const std::string what = fmt::format("image region in '{}' ({})", frame_id,
-                                       source.empty() ? "no source" : source);
+  const std::string what =
+      fmt::format("image region in '{}' ({})", frame_id, source.empty() ? "no source" : source);
   if (width <= 0 || height <= 0)
     return invalidInput("{}: template size is {}x{} px; expected a positive size", what, width,
                         height);
