@@ -17,6 +17,7 @@
 #include "BearingFilter.gen.hpp"
 #include "cdff/tracking/relative_motion.hpp"
 #include "support/dfn_testing.hpp"
+#include "support/far_target.hpp"
 
 namespace cdff::dfn {
 namespace {
@@ -25,23 +26,10 @@ using tracking::Vector6d;
 
 constexpr double kAltitude = 500e3;
 
-CameraModel farCamera() {
-  CameraModel c;
-  c.width = c.height = 1024;
-  c.fx = c.fy = 0.035 / 5.5e-6;
-  c.cx = c.cy = 511.5;
-  return c;
-}
+using testing::farCamera;
 
 Transform cameraMount() {
-  Transform t = Transform::identity("servicer", "camera_far_optical");
-  Eigen::Matrix3d r;
-  r.col(0) = Eigen::Vector3d(0, -1, 0);  // optical x: right = -servicer y
-  r.col(1) = Eigen::Vector3d(0, 0, -1);  // optical y: down = -servicer z
-  r.col(2) = Eigen::Vector3d(1, 0, 0);   // optical z: forward = servicer x
-  t.rotation = Eigen::Quaterniond(r);
-  t.translation = Eigen::Vector3d(0.45, 0, 0.05);
-  return t;
+  return testing::farCameraMount();
 }
 
 /// The CW equations integrated by RK4 (steps of 0.1 s): the truth the closed form must match.

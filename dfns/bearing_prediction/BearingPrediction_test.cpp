@@ -11,24 +11,15 @@
 #include "BearingPrediction.gen.hpp"
 #include "cdff/tracking/relative_motion.hpp"
 #include "support/dfn_testing.hpp"
+#include "support/far_target.hpp"
 
 namespace cdff::dfn {
 namespace {
 
-CameraModel farCamera() {
-  CameraModel c;
-  c.width = c.height = 1024;
-  c.fx = c.fy = 0.035 / 5.5e-6;
-  c.cx = c.cy = 511.5;
-  return c;
-}
+using testing::farCamera;
 
 Transform cameraMount() {
-  Transform t = Transform::identity("servicer", "camera_far_optical");
-  Eigen::Matrix3d r;
-  r << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // optical z = servicer x, x = -y, y = -z
-  t.rotation = Eigen::Quaterniond(r);
-  return t;
+  return testing::farCameraMount();
 }
 
 Eigen::Matrix3d servicerAttitude(double yaw) {
@@ -82,7 +73,7 @@ TEST_F(BearingPredictionTest, LandsWhereTheRelativeMotionTakesTheTarget) {
   const tracking::Vector6d truth =
       tracking::cwTransition(tracking::meanMotion(500e3), 10.0) * state_.x;
   const tracking::BearingGeometry g{farCamera(), cameraMount().rotation.toRotationMatrix(),
-                                    servicerAttitude(2e-3)};
+                                    servicerAttitude(2e-3), cameraMount().translation};
   const Eigen::Vector2d expected = *g.pixelOf(truth.head<3>());
   EXPECT_LT((p.centre() - expected).norm(), 0.05);
   EXPECT_EQ(p.source, "prediction");

@@ -51,20 +51,7 @@ class TemplateMatchingZncc final : public TemplateMatchingZnccBase {
   }
 
   Status onProcess() override {
-    const tm::Settings settings{
-        params_.min_score,         params_.search_sigmas,        params_.min_search_radius,
-        params_.max_search_radius, params_.min_extent_for_scale, params_.update_scale_ratio,
-        params_.min_update_score,  params_.template_memory,      params_.max_template_size,
-        params_.max_iterations,    params_.pixel_correlation};
-    Result<tm::StepResult> r =
-        tm::step(*in.image, in.designation.isFresh() ? in.designation.get() : nullptr,
-                 in.prediction.isFresh() ? in.prediction.get() : nullptr, settings, track_,
-                 refineInverseCompositional);
-    if (!r) return r.status();
-    if (r->match) out.match.set(*r->match);
-    out.found.set(r->match.has_value());
-    out.score.set(r->score);
-    return Status::ok();
+    return tm::processStep(in, out, tm::settingsOf(params_), track_, refineInverseCompositional);
   }
 
  private:

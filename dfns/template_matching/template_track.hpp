@@ -128,4 +128,28 @@ Result<StepResult> step(const Image& image, const ImageRegion* designation,
                         const ImageRegion* prediction, const Settings& s,
                         std::optional<Template>& track, const Refine& refine);
 
+/// Both DFIs' parameters (their generated structs have the same fields) as Settings.
+template <typename Parameters>
+Settings settingsOf(const Parameters& p) {
+  return {p.min_score,         p.search_sigmas,        p.min_search_radius,
+          p.max_search_radius, p.min_extent_for_scale, p.update_scale_ratio,
+          p.min_update_score,  p.template_memory,      p.max_template_size,
+          p.max_iterations,    p.pixel_correlation};
+}
+
+/// A DFI's process(): `step` on the fresh inputs, its result on the outputs (the generated
+/// Inputs and Outputs of TemplateMatching).
+template <typename Inputs, typename Outputs>
+Status processStep(const Inputs& in, Outputs& out, const Settings& s,
+                   std::optional<Template>& track, const Refine& refine) {
+  Result<StepResult> r =
+      step(*in.image, in.designation.isFresh() ? in.designation.get() : nullptr,
+           in.prediction.isFresh() ? in.prediction.get() : nullptr, s, track, refine);
+  if (!r) return r.status();
+  if (r->match) out.match.set(*r->match);
+  out.found.set(r->match.has_value());
+  out.score.set(r->score);
+  return Status::ok();
+}
+
 }  // namespace cdff::dfn::template_matching

@@ -53,4 +53,23 @@ Image renderFarTarget(const Eigen::Vector2d& centre, double scale, double angle,
   return image ? std::move(image).value() : Image{};  // an 8-bit Mat always converts
 }
 
+CameraModel farCamera() {
+  CameraModel c;
+  c.width = c.height = 1024;
+  c.fx = c.fy = 0.035 / 5.5e-6;
+  c.cx = c.cy = 511.5;
+  return c;
+}
+
+Transform farCameraMount() {
+  Transform t = Transform::identity("servicer", "camera_far_optical");
+  Eigen::Matrix3d r;
+  r.col(0) = Eigen::Vector3d(0, -1, 0);  // optical x: right = -servicer y
+  r.col(1) = Eigen::Vector3d(0, 0, -1);  // optical y: down = -servicer z
+  r.col(2) = Eigen::Vector3d(1, 0, 0);   // optical z: forward = servicer x
+  t.rotation = Eigen::Quaterniond(r);
+  t.translation = Eigen::Vector3d(0.45, 0, 0.05);
+  return t;
+}
+
 }  // namespace cdff::testing

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
 
 namespace cdff::testing {
@@ -15,5 +16,11 @@ namespace cdff::testing {
 /// unit (the bus spans 2 units, the wings 6.4), turned by `angle` (rad) in the image plane.
 Image renderFarTarget(const Eigen::Vector2d& centre, double scale, double angle, std::mt19937& rng,
                       Timestamp stamp, int size = 384);
+
+/// far_range_approach's narrow-angle camera: 35 mm, 5.5 um pixels, 1024 x 1024, no distortion.
+CameraModel farCamera();
+/// Its mounting servicer_T_camera_far_optical: looking along the servicer's x (optical x = -y,
+/// y = -z), 0.45 m forward and 0.05 m up.
+Transform farCameraMount();
 
 }  // namespace cdff::testing
