@@ -377,7 +377,7 @@ Result<RangeMeasurement> measureRadar(const RadarSpec& spec, const RayCaster& ta
   // Draws first, so that the stream does not depend on detection.
   const double n_range = rng.normal(), n_rate = rng.normal(), n_a = rng.normal(),
                n_b = rng.normal();
-  const bool dropped = rng.uniform() < spec.dropout_probability;
+  const bool dropped = spec.dropout_probability > 0 && rng.uniform() < spec.dropout_probability;
   const Eigen::Isometry3d pose = sensor_T_target(t);
   const Eigen::Vector3d centre = pose.translation();  // the target's centre of mass
   const double distance = centre.norm();
