@@ -1,0 +1,86 @@
+#pragma once
+// A serial manipulator read from its URDF description (urdfdom) with its kinematics (Orocos KDL):
+// the chain of joints from a base link to a tip link, their limits, forward kinematics and a
+// position-level inverse. Shared by the simulator's arm (cdff/egse/arm_simulator.hpp) and the
+// ForwardKinematics DFN, so that both read one description the same way.
+//
+// Not thread-safe: the solvers keep their work space between calls; give each thread its own
+// ArmModel (load() is cheap for a chain of a few joints).
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "cdff/types/sensors.hpp"
+#include "cdff/types/status.hpp"
+
+namespace cdff::kinematics {
+
+/// A joint of the chain that moves (revolute, continuous or prismatic).
+struct ArmJoint {
+  std::string name;
+  double lower = 0;     // rad or m; -inf for a continuous joint
+  double upper = 0;     // rad or m; +inf for a continuous joint
+  double velocity = 0;  // rad/s or m/s, the description's limit (0: none given)
+  bool prismatic = false;
+  int line = 0;  // of its <joint> element in the description (0: unknown)
+};
+
+class ArmModel {
+ public:
+  /// An empty chain (no joints; the tip is the base): load() or fromString() give a real one.
+  ArmModel();
+  ArmModel(ArmModel&&) noexcept;
+  ArmModel& operator=(ArmModel&&) noexcept;
+  ~ArmModel();
+
+  /// Reads the URDF file `path` and the chain from `base_link` to `tip_link`. A file that is
+  /// missing, is not XML or is not a valid URDF is an error naming the file (and the line where
+  /// the XML parser or a named element locates it); so is a link that is absent or not below
+  /// the base.
+  static Result<ArmModel> load(const std::string& path, const std::string& base_link,
+                               const std::string& tip_link);
+  /// The same from the description's text; `source` names it in errors.
+  static Result<ArmModel> fromString(const std::string& xml, const std::string& source,
+                                     const std::string& base_link, const std::string& tip_link);
+
+  const std::string& source() const { return source_; }
+  const std::string& baseLink() const { return base_link_; }
+  const std::string& tipLink() const { return tip_link_; }
+  const std::vector<ArmJoint>& joints() const { return joints_; }
+  std::size_t jointCount() const { return joints_.size(); }
+  /// The radius of the tip link's collision sphere, or 0 when it has none.
+  double tipSphereRadius() const { return tip_sphere_radius_; }
+
+  /// base_T_tip at joint positions `q` (one per joint, in joints() order; not checked).
+  Eigen::Isometry3d forward(std::span<const double> q) const;
+  /// base_T_link for a link of the chain between base and tip (the tip itself included).
+  Result<Eigen::Isometry3d> forwardTo(std::span<const double> q, const std::string& link) const;
+
+  /// Ok when `q` has one finite value per joint within its limits widened by `margin`;
+  /// otherwise the error names the joint, its value and its limits (in degrees for a revolute
+  /// joint). `what` names the input in the message.
+  Status checkJoints(std::span<const double> q, double margin, const std::string& what) const;
+  /// The positions of `state` in joints() order, matched by name (extra names are ignored); a
+  /// joint of the chain missing from `state` is an error naming it.
+  Result<std::vector<double>> positionsOf(const JointState& state, const std::string& what) const;
+
+  /// Joint positions that put the tip at `base_T_tip`, searched from `seed` (Levenberg-Marquardt;
+  /// a 7-joint arm keeps the seed's elbow). An error when it does not converge to `tolerance`
+  /// (m, and rad over a 1 m lever) or ends outside the joint limits.
+  Result<std::vector<double>> inverse(const Eigen::Isometry3d& base_T_tip,
+                                      std::span<const double> seed, double tolerance = 1e-9) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::string source_, base_link_, tip_link_;
+  std::vector<ArmJoint> joints_;
+  double tip_sphere_radius_ = 0;
+};
+
+}  // namespace cdff::kinematics
