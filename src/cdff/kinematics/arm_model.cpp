@@ -24,7 +24,6 @@ struct ArmModel::Impl {
   std::vector<std::string> segment_links;  // the child link of each segment, in chain order
   std::unique_ptr<KDL::ChainFkSolverPos_recursive> fk;
   std::unique_ptr<KDL::ChainIkSolverPos_LMA> ik;
-  double ik_tolerance = -1;
 };
 
 namespace {
@@ -243,8 +242,8 @@ Result<Eigen::Isometry3d> ArmModel::forwardTo(std::span<const double> q,
   return toEigen(frame);
 }
 
-Status ArmModel::checkJoints(std::span<const double> q, double margin,
-                             const std::string& what) const {
+Status ArmModel::checkJoints(std::span<const double> q, double angular_margin,
+                             const std::string& what, double linear_margin) const {
   if (q.size() != joints_.size())
     return invalidInput("{} has {} joint positions; expected {} (the joints of '{}')", what,
                         q.size(), joints_.size(), source_);
@@ -252,6 +251,7 @@ Status ArmModel::checkJoints(std::span<const double> q, double margin,
     const ArmJoint& j = joints_[i];
     if (!std::isfinite(q[i]))
       return invalidInput("{}: joint '{}' is {}; expected a finite position", what, j.name, q[i]);
+    const double margin = j.prismatic ? linear_margin : angular_margin;
     if (q[i] < j.lower - margin || q[i] > j.upper + margin)
       return invalidInput(
           "{}: joint '{}' is at {}, outside its limits [{}, {}] (widened by {}; {}:{}); expected "
@@ -281,21 +281,17 @@ Result<std::vector<double>> ArmModel::positionsOf(const JointState& state,
 Result<std::vector<double>> ArmModel::inverse(const Eigen::Isometry3d& base_T_tip,
                                               std::span<const double> seed,
                                               double tolerance) const {
-  if (!impl_->ik || impl_->ik_tolerance != tolerance) {
-    // Position and attitude weighted alike: an attitude error of 1 rad counts as 1 m.
+  if (!impl_->ik) {
+    // Position and attitude weighted alike: an attitude error of 1 rad counts as 1 m. The
+    // solver stops on its own criteria (a tiny step, a tiny residual); the result is judged
+    // below by its actual residual.
     Eigen::Matrix<double, 6, 1> weights = Eigen::Matrix<double, 6, 1>::Ones();
     impl_->ik =
-        std::make_unique<KDL::ChainIkSolverPos_LMA>(impl_->chain, weights, tolerance, 200, 1e-15);
-    impl_->ik_tolerance = tolerance;
+        std::make_unique<KDL::ChainIkSolverPos_LMA>(impl_->chain, weights, 1e-12, 200, 1e-15);
   }
   KDL::JntArray start(static_cast<unsigned>(seed.size())), solution(start.rows());
   for (std::size_t i = 0; i < seed.size(); ++i) start(static_cast<unsigned>(i)) = seed[i];
-  const int rc = impl_->ik->CartToJnt(start, toKdl(base_T_tip), solution);
-  if (rc != KDL::SolverI::E_NOERROR)
-    return numericalFailure(
-        "inverse kinematics of '{}' did not converge ({}); the pose may be "
-        "out of reach",
-        source_, impl_->ik->strError(rc));
+  impl_->ik->CartToJnt(start, toKdl(base_T_tip), solution);
   std::vector<double> q(seed.size());
   for (std::size_t i = 0; i < q.size(); ++i) {
     q[i] = solution(static_cast<unsigned>(i));
@@ -305,6 +301,15 @@ Result<std::vector<double>> ArmModel::inverse(const Eigen::Isometry3d& base_T_ti
       while (q[i] < joints_[i].lower && q[i] + 2 * M_PI <= joints_[i].upper) q[i] += 2 * M_PI;
     }
   }
+  const Eigen::Isometry3d reached = forward(q);
+  const double position_error = (reached.translation() - base_T_tip.translation()).norm();
+  const double attitude_error =
+      Eigen::Quaterniond(reached.linear()).angularDistance(Eigen::Quaterniond(base_T_tip.linear()));
+  if (!(position_error <= tolerance && attitude_error <= tolerance))
+    return numericalFailure(
+        "inverse kinematics of '{}' did not converge (residual {:.3g} m, {:.3g} rad; expected "
+        "{:.3g}); the pose may be out of reach",
+        source_, position_error, attitude_error, tolerance);
   CDFF_RETURN_IF_ERROR(checkJoints(q, 0.0, "inverse kinematics solution"));
   return q;
 }

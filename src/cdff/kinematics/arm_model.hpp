@@ -61,19 +61,20 @@ class ArmModel {
   /// base_T_link for a link of the chain between base and tip (the tip itself included).
   Result<Eigen::Isometry3d> forwardTo(std::span<const double> q, const std::string& link) const;
 
-  /// Ok when `q` has one finite value per joint within its limits widened by `margin`;
-  /// otherwise the error names the joint, its value and its limits (in degrees for a revolute
-  /// joint). `what` names the input in the message.
-  Status checkJoints(std::span<const double> q, double margin, const std::string& what) const;
+  /// Ok when `q` has one finite value per joint within its limits widened by `margin` (rad; m
+  /// for a prismatic joint: `linear_margin`); otherwise the error names the joint, its value and
+  /// its limits (in degrees for a revolute joint). `what` names the input in the message.
+  Status checkJoints(std::span<const double> q, double margin, const std::string& what,
+                     double linear_margin = 0) const;
   /// The positions of `state` in joints() order, matched by name (extra names are ignored); a
   /// joint of the chain missing from `state` is an error naming it.
   Result<std::vector<double>> positionsOf(const JointState& state, const std::string& what) const;
 
-  /// Joint positions that put the tip at `base_T_tip`, searched from `seed` (Levenberg-Marquardt;
-  /// a 7-joint arm keeps the seed's elbow). An error when it does not converge to `tolerance`
-  /// (m, and rad over a 1 m lever) or ends outside the joint limits.
+  /// Joint positions that put the tip at `base_T_tip`, searched from `seed` (KDL's
+  /// Levenberg-Marquardt; a 7-joint arm keeps the seed's elbow). An error when the tip ends
+  /// farther than `tolerance` (m, and rad) from the pose or a joint outside its limits.
   Result<std::vector<double>> inverse(const Eigen::Isometry3d& base_T_tip,
-                                      std::span<const double> seed, double tolerance = 1e-9) const;
+                                      std::span<const double> seed, double tolerance = 1e-6) const;
 
  private:
   struct Impl;
