@@ -120,6 +120,18 @@ Status ArmSimulator::drawPath(const Eigen::Isometry3d& base_T_target) {
         {distance / spec_.paths.transit_speed, turn / spec_.paths.transit_rate, 10.0 / spec_.rate});
     return Status::ok();
   }
+  // From a posture none of the draws could leave (an elbow folded by the last paths), the arm
+  // first goes home in joint space and draws again there.
+  if (phase_ != ArmPhase::kHoming && q_ != home_) {
+    --path_index_;
+    phase_ = ArmPhase::kHoming;
+    phase_time_ = 0;
+    homing_from_ = q_;
+    double turn = 0;
+    for (std::size_t i = 0; i < q_.size(); ++i) turn = std::max(turn, std::abs(home_[i] - q_[i]));
+    transit_duration_ = std::max(turn / spec_.paths.transit_rate, 10.0 / spec_.rate);
+    return Status::ok();
+  }
   return numericalFailure(
       "arm: no collision path within {} draws (path {}): no surface of '{}' within {} m of the "
       "reach centre that faces the arm, has a clear approach and is reachable; expected the "
@@ -167,8 +179,20 @@ Eigen::Isometry3d ArmSimulator::command() {
       travel_ = std::max(0.0, travel_ - p.fast_speed * dt);
       if (travel_ <= 0) needs_path_ = true;
       break;
+    case ArmPhase::kHoming:
+      break;  // in joint space: homingJoints()
   }
   return tipPose(path_.start - travel_ * path_.axis, path_.attitude);
+}
+
+std::vector<double> ArmSimulator::homingJoints() {
+  const double tau = std::min(1.0, phase_time_ / transit_duration_);
+  const double s = 0.5 - 0.5 * std::cos(M_PI * tau);
+  std::vector<double> q(q_.size());
+  for (std::size_t i = 0; i < q.size(); ++i)
+    q[i] = homing_from_[i] + s * (home_[i] - homing_from_[i]);
+  if (tau >= 1) needs_path_ = true;
+  return q;
 }
 
 }  // namespace cdff::egse

@@ -94,6 +94,7 @@ Result<std::unique_ptr<ArmSimulator>> ArmSimulator::create(const ArmSpec& spec,
         "arm: no tip radius: 'tip_radius' is 0 and link '{}' of '{}' has no collision sphere",
         spec.tip_link, spec.description);
   sim->q_ = spec.home.empty() ? defaultHome(sim->arm_.jointCount()) : spec.home;
+  sim->home_ = sim->q_;
   CDFF_RETURN_IF_ERROR(sim->arm_.checkJoints(sim->q_, 0.0, "arm: 'home'"));
   // The tip in the sensor frame, at two postures: a joint between them would move it.
   Result<Eigen::Isometry3d> at_home = sensorTTip(sim->arm_, sim->q_, spec.sensor_link);
@@ -135,7 +136,9 @@ Result<ArmSample> ArmSimulator::step(const Eigen::Isometry3d& base_T_target) {
     CDFF_RETURN_IF_ERROR(drawPath(base_T_target));
   }
   const Eigen::Isometry3d target_T_tip = command();
-  Result<std::vector<double>> q = arm_.inverse(base_T_target * target_T_tip, q_);
+  Result<std::vector<double>> q = phase_ == ArmPhase::kHoming
+                                      ? Result<std::vector<double>>(homingJoints())
+                                      : arm_.inverse(base_T_target * target_T_tip, q_);
   if (q) {
     q_ = std::move(q).value();
   } else {

@@ -11,7 +11,8 @@
 // along it (fast, then slowly over the last `slow_zone`) until the contact force reaches
 // `press_force`, holds `hold` seconds and retracts to the start. Between paths the tip moves in
 // a straight line (a clear one: paths whose transit or approach would graze the target are
-// drawn again). Paths are defined in the target frame, so the arm follows a moving target.
+// drawn again); when no path can be reached from the arm's posture, it goes home in joint
+// space first. Paths are defined in the target frame, so the arm follows a moving target.
 // Only the tip touches the target: the links and the probe's shaft are not tested for contact.
 //
 // Contact: the tip sphere (radius r) against the mesh: penetration d = r - |c - p|, with p the
@@ -113,7 +114,7 @@ struct CollisionPath {
   Eigen::Quaterniond attitude = Eigen::Quaterniond::Identity();  // target_R_tip
 };
 
-enum class ArmPhase { kTransit, kApproach, kHold, kRetract };
+enum class ArmPhase { kTransit, kApproach, kHold, kRetract, kHoming };
 
 /// What the arm really did at a sample.
 struct ArmTruth {
@@ -169,6 +170,8 @@ class ArmSimulator {
   bool clear(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double clearance) const;
   /// The commanded tip pose in the target frame for the current phase; moves the phase on.
   Eigen::Isometry3d command();
+  /// The joints on the way home (kHoming: a cosine profile in joint space).
+  std::vector<double> homingJoints();
   void contact(const Eigen::Vector3d& centre, ArmTruth& truth);
   Wrench measureWrench(ArmTruth& truth);
   JointState measureJoints(const std::vector<double>& q);
@@ -182,7 +185,7 @@ class ArmSimulator {
   double tip_radius_ = 0;
   Eigen::Isometry3d sensor_T_tip_ = Eigen::Isometry3d::Identity();
   Vector6d bias_ = Vector6d::Zero();
-  std::vector<double> q_;
+  std::vector<double> q_, home_, homing_from_;
   std::int64_t index_ = 0;
   Rng noise_;
   // The motion: the current path, its phase and the time spent in it.
