@@ -91,7 +91,11 @@ TEST(ForwardKinematicsKdl, BadDescriptionsAreReportedWithTheFileAndLine) {
     EXPECT_TRUE(d.isOk());
     return d.value()->configure(YAML::Load(yaml));
   };
-  EXPECT_NE(configure("{}").message().find("parameter 'description' is empty"), std::string::npos);
+  // The default (no description) configures, but gives no pose.
+  auto empty = testing::makeDfn<ForwardKinematics>("ForwardKinematics", "Kdl", "{}");
+  empty->in.joints.set(joints(std::vector<double>(7, 0.0)));
+  testing::expectRejected(*empty, "parameter 'description' is empty",
+                          StatusCode::kInvalidParameter);
   const Status missing = configure("{description: /nonexistent/arm.urdf}");
   EXPECT_EQ(missing.code(), StatusCode::kNotFound);
   EXPECT_NE(missing.message().find("/nonexistent/arm.urdf"), std::string::npos);

@@ -8,9 +8,11 @@ namespace cdff::dfn {
 
 class ForwardKinematicsKdl final : public ForwardKinematicsKdlBase {
  protected:
+  // An empty description is a node not yet given its arm (the description's default, as a
+  // graph sets it): configuring accepts it, processing refuses it.
   Status onConfigure() override {
-    if (params_.description.empty())
-      return invalidParameter("parameter 'description' is empty; expected the arm's URDF file");
+    configured_ = false;
+    if (params_.description.empty()) return Status::ok();
     Result<kinematics::ArmModel> arm =
         kinematics::ArmModel::load(params_.description, params_.base_link, params_.link);
     if (!arm) {
@@ -24,10 +26,15 @@ class ForwardKinematicsKdl final : public ForwardKinematicsKdlBase {
                     arm.status().location());
     }
     arm_ = std::move(arm).value();
+    configured_ = true;
     return Status::ok();
   }
 
   Status onProcess() override {
+    if (!configured_)
+      return invalidParameter(
+          "parameter 'description' is empty: no arm to compute the pose of; expected the arm's "
+          "URDF file");
     Result<std::vector<double>> q = arm_.positionsOf(*in.joints, "input 'joints'");
     if (!q) return q.status();
     CDFF_RETURN_IF_ERROR(
@@ -39,6 +46,7 @@ class ForwardKinematicsKdl final : public ForwardKinematicsKdlBase {
 
  private:
   kinematics::ArmModel arm_;
+  bool configured_ = false;
 };
 
 CDFF_REGISTER_DFI(ForwardKinematicsKdl);
