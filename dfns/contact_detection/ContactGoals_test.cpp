@@ -1,13 +1,11 @@
 // The haptic contact goals of issue 21 on the simulator's arm: random collision paths towards
 // the box target from several seeds, the measured joints through ForwardKinematics (to the
 // sensor's link) and the measured wrench through ContactDetection; each contact's last estimate
-// taken to the target frame with the true target pose and compared with the truth. Contacts
-// while the simulator's arm goes home in joint space (after a posture from which it could reach
-// no path) are not collision paths: the planner does not keep that motion clear of the target,
-// so they can be deep and saturate the sensor; they are counted apart, not in the goals. The
-// sensor's noise is the simulator's default (0.02 N, 1 mN m per axis; 20 urad encoders).
-// CDFF_HAPTIC_PATHS sets the paths per seed (default 20; docs/haptic-scanning.md has the
-// figures for 1000 paths and the command).
+// taken to the target frame with the true target pose and compared with the truth. Every true
+// contact counts; each should be a path's (started on its approach: the transits and the ways
+// home are planned clear of the target). The sensor's noise is the simulator's default (0.02 N, 1
+// mN m per axis; 20 urad encoders). CDFF_HAPTIC_PATHS sets the paths per seed (default 20;
+// docs/haptic-scanning.md has the figures for 1000 paths and the command).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -37,7 +35,7 @@ Eigen::Isometry3d baseTTarget(double t) {
 
 struct Tally {
   int true_contacts = 0, detected = 0, estimated = 0, detections = 0, false_detections = 0;
-  int faults = 0, homing_contacts = 0, paths = 0, abandoned = 0;
+  int faults = 0, off_approach = 0, paths = 0, abandoned = 0;
   std::vector<double> point_errors, normal_errors;
 };
 
@@ -57,7 +55,6 @@ void runSeed(std::uint64_t seed, int paths, Tally& tally) {
                   tip.x(), tip.y(), tip.z(), (*sim)->tipRadius(), spec.force_torque.force_noise,
                   spec.force_torque.torque_noise));
   bool in_true = false, in_detected = false, detected_this = false, overlapped = false;
-  bool homing = false;
   std::optional<std::pair<double, double>> last_error;
   while ((*sim)->pathsStarted() <= paths) {
     const double t = toSeconds((*sim)->time() + 1000);
@@ -78,10 +75,10 @@ void runSeed(std::uint64_t seed, int paths, Tally& tally) {
     // Events: a true contact is detected when a detection overlaps it; a detection that
     // overlaps no true contact is false.
     if (truth.in_contact && !in_true) {
-      detected_this = homing = false;
+      detected_this = false;
       last_error.reset();
+      tally.off_approach += truth.phase != egse::ArmPhase::kApproach;
     }
-    homing = homing || (truth.in_contact && truth.phase == egse::ArmPhase::kHoming);
     if (detected && !in_detected) {
       ++tally.detections;
       overlapped = false;
@@ -97,8 +94,7 @@ void runSeed(std::uint64_t seed, int paths, Tally& tally) {
       last_error = {(point - truth.contact_point).norm(),
                     std::acos(std::clamp(normal.dot(truth.contact_normal), -1.0, 1.0))};
     }
-    if (!truth.in_contact && in_true && homing) ++tally.homing_contacts;
-    if (!truth.in_contact && in_true && !homing) {
+    if (!truth.in_contact && in_true) {
       ++tally.true_contacts;
       tally.detected += detected_this;
       if (last_error) {
@@ -133,14 +129,19 @@ TEST(ContactGoals, DetectedLocatedAndOrientedOverRandomCollisionPaths) {
   std::printf(
       "haptic goals: %d true contacts, %d detected, %d with an estimate; %d detections, %d "
       "false; point error p50 %.3f p95 %.3f max %.3f mm; normal error p50 %.2f p95 %.2f max "
-      "%.2f deg; %d faults; %d contacts while homing (not counted)\n",
+      "%.2f deg; %d faults; %d contacts started off an approach\n",
       tally.true_contacts, tally.detected, tally.estimated, tally.detections,
       tally.false_detections, 1e3 * percentile(tally.point_errors, 0.5),
       1e3 * percentile(tally.point_errors, 0.95), 1e3 * max_point,
       percentile(tally.normal_errors, 0.5) / kDeg, percentile(tally.normal_errors, 0.95) / kDeg,
-      max_normal / kDeg, tally.faults, tally.homing_contacts);
-  // Most paths (more than 3 in 5) end in a counted contact: not those abandoned, nor homings.
-  ASSERT_GT(tally.true_contacts, 3 * paths);
+      max_normal / kDeg, tally.faults, tally.off_approach);
+  // Every path touches, but those the servo abandons (at most 2 %: a singularity met on the way
+  // in spite of the planner's checks); the five running at the end may not have yet.
+  EXPECT_LE(tally.abandoned, 0.02 * tally.paths);
+  ASSERT_GE(tally.true_contacts, 0.98 * tally.paths - 5);
+  EXPECT_EQ(tally.off_approach, 0);
+  // The paths press to 10 N, a sixth of the sensor's range: no sample saturates.
+  EXPECT_EQ(tally.faults, 0);
   EXPECT_GE(tally.detected, 0.99 * tally.true_contacts);
   EXPECT_GE(tally.estimated, 0.99 * tally.true_contacts);
   EXPECT_LE(tally.false_detections, 0.001 * tally.detections);

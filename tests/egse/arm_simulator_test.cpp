@@ -143,6 +143,81 @@ TEST(ArmSimulator, SensorNoiseAndBiasAreThoseOfTheSpec) {
   EXPECT_NEAR(sd, std::hypot(s.encoders.noise, count / std::sqrt(12.0)), 0.05 * s.encoders.noise);
 }
 
+TEST(ArmSimulator, ParkingLeavesTheContactAlongTheToolAndGoesHomeClearOfTheTarget) {
+  auto sim = make(spec(false), 6);
+  const TargetModel target = makeTargetSatellite().value();
+  auto caster = RayCaster::create(target);
+  ASSERT_TRUE(caster.isOk());
+  const Eigen::Isometry3d target_T_base = baseTTarget().inverse();
+  auto distance = [&](const ArmTruth& t) {  // from the tip's centre to the surface
+    const SurfacePoint p = (*caster)->closestPoint(target_T_base * t.base_T_tip.translation(), 1.0);
+    return p.found ? p.distance : 1.0;
+  };
+  // Pressing the second path's aim, halfway through the hold.
+  ArmSample sample;
+  do {
+    sample = sim->step(baseTTarget()).value();
+  } while (sample.truth.path < 1 || sample.truth.phase != ArmPhase::kHold);
+  for (int i = 0; i < 50; ++i) sample = sim->step(baseTTarget()).value();
+  ASSERT_TRUE(sample.truth.in_contact);
+  const int parked_path = sample.truth.path;
+  sim->park();
+  const ArmSpec& s = sim->spec();
+  double last = distance(sample.truth);
+  int retreat = 0, homing = 0;
+  std::vector<double> home;
+  for (sample = sim->step(baseTTarget()).value(); sample.truth.path == parked_path;
+       sample = sim->step(baseTTarget()).value()) {
+    const ArmTruth& t = sample.truth;
+    const double d = distance(t);
+    if (t.phase == ArmPhase::kRetreat) {
+      ++retreat;
+      EXPECT_EQ(homing, 0);
+      EXPECT_GE(d, last - 1e-9) << "the retreat closes in on the target";
+    } else {
+      ASSERT_EQ(t.phase, ArmPhase::kHoming);
+      ++homing;
+      EXPECT_FALSE(t.in_contact);
+      // The motion is checked at postures at most 11 mm of tip travel apart: in between the tip
+      // is within half of that of a checked one.
+      EXPECT_GE(d, sim->tipRadius() + s.paths.homing_clearance - 0.0055);
+      home = t.joints;
+    }
+    last = d;
+  }
+  EXPECT_GT(retreat, 0);
+  EXPECT_GT(homing, 0);
+  // Home exactly, then a new path.
+  EXPECT_EQ(home, sim->home());
+  EXPECT_EQ(sample.truth.path, parked_path + 1);
+  EXPECT_EQ(sim->pathsAbandoned(), 0);
+}
+
+TEST(ArmSimulator, RunsPathAfterPathWithoutAbandoningOrTouchingOffTheApproach) {
+  // The target turning and drifting as in the haptic goals test (dfns/contact_detection): the
+  // transits end where the path starts in the target's frame, the posture comes back to home.
+  auto sim = make(spec(false), 7);
+  int contacts = 0, off_approach = 0;
+  bool in_contact = false;
+  while (sim->pathsStarted() <= 60) {
+    const double t = toSeconds(sim->time() + 1000);
+    const Eigen::Isometry3d moving =
+        Eigen::Translation3d(1.45, 0.02 * std::sin(2 * M_PI * t / 45), 0.35) *
+        Eigen::AngleAxisd(M_PI + 0.05 * std::sin(2 * M_PI * t / 60), Eigen::Vector3d::UnitZ());
+    Result<ArmSample> sample = sim->step(moving);
+    ASSERT_TRUE(sample.isOk()) << sample.status().toString();
+    const ArmTruth& truth = sample->truth;
+    if (truth.in_contact && !in_contact) {
+      ++contacts;
+      off_approach += truth.phase != ArmPhase::kApproach;
+    }
+    in_contact = truth.in_contact;
+  }
+  EXPECT_EQ(sim->pathsAbandoned(), 0);
+  EXPECT_EQ(contacts, 60);
+  EXPECT_EQ(off_approach, 0);
+}
+
 TEST(ArmSimulator, ASeedGivesTheSameRun) {
   auto a = make(spec(true), 11), b = make(spec(true), 11), c = make(spec(true), 12);
   bool differs = false;

@@ -80,6 +80,55 @@ TEST(ArmModel, InverseKinematicsReachesForwardPoses) {
                    .isOk());
 }
 
+TEST(ArmModel, APosturePullMovesTheElbowAndNotTheTip) {
+  const ArmModel arm = servicerArm();
+  const std::vector<double> from = {0.3, 0.4, -0.2, -1.5, 0.3, -0.8, 0.2};
+  const Eigen::Isometry3d tip = arm.forward(from);
+  // Another posture with the same tip pose: the solver started from the upper arm rolled by
+  // 0.6 rad stays near it, on the 7-joint arm's one-dimensional self-motion.
+  std::vector<double> rolled = from;
+  rolled[2] += 0.6;
+  Result<std::vector<double>> other = arm.inverse(tip, rolled);
+  ASSERT_TRUE(other.isOk()) << other.status().toString();
+  auto gap = [&](const std::vector<double>& q) {
+    double sum = 0;
+    for (std::size_t i = 0; i < q.size(); ++i) sum += (q[i] - (*other)[i]) * (q[i] - (*other)[i]);
+    return std::sqrt(sum);
+  };
+  ASSERT_GT(gap(from), 0.3);
+  // Without a pull the solver keeps the seed that already reaches the pose.
+  Result<std::vector<double>> kept = arm.inverse(tip, from);
+  ASSERT_TRUE(kept.isOk());
+  EXPECT_LT(gap(*kept), gap(from) + 1e-9);
+  EXPECT_GT(gap(*kept), gap(from) - 1e-9);
+  // Pulled by 5 % a call, the posture comes to the other one as (0.95)^n, the tip held.
+  const PosturePull pull{*other, 0.05};
+  std::vector<double> q = from;
+  double last = gap(q);
+  for (int call = 0; call < 200; ++call) {
+    Result<std::vector<double>> next = arm.inverse(tip, q, 1e-9, &pull);
+    ASSERT_TRUE(next.isOk()) << next.status().toString();
+    q = std::move(next).value();
+    EXPECT_LT((arm.forward(q).translation() - tip.translation()).norm(), 1e-9);
+    EXPECT_LT(gap(q), last);
+    last = gap(q);
+  }
+  // 0.95^200 = 3.5e-5 of the first gap, were the self-motion straight: a curve, within 1e-3.
+  EXPECT_LT(gap(q), 1e-3 * gap(from));
+
+  const std::vector<double> short_posture(6, 0.0);
+  const PosturePull wrong_size{short_posture, 0.1};
+  Result<std::vector<double>> bad = arm.inverse(tip, from, 1e-6, &wrong_size);
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find("has 6 joints; expected 7"), std::string::npos)
+      << bad.status().message();
+  const PosturePull too_far{*other, 1.5};
+  bad = arm.inverse(tip, from, 1e-6, &too_far);
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find("fraction 1.5; expected [0, 1]"), std::string::npos)
+      << bad.status().message();
+}
+
 TEST(ArmModel, BadJointValuesNameTheJointTheValueAndTheLimits) {
   const ArmModel arm = servicerArm();
   std::vector<double> q(7, 0.0);

@@ -9,11 +9,13 @@ namespace cdff::egse {
 
 namespace {
 
-/// The posture the arm starts from when the spec gives none: shoulder and elbow bent so that
-/// the tool points ahead (+x) of the base, away from the stretched-out singularity.
+/// The posture the arm starts from when the spec gives none: the upper arm nearly upright, the
+/// elbow folded by 103 deg and the wrist pitched by 40 deg, so that the tool points ahead (+x) of
+/// the base with its tip 0.70 m out and 0.65 m up, back from the targets the arm reaches and
+/// away from the stretched-out singularity, the wrist's (joint 6 at 0) and the pitch limits.
 std::vector<double> defaultHome(std::size_t joints) {
   std::vector<double> home(joints, 0.0);
-  if (joints == 7) home = {0.0, 0.5, 0.0, -1.4, 0.0, -0.7, 0.0};
+  if (joints == 7) home = {0.0, 0.2, 0.0, -1.8, 0.0, -0.7, 0.0};
   return home;
 }
 
@@ -46,17 +48,23 @@ Status ArmSpec::validate() const {
       {contact.friction, "contact friction"},
       {paths.hold, "hold"},
       {paths.max_overtravel, "max_overtravel"},
-      {paths.max_tilt, "max_tilt"}};
+      {paths.max_tilt, "max_tilt"},
+      {posture_rate, "posture_rate"}};
   for (const auto& [value, key] : non_negative)
     if (!std::isfinite(value) || value < 0)
       return invalidParameter("arm: '{}' = {} is invalid; expected a finite value >= 0", key,
                               value);
-  const std::pair<double, const char*> positive[] = {
-      {force_torque.force_range, "force_range"}, {force_torque.torque_range, "torque_range"},
-      {contact.stiffness, "contact stiffness"},  {paths.standoff, "standoff"},
-      {paths.fast_speed, "fast_speed"},          {paths.slow_speed, "slow_speed"},
-      {paths.press_force, "press_force"},        {paths.transit_speed, "transit_speed"},
-      {paths.transit_rate, "transit_rate"},      {paths.reach, "reach"}};
+  const std::pair<double, const char*> positive[] = {{force_torque.force_range, "force_range"},
+                                                     {force_torque.torque_range, "torque_range"},
+                                                     {contact.stiffness, "contact stiffness"},
+                                                     {paths.standoff, "standoff"},
+                                                     {paths.fast_speed, "fast_speed"},
+                                                     {paths.slow_speed, "slow_speed"},
+                                                     {paths.press_force, "press_force"},
+                                                     {paths.transit_speed, "transit_speed"},
+                                                     {paths.transit_rate, "transit_rate"},
+                                                     {paths.reach, "reach"},
+                                                     {paths.homing_clearance, "homing_clearance"}};
   for (const auto& [value, key] : positive)
     if (!std::isfinite(value) || value <= 0)
       return invalidParameter("arm: '{}' = {} is invalid; expected a finite value > 0", key, value);
@@ -131,14 +139,25 @@ Timestamp ArmSimulator::time() const {
 Result<ArmSample> ArmSimulator::step(const Eigen::Isometry3d& base_T_target) {
   ++index_;
   const Eigen::Isometry3d target_T_base = base_T_target.inverse();
-  if (path_index_ < 0 || needs_path_) {
+  const bool going_home = phase_ == ArmPhase::kRetreat || phase_ == ArmPhase::kHoming;
+  if (park_ && path_index_ >= 0 && !going_home) {
+    transit_from_ = target_T_base * arm_.forward(q_);
+    CDFF_RETURN_IF_ERROR(planHoming(base_T_target));
+    needs_path_ = false;
+  } else if (path_index_ < 0 || needs_path_) {
     transit_from_ = target_T_base * arm_.forward(q_);
     CDFF_RETURN_IF_ERROR(drawPath(base_T_target));
   }
-  const Eigen::Isometry3d target_T_tip = command();
-  Result<std::vector<double>> q = phase_ == ArmPhase::kHoming
-                                      ? Result<std::vector<double>>(homingJoints())
-                                      : arm_.inverse(base_T_target * target_T_tip, q_);
+  park_ = false;
+  Result<std::vector<double>> q = std::vector<double>{};
+  if (phase_ == ArmPhase::kTransit || phase_ == ArmPhase::kHoming) {
+    q = jointMove(base_T_target);
+  } else {
+    // The self-motion is left alone on the retreat, whose way home was checked without it.
+    const kinematics::PosturePull pull{
+        home_, phase_ == ArmPhase::kRetreat ? 0.0 : 1 - std::exp(-spec_.posture_rate / spec_.rate)};
+    q = arm_.inverse(base_T_target * command(), q_, 1e-6, &pull);
+  }
   if (q) {
     q_ = std::move(q).value();
   } else {

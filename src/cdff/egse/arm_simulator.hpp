@@ -5,15 +5,20 @@
 // spherical tool tip in contact with the target's mesh.
 //
 // Motion: the arm is kinematic (its servo loop is ideal: the joints take the inverse kinematics
-// of the commanded tip pose at every sample). A collision path aims at a random point of the
-// target's surface within reach and facing the arm: the tip's centre starts `standoff` outside
-// the point, along an approach axis tilted from the surface normal by up to `max_tilt`, moves
-// along it (fast, then slowly over the last `slow_zone`) until the contact force reaches
-// `press_force`, holds `hold` seconds and retracts to the start. Between paths the tip moves in
-// a straight line (a clear one: paths whose transit or approach would graze the target are
-// drawn again); when no path can be reached from the arm's posture, it goes home in joint
-// space first. Paths are defined in the target frame, so the arm follows a moving target.
-// Only the tip touches the target: the links and the probe's shaft are not tested for contact.
+// of the commanded tip pose at every sample, and the arm's self-motion is drawn back towards the
+// home posture at `posture_rate`, so that the redundant joint does not drift to a limit). A
+// collision path aims at a random point of the target's surface within reach and facing the arm:
+// the tip's centre starts `standoff` outside the point, along an approach axis tilted from the
+// surface normal by up to `max_tilt`, moves along it (fast, then slowly over the last `slow_zone`)
+// until the contact force reaches `press_force`, holds `hold` seconds and retracts to the start.
+// Between paths the arm moves in joint space (a transit to the start's posture solved from home,
+// so that the arm does not wander from path to path and no straight line crosses a singularity;
+// paths whose transit or approach would graze the target are drawn again); when no path can be
+// reached from the arm's posture, it goes home: first back along the tool's axis (a straight line
+// that moves away from the target), then in joint space along a motion whose tip keeps
+// `homing_clearance` from the target, both checked before they are taken. Paths are defined in the
+// target frame, so the arm follows a moving target. Only the tip touches the target: the links and
+// the probe's shaft are not tested for contact.
 //
 // Contact: the tip sphere (radius r) against the mesh: penetration d = r - |c - p|, with p the
 // surface point nearest to the centre c (RayCaster::closestPoint); normal force
@@ -73,19 +78,21 @@ struct ContactSpec {
 };
 
 struct CollisionPathSpec {
-  double standoff = 0.02;                    // m, from the touching position to the path's start
-  double slow_zone = 0.003;                  // m, approached at slow_speed
-  double fast_speed = 0.1;                   // m/s
-  double slow_speed = 0.01;                  // m/s
-  double press_force = 10;                   // N, the normal force that ends the approach
-  double hold = 0.1;                         // s
-  double max_overtravel = 0.005;             // m past the expected surface before the path gives up
-  double max_tilt = 0.35;                    // rad between the approach axis and the surface normal
-  double transit_speed = 0.5;                // m/s of the tip between paths
-  double transit_rate = 1.0;                 // rad/s of the tool's attitude between paths
-  double reach = 1.05;                       // m from reach_centre: farther surface is not aimed at
+  double standoff = 0.02;         // m, from the touching position to the path's start
+  double slow_zone = 0.003;       // m, approached at slow_speed
+  double fast_speed = 0.1;        // m/s
+  double slow_speed = 0.01;       // m/s
+  double press_force = 10;        // N, the normal force that ends the approach
+  double hold = 0.1;              // s
+  double max_overtravel = 0.005;  // m past the expected surface before the path gives up
+  double max_tilt = 0.35;         // rad between the approach axis and the surface normal
+  double transit_speed = 0.5;     // m/s of the tip on a retreat
+  double transit_rate = 1.0;      // rad/s, the fastest joint's top speed between paths
+  // m from reach_centre: farther is not aimed at (the arm stretched out, 1.07 m, is singular).
+  double reach = 0.95;
   Eigen::Vector3d reach_centre{0, 0, 0.35};  // m, base frame (the servicer arm's shoulder)
   int max_draws = 2000;                      // draws of a path before the simulator gives up
+  double homing_clearance = 0.03;            // m between the tip and the target on the way home
 };
 
 struct ArmSpec {
@@ -96,6 +103,7 @@ struct ArmSpec {
   double tip_radius = 0;     // m; 0: the tip link's collision sphere in the description
   std::vector<double> home;  // rad, the starting posture (empty: elbow bent, tool ahead)
   double rate = 1000;        // Hz, of the servo loop and of both sensors
+  double posture_rate = 1;   // 1/s, the self-motion's return towards `home` (0: none)
   ForceTorqueSpec force_torque;
   EncoderSpec encoders;
   ContactSpec contact;
@@ -112,9 +120,11 @@ struct CollisionPath {
   Eigen::Vector3d start = Eigen::Vector3d::Zero();    // the tip centre at the start
   Eigen::Vector3d touch = Eigen::Vector3d::Zero();    // the tip centre touching the aim
   Eigen::Quaterniond attitude = Eigen::Quaterniond::Identity();  // target_R_tip
+  std::vector<double> start_joints;  // rad, the posture planned at the start
 };
 
-enum class ArmPhase { kTransit, kApproach, kHold, kRetract, kHoming };
+/// kRetreat and kHoming: the way home (back along the tool's axis, then in joint space).
+enum class ArmPhase { kTransit, kApproach, kHold, kRetract, kRetreat, kHoming };
 
 /// What the arm really did at a sample.
 struct ArmTruth {
@@ -150,9 +160,16 @@ class ArmSimulator {
   /// collision path can be drawn (the target out of reach).
   Result<ArmSample> step(const Eigen::Isometry3d& base_T_target);
 
+  /// Ends the current path where it is and takes the arm home at the next step (back along the
+  /// tool's axis, then in joint space, as when no path can be reached); the next path is drawn
+  /// once home. Nothing happens before the first path or while the arm is already going home.
+  void park() { park_ = true; }
+
   Timestamp time() const;
   const ArmSpec& spec() const { return spec_; }
   const kinematics::ArmModel& arm() const { return arm_; }
+  /// The posture the arm starts from and returns to (rad).
+  const std::vector<double>& home() const { return home_; }
   double tipRadius() const { return tip_radius_; }
   /// The tip sphere's centre in the sensor frame (fixed: the links between them are rigid).
   Eigen::Vector3d tipInSensor() const { return sensor_T_tip_.translation(); }
@@ -168,10 +185,27 @@ class ArmSimulator {
   Status drawPath(const Eigen::Isometry3d& base_T_target);
   Result<CollisionPath> candidatePath(const Eigen::Isometry3d& base_T_target, Rng& rng) const;
   bool clear(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double clearance) const;
+  bool movesAway(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double clearance) const;
+  /// The joints at the end of a straight motion of the tip from `from` (target_T_tip, the
+  /// current one) to `to` at the same attitude, the inverse kinematics chained over poses along
+  /// it as the servo will; an error when a pose is out of reach or the joints jump between two.
+  Result<std::vector<double>> reachAlong(const Eigen::Isometry3d& base_T_target,
+                                         const Eigen::Isometry3d& from,
+                                         const Eigen::Vector3d& to) const;
+  /// The way home (kRetreat then kHoming) from the current posture; an error when none of the
+  /// retreats leads to a joint-space motion clear of the target.
+  Status planHoming(const Eigen::Isometry3d& base_T_target);
+  /// True when the tip stays `clearance` off the target (beyond its radius) all along the
+  /// joint-space motion from `from` to `to`.
+  bool jointMoveClear(const Eigen::Isometry3d& base_T_target, const std::vector<double>& from,
+                      const std::vector<double>& to, double clearance) const;
+  double jointMoveDuration(const std::vector<double>& from, const std::vector<double>& to) const;
+  void startJointMove(ArmPhase phase, const std::vector<double>& to);
+  /// The joints of a joint-space motion (kTransit, kHoming: a cosine profile); moves the phase
+  /// on at its end. An error when the transit's end is no longer reachable.
+  Result<std::vector<double>> jointMove(const Eigen::Isometry3d& base_T_target);
   /// The commanded tip pose in the target frame for the current phase; moves the phase on.
   Eigen::Isometry3d command();
-  /// The joints on the way home (kHoming: a cosine profile in joint space).
-  std::vector<double> homingJoints();
   void contact(const Eigen::Vector3d& centre, ArmTruth& truth);
   Wrench measureWrench(ArmTruth& truth);
   JointState measureJoints(const std::vector<double>& q);
@@ -185,7 +219,7 @@ class ArmSimulator {
   double tip_radius_ = 0;
   Eigen::Isometry3d sensor_T_tip_ = Eigen::Isometry3d::Identity();
   Vector6d bias_ = Vector6d::Zero();
-  std::vector<double> q_, home_, homing_from_;
+  std::vector<double> q_, home_, move_from_, move_to_;
   std::int64_t index_ = 0;
   Rng noise_;
   // The motion: the current path, its phase and the time spent in it.
@@ -196,10 +230,12 @@ class ArmSimulator {
   double phase_time_ = 0;
   double travel_ = 0;                                               // m along the approach
   Eigen::Isometry3d transit_from_ = Eigen::Isometry3d::Identity();  // target_T_tip
+  Eigen::Isometry3d retreat_to_ = Eigen::Isometry3d::Identity();    // target_T_tip
   double transit_duration_ = 0;
   std::optional<Eigen::Vector3d> last_centre_;  // target frame, for the sliding velocity
   double last_normal_force_ = 0;                // N, what the path's force control reads
   bool needs_path_ = false;                     // the current path is over or abandoned
+  bool park_ = false;                           // park() was called
 };
 
 }  // namespace cdff::egse

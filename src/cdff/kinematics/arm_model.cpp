@@ -16,6 +16,9 @@
 #include <kdl/chain.hpp>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainiksolverpos_lma.hpp>
+#include <kdl/chainjnttojacsolver.hpp>
+
+#include <Eigen/Cholesky>
 
 namespace cdff::kinematics {
 
@@ -24,6 +27,7 @@ struct ArmModel::Impl {
   std::vector<std::string> segment_links;  // the child link of each segment, in chain order
   std::unique_ptr<KDL::ChainFkSolverPos_recursive> fk;
   std::unique_ptr<KDL::ChainIkSolverPos_LMA> ik;
+  std::unique_ptr<KDL::ChainJntToJacSolver> jac;
 };
 
 namespace {
@@ -278,34 +282,126 @@ Result<std::vector<double>> ArmModel::positionsOf(const JointState& state,
   return q;
 }
 
+Eigen::Matrix<double, 6, Eigen::Dynamic> ArmModel::jacobian(std::span<const double> q) const {
+  if (!impl_->jac) impl_->jac = std::make_unique<KDL::ChainJntToJacSolver>(impl_->chain);
+  KDL::JntArray joints(static_cast<unsigned>(q.size()));
+  for (std::size_t i = 0; i < q.size(); ++i) joints(static_cast<unsigned>(i)) = q[i];
+  KDL::Jacobian j(static_cast<unsigned>(q.size()));
+  impl_->jac->JntToJac(joints, j);
+  return j.data;
+}
+
+namespace {
+
+using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+/// The damping of the least-squares steps (m, rad): no weight next to the arm's singular values
+/// of tenths of a metre, it keeps a step finite at a singularity.
+constexpr double kDamping = 1e-4;
+/// Damped Gauss-Newton steps tried before Levenberg-Marquardt, and after it.
+constexpr int kNewtonSteps = 5;
+/// The pose error (m, rad) below which Gauss-Newton starts alone: a servo's next sample.
+constexpr double kNewtonReach = 0.01;
+
+/// The damped least-squares solution of J dq = e: J^T (J J^T + l^2 I)^-1 e.
+Eigen::VectorXd dampedSolve(const Jacobian& j, const Vector6& e) {
+  Eigen::Matrix<double, 6, 6> a = j * j.transpose();
+  a.diagonal().array() += kDamping * kDamping;
+  return j.transpose() * a.ldlt().solve(e);
+}
+
+/// The seed moved `pull.fraction` of the way towards `pull.posture` within the Jacobian's null
+/// space: dq = (I - J+ J) f (posture - seed), with the damped inverse for J+ (so that near a
+/// singularity the lost direction is not amplified). To first order the tip stays where it is;
+/// the solver then removes the rest.
+std::vector<double> pulledSeed(const Jacobian& jacobian, std::span<const double> seed,
+                               const PosturePull& pull) {
+  const auto n = static_cast<Eigen::Index>(seed.size());
+  Eigen::VectorXd toward(n);
+  for (Eigen::Index i = 0; i < n; ++i)
+    toward[i] = pull.fraction *
+                (pull.posture[static_cast<std::size_t>(i)] - seed[static_cast<std::size_t>(i)]);
+  const Eigen::VectorXd step = toward - dampedSolve(jacobian, jacobian * toward);
+  std::vector<double> out(seed.begin(), seed.end());
+  for (Eigen::Index i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] += step[i];
+  return out;
+}
+
+/// The tip's pose error: the position's, then the attitude's as a rotation vector, both in the
+/// base frame (the Jacobian's rows).
+Vector6 poseError(const Eigen::Isometry3d& reached, const Eigen::Isometry3d& wanted) {
+  const Eigen::AngleAxisd turn(wanted.linear() * reached.linear().transpose());
+  Vector6 e;
+  e << wanted.translation() - reached.translation(), turn.angle() * turn.axis();
+  return e;
+}
+
+bool within(const Vector6& error, double tolerance) {
+  return error.head<3>().norm() <= tolerance && error.tail<3>().norm() <= tolerance;
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, 1> ArmModel::newtonSteps(std::vector<double>& q,
+                                                  const Eigen::Isometry3d& base_T_tip,
+                                                  double tolerance) const {
+  Vector6 error = poseError(forward(q), base_T_tip);
+  for (int step = 0; step < kNewtonSteps && !within(error, tolerance); ++step) {
+    const Eigen::VectorXd dq = dampedSolve(jacobian(q), error);
+    for (std::size_t i = 0; i < q.size(); ++i) q[i] += dq[static_cast<Eigen::Index>(i)];
+    error = poseError(forward(q), base_T_tip);
+  }
+  return error;
+}
+
 Result<std::vector<double>> ArmModel::inverse(const Eigen::Isometry3d& base_T_tip,
-                                              std::span<const double> seed,
-                                              double tolerance) const {
+                                              std::span<const double> seed, double tolerance,
+                                              const PosturePull* pull) const {
   if (!impl_->ik) {
     // Position and attitude weighted alike: an attitude error of 1 rad counts as 1 m. The
-    // solver stops on its own criteria (a tiny step, a tiny residual); the result is judged
-    // below by its actual residual.
+    // solver stops at a residual of 1e-9 (a nanometre: below it, its damped steps shrink without
+    // gaining, up to its iteration limit) or a tiny step; Gauss-Newton steps finish below and
+    // the result is judged by its actual residual.
     Eigen::Matrix<double, 6, 1> weights = Eigen::Matrix<double, 6, 1>::Ones();
     impl_->ik =
-        std::make_unique<KDL::ChainIkSolverPos_LMA>(impl_->chain, weights, 1e-12, 200, 1e-15);
+        std::make_unique<KDL::ChainIkSolverPos_LMA>(impl_->chain, weights, 1e-9, 200, 1e-15);
   }
-  KDL::JntArray start(static_cast<unsigned>(seed.size())), solution(start.rows());
-  for (std::size_t i = 0; i < seed.size(); ++i) start(static_cast<unsigned>(i)) = seed[i];
-  impl_->ik->CartToJnt(start, toKdl(base_T_tip), solution);
-  std::vector<double> q(seed.size());
+  std::vector<double> pulled;
+  if (pull != nullptr && pull->posture.size() != seed.size())
+    return invalidInput(
+        "inverse kinematics of '{}': the posture pulled towards has {} joints; "
+        "expected {}, one per joint of the seed",
+        source_, pull->posture.size(), seed.size());
+  if (pull != nullptr && !(pull->fraction >= 0 && pull->fraction <= 1))
+    return invalidInput("inverse kinematics of '{}': posture pull fraction {}; expected [0, 1]",
+                        source_, pull->fraction);
+  if (pull != nullptr && pull->fraction > 0) {
+    pulled = pulledSeed(jacobian(seed), seed, *pull);
+    seed = pulled;
+  }
+  // Close to the pose (a servo's next sample), damped Gauss-Newton steps converge in one or
+  // two; from farther, or where they do not, KDL's Levenberg-Marquardt first, then the steps
+  // again to below the tolerance (its damping slows it down close to the solution).
+  std::vector<double> q(seed.begin(), seed.end());
+  Vector6 error = poseError(forward(q), base_T_tip);
+  if (error.norm() < kNewtonReach) error = newtonSteps(q, base_T_tip, tolerance);
+  if (!within(error, tolerance)) {
+    KDL::JntArray start(static_cast<unsigned>(seed.size())), solution(start.rows());
+    for (std::size_t i = 0; i < seed.size(); ++i) start(static_cast<unsigned>(i)) = seed[i];
+    impl_->ik->CartToJnt(start, toKdl(base_T_tip), solution);
+    for (std::size_t i = 0; i < q.size(); ++i) q[i] = solution(static_cast<unsigned>(i));
+    error = newtonSteps(q, base_T_tip, tolerance);
+  }
   for (std::size_t i = 0; i < q.size(); ++i) {
-    q[i] = solution(static_cast<unsigned>(i));
     // A revolute joint's solution may be off by whole turns: the one within limits.
     if (!joints_[i].prismatic) {
       while (q[i] > joints_[i].upper && q[i] - 2 * M_PI >= joints_[i].lower) q[i] -= 2 * M_PI;
       while (q[i] < joints_[i].lower && q[i] + 2 * M_PI <= joints_[i].upper) q[i] += 2 * M_PI;
     }
   }
-  const Eigen::Isometry3d reached = forward(q);
-  const double position_error = (reached.translation() - base_T_tip.translation()).norm();
-  const double attitude_error =
-      Eigen::Quaterniond(reached.linear()).angularDistance(Eigen::Quaterniond(base_T_tip.linear()));
-  if (!(position_error <= tolerance && attitude_error <= tolerance))
+  const double position_error = error.head<3>().norm(), attitude_error = error.tail<3>().norm();
+  if (!within(error, tolerance))
     return numericalFailure(
         "inverse kinematics of '{}' did not converge (residual {:.3g} m, {:.3g} rad; expected "
         "{:.3g}); the pose may be out of reach",

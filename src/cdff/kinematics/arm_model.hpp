@@ -30,6 +30,15 @@ struct ArmJoint {
   int line = 0;  // of its <joint> element in the description (0: unknown)
 };
 
+/// A posture a redundant arm's self-motion is drawn towards while the tip holds its pose: each
+/// inverse() moves the joints `fraction` (0 to 1) of the way from the seed towards `posture`,
+/// projected on the Jacobian's null space (the motions that leave the tip where it is). A servo
+/// at rate f drawing the posture back with rate k (1/s) takes fraction = 1 - exp(-k / f).
+struct PosturePull {
+  std::span<const double> posture;  // one per joint, in joints() order
+  double fraction = 0;
+};
+
 class ArmModel {
  public:
   /// An empty chain (no joints; the tip is the base): load() or fromString() give a real one.
@@ -71,12 +80,21 @@ class ArmModel {
   Result<std::vector<double>> positionsOf(const JointState& state, const std::string& what) const;
 
   /// Joint positions that put the tip at `base_T_tip`, searched from `seed` (KDL's
-  /// Levenberg-Marquardt; a 7-joint arm keeps the seed's elbow). An error when the tip ends
-  /// farther than `tolerance` (m, and rad) from the pose or a joint outside its limits.
+  /// Levenberg-Marquardt; a 7-joint arm keeps the seed's elbow unless `pull` draws it towards a
+  /// posture first). An error when the tip ends farther than `tolerance` (m, and rad) from the
+  /// pose or a joint outside its limits.
   Result<std::vector<double>> inverse(const Eigen::Isometry3d& base_T_tip,
-                                      std::span<const double> seed, double tolerance = 1e-6) const;
+                                      std::span<const double> seed, double tolerance = 1e-6,
+                                      const PosturePull* pull = nullptr) const;
+  /// The geometric Jacobian at `q` (6 rows: the tip's linear then angular velocity in the base
+  /// frame, per joint velocity).
+  Eigen::Matrix<double, 6, Eigen::Dynamic> jacobian(std::span<const double> q) const;
 
  private:
+  /// Damped Gauss-Newton steps from `q` (updated) towards the pose; the remaining error.
+  Eigen::Matrix<double, 6, 1> newtonSteps(std::vector<double>& q,
+                                          const Eigen::Isometry3d& base_T_tip,
+                                          double tolerance) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
   std::string source_, base_link_, tip_link_;
