@@ -8,7 +8,8 @@ packages=(
   build-essential cmake ninja-build ccache pkg-config git clang-format
   # core libraries
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libceres-dev libvisp-dev
-  liboctomap-dev libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
+  liboctomap-dev liburdfdom-dev liborocos-kdl-dev libtinyxml-dev libconsole-bridge-dev
+  libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libzstd-dev liblz4-dev zlib1g-dev libboost-dev
   # real data to validate on (ViSP tracking sequences with ground truth)

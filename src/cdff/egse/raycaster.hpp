@@ -28,6 +28,16 @@ struct RayHit {
   Eigen::Vector3f normal = Eigen::Vector3f::Zero();  // geometric, unit, facing the ray's origin
 };
 
+/// The point of a model's surface nearest to a query point (the contact of a sphere with the
+/// surface: cdff/egse/arm_simulator.hpp).
+struct SurfacePoint {
+  bool found = false;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  // on the surface, model frame
+  double distance = 0;                              // from the query point, m
+  std::uint32_t triangle = 0;
+  Eigen::Vector3d face_normal = Eigen::Vector3d::UnitZ();  // the triangle's, from its winding
+};
+
 class RayCaster {
  public:
   ~RayCaster();
@@ -41,6 +51,10 @@ class RayCaster {
   void intersect(std::span<const Ray> rays, std::span<RayHit> hits) const;
   /// True when something lies on the ray between t_min and t_max.
   bool occluded(const Ray& ray) const;
+  /// The surface point nearest to `query` within `max_distance` (Embree's point query over the
+  /// BVH, the exact point of each candidate triangle in double precision); not found when the
+  /// surface is farther.
+  SurfacePoint closestPoint(const Eigen::Vector3d& query, double max_distance) const;
 
  private:
   RayCaster() = default;
