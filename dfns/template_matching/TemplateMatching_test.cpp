@@ -33,7 +33,7 @@ class TemplateMatchingTracks : public ::testing::TestWithParam<std::string> {
 };
 
 TEST_P(TemplateMatchingTracks, FindsASmallTargetMovedBySubPixelAmounts) {
-  const Eigen::Vector2d c0(190.3, 170.6);
+  const Eigen::Vector2d c0(126.3, 106.6);
   const double scale = 2.5;  // the body 5 px, the wings 16 px: a target at about 2 km
   const Eigen::Vector2d designated = c0 + Eigen::Vector2d(0.4, -0.3);
   dfn_->in.image.set(testing::renderFarTarget(c0, scale, 0, rng_, 0));
@@ -61,7 +61,7 @@ TEST_P(TemplateMatchingTracks, FindsASmallTargetMovedBySubPixelAmounts) {
 TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyfold) {
   // Scale 1.2 -> 24 px per unit over 120 frames (geometric, 2.5 % per frame), the centre
   // wandering by up to 3 px per frame and the target turning 0.2 degrees per frame.
-  Eigen::Vector2d ck(185.0, 195.0);
+  Eigen::Vector2d ck(121.0, 131.0);
   double scale = 1.2, angle = 0;
   const Eigen::Vector2d offset(0.35, 0.2);  // the designated point, in target units
   auto pointIn = [&](const Eigen::Vector2d& c, double s, double a) {
@@ -76,7 +76,7 @@ TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyf
   double worst = 0, last = 0;
   for (int k = 1; k <= 120; ++k) {
     ck += Eigen::Vector2d(move(rng_), move(rng_));
-    ck = ck.cwiseMax(Eigen::Vector2d(150, 150)).cwiseMin(Eigen::Vector2d(234, 234));
+    ck = ck.cwiseMax(Eigen::Vector2d(86, 86)).cwiseMin(Eigen::Vector2d(170, 170));
     scale *= growth;
     angle += 0.2 * M_PI / 180;
     dfn_->in.image.set(testing::renderFarTarget(ck, scale, angle, rng_, k * 1'000'000));
@@ -92,7 +92,7 @@ TEST_P(TemplateMatchingTracks, KeepsTheDesignatedPointWhileTheTargetGrowsTwentyf
 }
 
 TEST_P(TemplateMatchingTracks, ReportsNotFoundWhenTheTargetIsGoneAndFindsItAgain) {
-  const Eigen::Vector2d c0(200, 200);
+  const Eigen::Vector2d c0(128, 128);
   dfn_->in.image.set(testing::renderFarTarget(c0, 3.0, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(c0, 14, "user"));
   ASSERT_TRUE(dfn_->process().isOk());
@@ -115,7 +115,7 @@ TEST_P(TemplateMatchingTracks, ItsCovarianceMatchesItsErrors) {
   // NEES of the centre (2 degrees of freedom) over 60 frames: mean 2 when honest; within a
   // factor 2 of it, a little more on the conservative side (a covariance too large costs a
   // little accuracy in the filter, one too small makes it reject good matches).
-  const Eigen::Vector2d c0(190, 190);
+  const Eigen::Vector2d c0(128, 128);
   const double scale = 6.0;
   dfn_->in.image.set(testing::renderFarTarget(c0, scale, 0, rng_, 0));
   dfn_->in.designation.set(designationAt(c0, 24, "user"));
@@ -140,21 +140,21 @@ class TemplateMatchingBadInput : public TemplateMatchingTracks {};
 
 TEST_P(TemplateMatchingBadInput, ADesignationOffTheImage) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
-  dfn_->in.designation.set(designationAt(Eigen::Vector2d(380, 200), 12, "user"));
-  testing::expectRejected(*dfn_, "leaves the 384x384 image");
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(128, 128), 3.0, 0, rng, 0));
+  dfn_->in.designation.set(designationAt(Eigen::Vector2d(250, 128), 12, "user"));
+  testing::expectRejected(*dfn_, "leaves the 256x256 image");
 }
 
 TEST_P(TemplateMatchingBadInput, ADesignationOnEmptySky) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(128, 128), 3.0, 0, rng, 0));
   dfn_->in.designation.set(designationAt(Eigen::Vector2d(60, 60), 12, "user"));
   testing::expectRejected(*dfn_, "holds nothing to follow");
 }
 
 TEST_P(TemplateMatchingBadInput, ANonFiniteDesignation) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(128, 128), 3.0, 0, rng, 0));
   ImageRegion d = designationAt(Eigen::Vector2d(200, 200), 12, "user");
   d.homography(0, 2) = std::numeric_limits<double>::quiet_NaN();
   dfn_->in.designation.set(d);
@@ -173,7 +173,7 @@ TEST_P(TemplateMatchingBadInput, AnEmptyOrFloatImage) {
 
 TEST_P(TemplateMatchingBadInput, NothingIsFoundBeforeADesignation) {
   std::mt19937 rng(3);
-  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(200, 200), 3.0, 0, rng, 0));
+  dfn_->in.image.set(testing::renderFarTarget(Eigen::Vector2d(128, 128), 3.0, 0, rng, 0));
   ASSERT_TRUE(dfn_->process().isOk());
   EXPECT_FALSE(*dfn_->out.found);
   EXPECT_TRUE(std::isnan(*dfn_->out.score));

@@ -8,7 +8,9 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include "cdff/types/bearing.hpp"
 #include "cdff/types/detection.hpp"
+#include "cdff/types/image_region.hpp"
 #include "cdff/types/features.hpp"
 #include "common.hpp"
 
@@ -214,6 +216,43 @@ void bindDetections(py::module_& m) {
   addClassConverter<Detections>("cdff.Detections");
 }
 
+/// Far-range tracking's region of a template in an image, and the bearing it gives.
+void bindFarRange(py::module_& m) {
+  py::class_<ImageRegion, std::shared_ptr<ImageRegion>>(
+      m, "ImageRegion", "Where a template lies in an image: template pixels -> image pixels.")
+      .def(py::init<>())
+      .def_static("box", &ImageRegion::box, py::arg("x"), py::arg("y"), py::arg("width"),
+                  py::arg("height"), "A designation of the box [x, x + width) x [y, y + height).")
+      .def_readwrite("stamp", &ImageRegion::stamp)
+      .def_readwrite("frame_id", &ImageRegion::frame_id)
+      .def_readwrite("homography", &ImageRegion::homography, "3x3, template -> image pixels")
+      .def_readwrite("width", &ImageRegion::width)
+      .def_readwrite("height", &ImageRegion::height)
+      .def_readwrite("score", &ImageRegion::score, "ZNCC, NaN for a designation or a prediction")
+      .def_readwrite("covariance", &ImageRegion::covariance, "2x2, px^2, of the centre")
+      .def_readwrite("source", &ImageRegion::source, "user, automatic, prediction or match")
+      .def("centre", &ImageRegion::centre, "The image position of the template's centre.")
+      .def("scale", &ImageRegion::scale)
+      .def("validate", [](const ImageRegion& r) { check(r.validate()); });
+  addClassConverter<ImageRegion>("cdff.ImageRegion");
+  py::class_<Bearing, std::shared_ptr<Bearing>>(
+      m, "Bearing", "The direction to the target (servicer frame), with range where measured.")
+      .def(py::init<>())
+      .def_readwrite("stamp", &Bearing::stamp)
+      .def_readwrite("frame_id", &Bearing::frame_id)
+      .def_readwrite("direction", &Bearing::direction, "unit vector")
+      .def_readwrite("covariance", &Bearing::covariance, "3x3, rad^2")
+      .def_readwrite("range", &Bearing::range, "m, NaN when unknown")
+      .def_readwrite("range_variance", &Bearing::range_variance)
+      .def_readwrite("range_rate", &Bearing::range_rate, "m/s, NaN when unknown")
+      .def_readwrite("range_rate_variance", &Bearing::range_rate_variance)
+      .def_readwrite("designation", &Bearing::designation, "user or automatic")
+      .def("azimuth", &Bearing::azimuth, "rad, atan2(y, x)")
+      .def("elevation", &Bearing::elevation, "rad, atan2(z, hypot(x, y))")
+      .def("validate", [](const Bearing& b) { check(b.validate()); });
+  addClassConverter<Bearing>("cdff.Bearing");
+}
+
 }  // namespace
 
 void bindFeatures(py::module_& m) {
@@ -221,6 +260,7 @@ void bindFeatures(py::module_& m) {
   bindFeatureSets(m);
   bindMatches(m);
   bindDetections(m);
+  bindFarRange(m);
 }
 
 }  // namespace cdff::python

@@ -15,7 +15,7 @@ namespace cdff::testing {
 /// A `size` x `size` 8-bit image of the target centred at `centre` (px), `scale` px per target
 /// unit (the bus spans 2 units, the wings 6.4), turned by `angle` (rad) in the image plane.
 Image renderFarTarget(const Eigen::Vector2d& centre, double scale, double angle, std::mt19937& rng,
-                      Timestamp stamp, int size = 384);
+                      Timestamp stamp, int size = 256);
 
 /// far_range_approach's narrow-angle camera: 35 mm, 5.5 um pixels, 1024 x 1024, no distortion.
 CameraModel farCamera();
