@@ -387,27 +387,30 @@ Result<Template> afterMatch(const Image& image, Template t, const ImageRegion& m
     t.averaged = std::min(t.averaged + 1, s.template_memory);
     cv::addWeighted(t.pixels, 1.0 - 1.0 / t.averaged, sample, 1.0 / t.averaged, 0.0, t.pixels);
   }
+  // A template is taken again when the target has grown by update_scale_ratio: measured by the
+  // scale for a template that estimates it, by the target's extent (or its filling half the box,
+  // where the box clips what it measures) for one too small to.
+  const cv::Mat sample = alignedSample(image, t, match);
+  if (sample.empty()) return t;
+  const double extent = contrastExtent(sample, medianAndMad(sample).first) * match.scale();
+  const double box = std::min(match.width, match.height) * match.scale();
+  const bool grown = t.estimates_scale ? match.scale() >= s.update_scale_ratio * t.scale_at_taking
+                                       : extent >= s.update_scale_ratio * t.extent_at_taking ||
+                                             extent >= 0.5 * box;
+  if (!grown) return t;
+  // The new box: a margin of one target extent around the tracked point (twice the extent plus 6
+  // px), never smaller than a small template's box, and clipped to the image about the point.
+  const Eigen::Vector2d c = match.centre();
+  double side = 2.0 * extent + 6.0;
+  if (!t.estimates_scale) side = std::max(side, box);
+  const double room =
+      2.0 * std::min({c.x(), image.width - 1 - c.x(), c.y(), image.height - 1 - c.y()}) - 4.0;
+  side = std::min(side, room);
+  if (side < 5) return t;  // the point is at the image's edge: keep the template
+  const int n = static_cast<int>(std::floor(side));
   ImageRegion region = match;
-  if (!t.estimates_scale) {
-    // A template too small to see scale is taken again when the target it holds has grown by
-    // update_scale_ratio or fills half its box (where the box clips what it measures), about the
-    // same centre, in a box with a margin of a target extent.
-    const cv::Mat sample = alignedSample(image, t, match);
-    if (sample.empty()) return t;
-    const double extent = contrastExtent(sample, medianAndMad(sample).first) * match.scale();
-    const double box = std::min(region.width, region.height) * match.scale();
-    if (extent < s.update_scale_ratio * t.extent_at_taking && extent < 0.5 * box) return t;
-    const int side = static_cast<int>(std::ceil(2.0 * extent + 6.0));
-    if (side > region.width || side > region.height) {
-      const Eigen::Vector2d c = match.centre();
-      const int w = std::max(side, region.width), h = std::max(side, region.height);
-      region.homography = translation(c.x() - 0.5 * (w - 1), c.y() - 0.5 * (h - 1));
-      region.width = w;
-      region.height = h;
-    }
-  } else if (match.scale() < s.update_scale_ratio * t.scale_at_taking) {
-    return t;
-  }
+  region.homography = translation(c.x() - 0.5 * (n - 1), c.y() - 0.5 * (n - 1));
+  region.width = region.height = n;
   Result<Template> again = takeTemplate(image, region, s);
   if (!again) return t;  // e.g. the grown region reaches the image's edge: keep the old one
   return again;

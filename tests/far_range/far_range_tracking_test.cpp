@@ -100,7 +100,7 @@ void expectTracking(const Segment& segment, const Bounds& bounds) {
 
 TEST(FarRangeTracking, AtTheStartOfTheApproachTheTargetIsFoundAndFollowedWithNoInitialState) {
   // Today: designated after 2-61 s (the target shows as glints in some images only), bearing
-  // 1.6-2.1 px RMS, tracked point 1.6-1.9 px RMS, 62-70 % of the images matched.
+  // 1.6-2.1 px RMS, tracked point 1.5-1.9 px RMS, 62-70 % of the images matched.
   expectTracking(kStart, {80.0, 3.5, 3.0, 0.5});
 }
 

@@ -47,9 +47,13 @@ Status ImageRegion::validate() const {
         what, homography(0, 0), homography(0, 1), homography(0, 2), homography(1, 0),
         homography(1, 1), homography(1, 2), homography(2, 0), homography(2, 1), homography(2, 2),
         homography.allFinite() ? "singular" : "not finite");
-  if (!(scale() > 0))
-    return invalidInput("{}: the homography folds the template at its centre (area ratio <= 0)",
-                        what);
+  if (const double s = scale(); !(s > 0))
+    return invalidInput(
+        "{}: the homography [{}, {}, {}; {}, {}, {}; {}, {}, {}] maps the {}x{} template's centre "
+        "with a scale of {}; expected a positive scale (it folds the template there)",
+        what, homography(0, 0), homography(0, 1), homography(0, 2), homography(1, 0),
+        homography(1, 1), homography(1, 2), homography(2, 0), homography(2, 1), homography(2, 2),
+        width, height, s);
   if (!std::isnan(score) && (score < -1 || score > 1))
     return invalidInput("{}: score is {}; expected NaN or a value in [-1, 1]", what, score);
   if (!covariance.allFinite() || std::abs(covariance(0, 1) - covariance(1, 0)) > 1e-9 ||
