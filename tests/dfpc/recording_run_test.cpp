@@ -305,6 +305,12 @@ TEST(RunCommand, BadInputGetsAClearErrorAndANonZeroStatus) {
       {fmt::format("run {} -i {} -o {} --run-while pose_filtering=tracking:LOST", kGraph,
                    in.string(), out.string()),
        "run-while rule: no DFPC 'tracking'; expected one of {pose_filtering}", 1},
+      {fmt::format("run {} -i {} -o {} --roi 1,2,3@0", kGraph, in.string(), out.string()),
+       "--roi: designation '1,2,3@0': 3 numbers before '@'; expected X,Y,W,H@TIME", 2},
+      {fmt::format("run {} -i {} -o {} --roi 10,20,0,5@1", kGraph, in.string(), out.string()),
+       "size 0x5; expected X,Y,W,H@TIME", 2},
+      {fmt::format("run {} -i {} -o {} --roi 10,20,8,8", kGraph, in.string(), out.string()),
+       "no '@TIME'", 2},
   };
   for (const Case& c : cases) {
     const CommandResult r = runCdff(c.arguments);
