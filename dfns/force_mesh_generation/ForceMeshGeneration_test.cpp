@@ -11,7 +11,9 @@
 #include <random>
 
 #include "ForceMeshGeneration.gen.hpp"
+#include "cdff/types/codec/codec.hpp"
 #include "support/dfn_testing.hpp"
+#include "support/mesh_distance.hpp"
 #include "support/synthetic.hpp"
 
 namespace cdff::dfn {
@@ -60,40 +62,6 @@ PointCloud contactsFrom(const Truth& truth, std::mt19937& rng) {
   return cloud;
 }
 
-/// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5).
-Eigen::Vector3d nearestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                  const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
-  const double denom = 1 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-double distanceToMesh(const TriangleMesh& mesh, const Eigen::Vector3d& p) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const auto& t : mesh.triangles) {
-    const Eigen::Vector3d q =
-        nearestOnTriangle(p, mesh.vertices[t[0]].cast<double>(), mesh.vertices[t[1]].cast<double>(),
-                          mesh.vertices[t[2]].cast<double>());
-    best = std::min(best, (q - p).norm());
-  }
-  return best;
-}
-
 using SurfaceDistance = std::function<double(const Eigen::Vector3d&)>;
 
 /// Hausdorff over the touched area: the farthest of 4000 points sampled on the mesh from the true
@@ -106,7 +74,8 @@ double hausdorff(const TriangleMesh& mesh, const SurfaceDistance& to_surface,
   for (std::size_t i = 0; samples.isOk() && i < samples->size(); ++i)
     worst = std::max(worst, to_surface(samples->points[i].vec().cast<double>()));
   double covered = 0;
-  for (const Eigen::Vector3d& p : inner) covered = std::max(covered, distanceToMesh(mesh, p));
+  for (const Eigen::Vector3d& p : inner)
+    covered = std::max(covered, testing::distanceToMesh(mesh, p));
   std::printf("mesh to surface %.3f mm, touched area to mesh %.3f mm\n", worst * 1e3,
               covered * 1e3);
   return std::max(worst, covered);
@@ -167,6 +136,22 @@ TEST(ForceMeshGenerationTangentDelaunay, PlanePatchWithinTheGoalAndCovered) {
   // The forces: the contacts', per vertex.
   ASSERT_TRUE(dfn->out.forces.hasValue());
   EXPECT_EQ(dfn->out.forces->intensity.data(), dfn->in.contacts->intensity.data());
+  // PLY export (the Data Product Manager's files): the mesh with its vertex normals, the forces
+  // as the cloud's intensity, vertex for vertex.
+  codec::ProductRecord mesh_ply, forces_ply;
+  ASSERT_OK(codec::toPly(mesh, mesh_ply));
+  ASSERT_OK(codec::toPly(*dfn->out.forces, forces_ply));
+  TriangleMesh mesh_back;
+  PointCloud forces_back;
+  ASSERT_OK(codec::fromPly(mesh_ply, mesh_back));
+  ASSERT_OK(codec::fromPly(forces_ply, forces_back));
+  ASSERT_EQ(mesh_back.triangleCount(), mesh.triangleCount());
+  ASSERT_EQ(mesh_back.vertex_normals.size(), mesh.vertexCount());
+  ASSERT_EQ(forces_back.intensity.size(), mesh.vertexCount());
+  for (std::size_t i = 0; i < mesh.vertexCount(); ++i) {
+    EXPECT_EQ(mesh_back.vertices[i], forces_back.points[i].vec()) << i;
+    EXPECT_EQ(forces_back.intensity[i], dfn->in.contacts->intensity[i]) << i;
+  }
 }
 
 TEST(ForceMeshGenerationTangentDelaunay, SphereCapWithinTheGoalAndCovered) {
