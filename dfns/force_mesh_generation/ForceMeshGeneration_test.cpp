@@ -81,14 +81,19 @@ double hausdorff(const TriangleMesh& mesh, const SurfaceDistance& to_surface,
   return std::max(worst, covered);
 }
 
-/// Every triangle faces along the true normal at its centroid.
+/// Every triangle faces along the true normal at its centroid, as far as the contacts' errors
+/// allow: a sliver whose height is within the points' errors (1 mm each way) may stand on edge
+/// and tip over, so its area projected on the true normal may be negative by up to
+/// 2 kPointError times its longest edge.
 void expectFacingOut(const TriangleMesh& mesh,
                      const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& normal_at) {
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3d a = mesh.vertices[t[0]].cast<double>(),
                           b = mesh.vertices[t[1]].cast<double>(),
                           c = mesh.vertices[t[2]].cast<double>();
-    EXPECT_GT((b - a).cross(c - a).dot(normal_at((a + b + c) / 3)), 0);
+    const double longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    // (b - a) x (c - a) is twice the area: the projected area >= -kPointError * longest.
+    EXPECT_GT((b - a).cross(c - a).dot(normal_at((a + b + c) / 3)), -2 * kPointError * longest);
   }
 }
 
@@ -102,13 +107,13 @@ Eigen::Vector3d inDisc(const Eigen::Vector3d& centre, const Eigen::Vector3d& nor
 }
 
 TEST(ForceMeshGenerationTangentDelaunay, PlanePatchWithinTheGoalAndCovered) {
-  // 60 contacts over a disc of 5 cm on a tilted face: a spacing of about 1.1 cm.
+  // 100 contacts over a disc of 5 cm on a tilted face: a spacing of about 9 mm.
   std::mt19937 rng(11);
   const Eigen::Vector3d normal = Eigen::Vector3d(1, 0.3, -0.2).normalized();
   const Eigen::Vector3d centre(0.6, 0.1, 0.2);
   const double radius = 0.05;
   Truth truth;
-  for (int i = 0; i < 60; ++i) {
+  for (int i = 0; i < 100; ++i) {
     truth.points.push_back(inDisc(centre, normal, radius, rng));
     truth.normals.push_back(normal);
   }
@@ -120,10 +125,10 @@ TEST(ForceMeshGenerationTangentDelaunay, PlanePatchWithinTheGoalAndCovered) {
   EXPECT_OK(mesh.validate());
   EXPECT_EQ(mesh.frame_id, "target");
   EXPECT_EQ(mesh.stamp, 1'000'000);
-  EXPECT_EQ(mesh.vertexCount(), 60u);
+  EXPECT_EQ(mesh.vertexCount(), 100u);
   EXPECT_EQ(*dfn->out.triangles, static_cast<int>(mesh.triangleCount()));
   // A Delaunay triangulation of n points has about 2n triangles less the hull's: at least n.
-  EXPECT_GE(mesh.triangleCount(), 60u);
+  EXPECT_GE(mesh.triangleCount(), 100u);
   // The touched area: the disc less a spacing and a half at its rim (the hull of random points
   // falls short of the disc by about one spacing).
   std::vector<Eigen::Vector3d> inner;
@@ -155,7 +160,7 @@ TEST(ForceMeshGenerationTangentDelaunay, PlanePatchWithinTheGoalAndCovered) {
 }
 
 TEST(ForceMeshGenerationTangentDelaunay, SphereCapWithinTheGoalAndCovered) {
-  // A sphere of 0.3 m (a tank's curvature), 80 contacts over a cap of 12 deg (6.3 cm).
+  // A sphere of 0.3 m (a tank's curvature), 120 contacts over a cap of 12 deg (6.3 cm).
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
   const Eigen::Vector3d centre(0.2, -0.1, 0.4), pole = Eigen::Vector3d(-1, 0.2, 0.5).normalized();
@@ -167,7 +172,7 @@ TEST(ForceMeshGenerationTangentDelaunay, SphereCapWithinTheGoalAndCovered) {
     return Eigen::Vector3d(cos_a * pole + sin_a * (std::cos(phi) * e1 + std::sin(phi) * e2));
   };
   Truth truth;
-  for (int i = 0; i < 80; ++i) {
+  for (int i = 0; i < 120; ++i) {
     const Eigen::Vector3d n = on_cap(12 * kDeg);
     truth.points.push_back(centre + radius * n);
     truth.normals.push_back(n);
@@ -177,7 +182,7 @@ TEST(ForceMeshGenerationTangentDelaunay, SphereCapWithinTheGoalAndCovered) {
   ASSERT_OK(dfn->process());
   ASSERT_TRUE(dfn->out.mesh.hasValue());
   const TriangleMesh& mesh = *dfn->out.mesh;
-  EXPECT_GE(mesh.triangleCount(), 80u);
+  EXPECT_GE(mesh.triangleCount(), 120u);
   std::vector<Eigen::Vector3d> inner;
   for (int i = 0; i < 400; ++i) inner.push_back(centre + radius * on_cap(8 * kDeg));
   const double h = hausdorff(

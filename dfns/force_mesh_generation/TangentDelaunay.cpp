@@ -136,21 +136,34 @@ class ForceMeshGenerationTangentDelaunay final : public ForceMeshGenerationTange
   }
 
   /// Votes for the triangles of contact i that are Delaunay in its tangent plane among its
-  /// joinable nearest neighbours: the edges of i's Voronoi cell there are its Delaunay
-  /// neighbours, two consecutive ones a Delaunay triangle (their cell vertex its circumcentre).
+  /// joinable neighbours: the edges of i's Voronoi cell there are its Delaunay neighbours, two
+  /// consecutive ones a Delaunay triangle (their cell vertex its circumcentre). Neighbours are
+  /// taken nearest first until the next one's bisector lies beyond the cell (no farther one can
+  /// cut it): a contact beside a wide gap in the map needs neighbours across it, however many
+  /// nearer ones there are.
   void umbrella(std::uint32_t i, const KdTree3f& tree, std::vector<KdTree3f::Neighbour>& found,
                 std::unordered_map<std::uint64_t, int>& votes) {
     const double reach = params_.max_edge_length;
-    tree.kNearest(points_[i].cast<float>(), params_.max_neighbours + 1, found,
-                  static_cast<float>(reach * reach * (1 + 1e-6)));
+    tree.withinRadius(points_[i].cast<float>(), static_cast<float>(reach * (1 + 1e-6)), found);
+    std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
+      return a.squared_distance < b.squared_distance ||
+             (a.squared_distance == b.squared_distance && a.index < b.index);
+    });
     const auto [e1, e2] = tangentBasis(normals_[i]);
     // The cell starts as a square far beyond any neighbour (label -1: not a neighbour's edge).
     const double far = 1e3 * reach;
     cell_ = {{{-far, -far}, -1}, {{far, -far}, -1}, {{far, far}, -1}, {{-far, far}, -1}};
+    double cell_radius = far * std::sqrt(2.0);
+    int clipped = 0;
     for (const KdTree3f::Neighbour& n : found) {
+      if (0.5 * std::sqrt(n.squared_distance) > cell_radius || clipped >= params_.max_neighbours)
+        break;
       if (n.index == i || !joinable(i, n.index)) continue;
       const Eigen::Vector3d d = points_[n.index] - points_[i];
       clip(Eigen::Vector2d(d.dot(e1), d.dot(e2)), static_cast<int>(n.index));
+      ++clipped;
+      cell_radius = 0;
+      for (const CellVertex& v : cell_) cell_radius = std::max(cell_radius, v.at.norm());
     }
     for (std::size_t m = 0; m < cell_.size(); ++m) {
       const int j = cell_[m].label, k = cell_[(m + 1) % cell_.size()].label;
