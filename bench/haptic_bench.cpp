@@ -3,15 +3,23 @@
 // by the DFN one contact sample per call (as the DFPC calls it at 1 kHz) and as one cloud, by
 // OcTree::updateNode per point (the hits alone, what the DFI does in the tree) and by
 // OcTree::insertPointCloud from the sensor's position (OctoMap's scan insertion: the hits and the
-// free space along each ray, which a contact does not observe).
+// free space along each ray, which a contact does not observe). Then the mesher
+// (ForceMeshGeneration/TangentDelaunay) on maps of growing size, and the whole DFPC
+// (dfpcs/haptic_scanning.yaml) on the simulator's haptic_scanning run, per force/torque sample.
 #include <benchmark/benchmark.h>
 
 #include <octomap/OcTree.h>
 
+#include <filesystem>
+#include <random>
 #include <vector>
 
+#include "ForceMeshGeneration.gen.hpp"
 #include "OctomapUpdate.gen.hpp"
 #include "bench_support.hpp"
+#include "cdff/dfpc/dfpc.hpp"
+#include "cdff/dfpc/graph.hpp"
+#include "cdff/egse/simulator.hpp"
 
 namespace {
 
@@ -126,6 +134,110 @@ void BM_OctoMapInsertPointCloud(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(points.size()));
 }
 BENCHMARK(BM_OctoMapInsertPointCloud)->Arg(100)->Unit(benchmark::kMillisecond);
+
+/// The mesher on a map of n contacts spread at random over a 10 cm disc of a face (the DFPC's
+/// map after n voxels), 0.1 mm off it, normals within 0.8 deg.
+void BM_ForceMeshGeneration(benchmark::State& state) {
+  const auto n = static_cast<std::size_t>(state.range(0));
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<Point4f> points, normals;
+  while (points.size() < n) {
+    const float y = 0.05f * u(rng), z = 0.05f * u(rng);
+    if (y * y + z * z > 0.05f * 0.05f) continue;
+    points.emplace_back(0.3f + 1e-4f * u(rng), y, z);
+    const Eigen::Vector3f normal = Eigen::Vector3f(1, 0.01f * u(rng), 0.01f * u(rng)).normalized();
+    normals.emplace_back(normal.x(), normal.y(), normal.z());
+  }
+  PointCloud map;
+  map.stamp = 1000;
+  map.frame_id = "target";
+  map.points = Buffer<Point4f>::fromVector(std::move(points));
+  map.normals = Buffer<Point4f>::fromVector(std::move(normals));
+  map.intensity = Buffer<float>::fromVector(std::vector<float>(n, 10.0f));
+  // Edges up to three times the spacing of n contacts over the disc's area.
+  const double spacing = std::sqrt(M_PI * 0.05 * 0.05 / static_cast<double>(n));
+  auto dfn = bench::createConfigured<dfn::ForceMeshGeneration>(
+      "ForceMeshGeneration", "TangentDelaunay",
+      fmt::format("{{max_edge_length: {}}}", 3 * spacing));
+  if (!dfn) return state.SkipWithError("ForceMeshGeneration/TangentDelaunay not configured");
+  for (auto _ : state) {
+    dfn->in.contacts.set(map);
+    if (!dfn->process().isOk()) return state.SkipWithError("process failed");
+  }
+  state.counters["triangles"] = *dfn->out.triangles;
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(n));
+}
+BENCHMARK(BM_ForceMeshGeneration)->Arg(30)->Arg(300)->Arg(3000)->Unit(benchmark::kMillisecond);
+
+/// The DFPC's inputs of a simulated haptic_scanning run (its first 30 s, seed 7), in log order.
+struct ScanRun {
+  std::vector<std::pair<std::string, dfpc::Message>> messages;  // DFPC input, message
+  std::int64_t samples = 0;                                     // force/torque samples
+  std::string error;                                            // why there are none
+};
+
+const ScanRun& scanRun() {
+  static const ScanRun run = [] {
+    ScanRun r;
+    auto path = egse::resolveScenario("haptic_scanning");
+    auto scenario = path ? egse::loadScenario(*path) : Result<egse::Scenario>(path.status());
+    if (!scenario) {
+      r.error = scenario.status().toString();
+      return r;
+    }
+    auto sim = egse::Simulator::create(*scenario, 7);
+    egse::MemorySink sink;
+    const Status ran = sim ? (*sim)->run(sink) : sim.status();
+    if (!ran) {
+      r.error = ran.toString();
+      return r;
+    }
+    for (const egse::SimMessage& m : sink.messages()) {
+      if (const auto* j = std::get_if<JointState>(&m.payload))
+        r.messages.emplace_back("joints", dfpc::Message::of(m.channel, j->stamp, *j));
+      if (const auto* w = std::get_if<Wrench>(&m.payload); w && m.channel == "/chaser/arm/wrench") {
+        r.messages.emplace_back("wrench", dfpc::Message::of(m.channel, w->stamp, *w));
+        ++r.samples;
+      }
+      if (const auto* p = std::get_if<PoseWithCovariance>(&m.payload);
+          p && m.channel == "/truth/arm/target_pose")
+        r.messages.emplace_back("target_pose", dfpc::Message::of(m.channel, p->pose.stamp, *p));
+    }
+    return r;
+  }();
+  return run;
+}
+
+/// The whole DFPC over the run, as `cdff run` steps it: the time per force/torque sample (each
+/// with its joints, and the target pose at 50 Hz), from an empty map to the scan's end.
+void BM_HapticScanningDfpc(benchmark::State& state) {
+  // The graph names the arm's URDF relative to the repository root.
+  std::filesystem::current_path(CDFF_SOURCE_DIR);
+  const ScanRun& run = scanRun();
+  if (run.samples == 0)
+    return state.SkipWithError(("no haptic_scanning run: " + run.error).c_str());
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile("dfpcs/haptic_scanning.yaml");
+  if (!spec) return state.SkipWithError(spec.status().toString().c_str());
+  std::vector<std::size_t> inputs;
+  for (auto _ : state) {
+    state.PauseTiming();
+    auto dfpc = dfpc::Dfpc::create(*spec);
+    if (!dfpc || !(*dfpc)->start()) return state.SkipWithError("the DFPC does not start");
+    inputs.clear();
+    for (const auto& [input, message] : run.messages) inputs.push_back(*(*dfpc)->inputIndex(input));
+    state.ResumeTiming();
+    for (std::size_t i = 0; i < run.messages.size(); ++i)
+      if (!(*dfpc)->deliver(inputs[i], run.messages[i].second))
+        return state.SkipWithError("a message does not fit its input");
+    (*dfpc)->finish();
+    if ((*dfpc)->status().faults > 0) return state.SkipWithError("the DFPC reported faults");
+  }
+  state.counters["per_sample"] = benchmark::Counter(
+      static_cast<double>(run.samples),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_HapticScanningDfpc)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

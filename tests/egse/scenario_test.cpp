@@ -35,7 +35,7 @@ TEST(ScenarioLibrary, HasTheIssuesScenariosAndEveryOneLoads) {
   for (const char* required :
        {"far_range_approach", "mid_range_approach", "close_range_approach", "fly_around_inspection",
         "tumbling_target", "leaving_field_of_view", "under_illuminated", "specular_glare",
-        "earth_background", "sensor_faults"})
+        "earth_background", "sensor_faults", "haptic_scanning"})
     EXPECT_TRUE(names.count(required)) << required;
   auto path = resolveScenario("mid_range_approach");
   ASSERT_OK(path.status());
@@ -121,7 +121,7 @@ TEST(ScenarioErrors, HaveTheSharedFormat) {
   expectError(parseScenario("duration: 10\nlightning: {eclipses: false}\n", "s.yaml"),
               {"s.yaml", 2, 1},
               "s.yaml:2:1: lightning: unknown key; expected one of {name, description, duration, "
-              "seed, orbit, renderer, target, servicer, lighting, background, sensors, "
+              "seed, orbit, renderer, target, servicer, lighting, background, sensors, arm, "
               "calibration_error, faults, truth} (did you mean 'lighting'?)");
   // A malformed key: a section that is not a map.
   expectError(parseScenario("orbit: 500000\n", "s.yaml"), {"s.yaml", 1, 8},

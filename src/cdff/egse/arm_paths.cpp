@@ -36,6 +36,9 @@ constexpr int kRetreatChecks = 10;
 constexpr double kMaxCheckStep = 0.5;
 /// The tool's roll about its axis is drawn within this angle of the home attitude's (rad).
 constexpr double kMaxRoll = M_PI / 2;
+/// Draws of a point before a scan region counts as missed: 1000 misses a region of 1 % of its
+/// triangles' area once in e^10.
+constexpr int kRegionTries = 1000;
 /// The retreats along the tool's axis tried, shortest first, before the arm goes home in joint
 /// space (m): far enough out, the tip's joint-space way home passes clear of the target.
 constexpr double kRetreats[] = {0.05, 0.1, 0.2, 0.3};
@@ -69,24 +72,36 @@ bool ArmSimulator::clear(const Eigen::Vector3d& from, const Eigen::Vector3d& to,
   return true;
 }
 
+/// A point uniform over the surface (a triangle by area, then uniform inside it) and its face's
+/// normal; with a scan region, drawn again until it falls inside the region (cheap draws, not
+/// counted against max_draws: a region of a few percent of its triangles' area takes about a
+/// hundred). False when kRegionTries miss it or the triangle is degenerate.
+bool ArmSimulator::drawAim(Rng& rng, Eigen::Vector3d& aim, Eigen::Vector3d& normal) const {
+  const double region = spec_.paths.region_radius;
+  for (int tries = 0; tries < kRegionTries; ++tries) {
+    const double pick = rng.uniform() * cumulative_area_.back();
+    const auto t = static_cast<std::size_t>(
+        std::upper_bound(cumulative_area_.begin(), cumulative_area_.end(), pick) -
+        cumulative_area_.begin());
+    const auto& tri = target_.mesh.triangles[std::min(t, cumulative_area_.size() - 1)];
+    const Eigen::Vector3d a = target_.mesh.vertices[tri[0]].cast<double>();
+    const Eigen::Vector3d b = target_.mesh.vertices[tri[1]].cast<double>();
+    const Eigen::Vector3d c = target_.mesh.vertices[tri[2]].cast<double>();
+    const double root = std::sqrt(rng.uniform()), v = rng.uniform();
+    aim = (1 - root) * a + root * (1 - v) * b + root * v * c;
+    normal = (b - a).cross(c - a).normalized();
+    if (!normal.allFinite()) return false;
+    if (region <= 0 || (aim - spec_.paths.region_centre).norm() <= region) return true;
+  }
+  return false;
+}
+
 Result<CollisionPath> ArmSimulator::candidatePath(const Eigen::Isometry3d& base_T_target,
                                                   Rng& rng) const {
   const Eigen::Isometry3d target_T_base = base_T_target.inverse();
   const Eigen::Vector3d shoulder = target_T_base * spec_.paths.reach_centre;
-  // A point uniform over the surface: a triangle by area, then uniform inside it.
-  const double pick = rng.uniform() * cumulative_area_.back();
-  const auto t = static_cast<std::size_t>(
-      std::upper_bound(cumulative_area_.begin(), cumulative_area_.end(), pick) -
-      cumulative_area_.begin());
-  const auto& tri = target_.mesh.triangles[std::min(t, cumulative_area_.size() - 1)];
-  const Eigen::Vector3d a = target_.mesh.vertices[tri[0]].cast<double>();
-  const Eigen::Vector3d b = target_.mesh.vertices[tri[1]].cast<double>();
-  const Eigen::Vector3d c = target_.mesh.vertices[tri[2]].cast<double>();
-  const double root = std::sqrt(rng.uniform()), v = rng.uniform();
   CollisionPath path;
-  path.aim = (1 - root) * a + root * (1 - v) * b + root * v * c;
-  path.normal = (b - a).cross(c - a).normalized();
-  if (!path.normal.allFinite()) return invalidInput("degenerate triangle");
+  if (!drawAim(rng, path.aim, path.normal)) return invalidInput("no aim in the scan region");
   if ((path.aim - shoulder).norm() > spec_.paths.reach) return invalidInput("out of reach");
   if (path.normal.dot(shoulder - path.aim) <= 0) return invalidInput("facing away");
   // The approach axis: uniform over the cone of half-angle max_tilt about the normal.

@@ -49,6 +49,7 @@ Status ArmSpec::validate() const {
       {paths.hold, "hold"},
       {paths.max_overtravel, "max_overtravel"},
       {paths.max_tilt, "max_tilt"},
+      {paths.region_radius, "region_radius"},
       {posture_rate, "posture_rate"}};
   for (const auto& [value, key] : non_negative)
     if (!std::isfinite(value) || value < 0)
@@ -114,15 +115,7 @@ Result<std::unique_ptr<ArmSimulator>> ArmSimulator::create(const ArmSpec& spec,
         "arm: a joint moves between '{}' and '{}'; expected the tool rigid on the sensor",
         spec.sensor_link, spec.tip_link);
   sim->sensor_T_tip_ = *at_home;
-  double area = 0;
-  for (std::size_t t = 0; t < target.mesh.triangleCount(); ++t) {
-    const auto& tri = target.mesh.triangles[t];
-    const Eigen::Vector3d a = target.mesh.vertices[tri[0]].cast<double>();
-    area += 0.5 * (target.mesh.vertices[tri[1]].cast<double>() - a)
-                      .cross(target.mesh.vertices[tri[2]].cast<double>() - a)
-                      .norm();
-    sim->cumulative_area_.push_back(area);
-  }
+  CDFF_RETURN_IF_ERROR(sim->weighTriangles());
   if (spec.force_torque.noise) {
     Rng rng = Rng::stream(seed, "arm/force_torque/bias");
     for (int i = 0; i < 3; ++i) sim->bias_[i] = rng.normal(0, spec.force_torque.force_bias_sigma);
@@ -130,6 +123,33 @@ Result<std::unique_ptr<ArmSimulator>> ArmSimulator::create(const ArmSpec& spec,
   }
   sim->noise_ = Rng::stream(seed, "arm/noise");
   return sim;
+}
+
+/// The cumulative area of the target's triangles that paths may aim at: all of them, or with a
+/// scan region those that come within it (a triangle's bounding sphere about its centroid).
+Status ArmSimulator::weighTriangles() {
+  const TriangleMesh& mesh = target_.mesh;
+  const double region = spec_.paths.region_radius;
+  double area = 0;
+  for (std::size_t t = 0; t < mesh.triangleCount(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const Eigen::Vector3d a = mesh.vertices[tri[0]].cast<double>(),
+                          b = mesh.vertices[tri[1]].cast<double>(),
+                          c = mesh.vertices[tri[2]].cast<double>();
+    const Eigen::Vector3d centroid = (a + b + c) / 3;
+    const double bound =
+        std::max({(a - centroid).norm(), (b - centroid).norm(), (c - centroid).norm()});
+    if (region <= 0 || (centroid - spec_.paths.region_centre).norm() <= region + bound)
+      area += 0.5 * (b - a).cross(c - a).norm();
+    cumulative_area_.push_back(area);
+  }
+  if (!(area > 0))
+    return invalidParameter(
+        "arm: no surface of '{}' within region_radius = {} m of region_centre ({}, {}, {}) m; "
+        "expected a scan region on the target",
+        target_.name, region, spec_.paths.region_centre.x(), spec_.paths.region_centre.y(),
+        spec_.paths.region_centre.z());
+  return Status::ok();
 }
 
 Timestamp ArmSimulator::time() const {

@@ -93,6 +93,10 @@ struct CollisionPathSpec {
   Eigen::Vector3d reach_centre{0, 0, 0.35};  // m, base frame (the servicer arm's shoulder)
   int max_draws = 2000;                      // draws of a path before the simulator gives up
   double homing_clearance = 0.03;            // m between the tip and the target on the way home
+  // A scan of one area: paths aim only within region_radius of region_centre (target frame);
+  // 0: anywhere on the target's surface.
+  Eigen::Vector3d region_centre = Eigen::Vector3d::Zero();
+  double region_radius = 0;  // m
 };
 
 struct ArmSpec {
@@ -182,7 +186,9 @@ class ArmSimulator {
 
  private:
   ArmSimulator() = default;
+  Status weighTriangles();
   Status drawPath(const Eigen::Isometry3d& base_T_target);
+  bool drawAim(Rng& rng, Eigen::Vector3d& aim, Eigen::Vector3d& normal) const;
   Result<CollisionPath> candidatePath(const Eigen::Isometry3d& base_T_target, Rng& rng) const;
   bool clear(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double clearance) const;
   bool movesAway(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double clearance) const;

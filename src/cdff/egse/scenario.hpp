@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "cdff/egse/arm_simulator.hpp"
 #include "cdff/egse/calibration_error.hpp"
 #include "cdff/egse/camera_sensor.hpp"
 #include "cdff/egse/imu.hpp"
@@ -90,6 +91,16 @@ struct FaultConfig {
   bool appliesTo(const std::string& name) const { return sensor == "*" || sensor == name; }
 };
 
+/// The servicer's manipulator (haptic scanning, docs/haptic-scanning.md): off unless a scenario
+/// has `arm:`. Its base frame is `spec.base_link`, mounted on the servicer.
+struct ArmConfig {
+  bool enabled = false;
+  ArmSpec spec;
+  /// servicer_T_base: the front face of the default 0.8 m bus (x = 0.4 m), the base 0.35 m below
+  /// the servicer's centre so that the shoulder is level with the line of sight to the target.
+  Eigen::Isometry3d servicer_T_base = Eigen::Isometry3d(Eigen::Translation3d(0.4, 0, -0.35));
+};
+
 enum class TranslationKind { kHold, kLine, kWaypoints, kFlyAround, kCw };
 enum class ServicerAttitudeKind { kTargetPointing, kLvlh, kInertial };
 enum class TargetAttitudeKind { kLvlh, kInertial, kTumbling };
@@ -140,6 +151,7 @@ struct Scenario {
   bool earth = true;  // drawn when the orbit is enabled
 
   std::vector<SensorConfig> sensors;
+  ArmConfig arm;
   /// The calibrations published differ from those simulated by this drawn error (none by
   /// default); the truth channels keep the true ones.
   CalibrationErrorSpec calibration_error;

@@ -124,6 +124,7 @@ const Table<ScenarioDraft>& scenarioTable() {
                       return backgroundTable().read(f, s);
                     }))
           .optional("sensors", readSensors)
+          .optional("arm", readArm)
           .optional("calibration_error", inScenario(readCalibrationError))
           .optional("faults", readFaults)
           .optional("truth", inScenario([](const Field& f, Scenario& s) {

@@ -96,6 +96,8 @@ const Table<ScenarioDraft>& targetTable();
 const Table<Scenario>& servicerTable();
 /// sensors: the built-in ones changed by name, new ones with a type (scenario_reader_sensors.cpp).
 Status readSensors(const Field& f, ScenarioDraft& draft);
+/// arm: the manipulator, its sensors and collision paths (scenario_reader_arm.cpp).
+Status readArm(const Field& f, ScenarioDraft& draft);
 /// faults: a list, each on sensors that exist (scenario_reader_faults.cpp).
 Status readFaults(const Field& f, ScenarioDraft& draft);
 

@@ -139,6 +139,7 @@ Result<std::unique_ptr<Simulator>> Simulator::create(const Scenario& scenario,
                               std::move(servicer_attitude), std::move(target_attitude), sc.sun);
   bool cameras = false, rays = false;
   CDFF_RETURN_IF_ERROR(sim->createSensors(cameras, rays));
+  CDFF_RETURN_IF_ERROR(sim->createArm());
   CDFF_RETURN_IF_ERROR(sim->prepareRendering(cameras, rays));
   sim->fault_started_.assign(sc.faults.size(), false);
   sim->fault_ended_.assign(sc.faults.size(), false);
@@ -296,6 +297,7 @@ Status Simulator::begin(SimulationSink& sink) {
     sensors.push_back(
         fmt::format("{} ({}, {} Hz)", s->config->name, toString(s->config->type), s->config->rate));
   }
+  CDFF_RETURN_IF_ERROR(beginArm(m, frames));
   m.values["frames"] = fmt::format("{}", fmt::join(frames, "; "));
   m.values["sensors"] = fmt::format("{}", fmt::join(sensors, "; "));
   m.values["target_model"] = target_.name;
@@ -344,8 +346,14 @@ Result<bool> Simulator::step(SimulationSink& sink, double until) {
       }
     }
     const double truth_time = static_cast<double>(truth_index_) / scenario_.truth_rate;
-    const bool truth = truth_time < next;
+    bool truth = truth_time < next;
     if (truth) next = truth_time;
+    const double arm_time = nextArmTime();  // the arm's samples after all else at that time
+    const bool arm = arm_time < next;
+    if (arm) {
+      next = arm_time;
+      truth = false;
+    }
     if (next > duration_) {
       done_ = true;
       break;
@@ -367,7 +375,10 @@ Result<bool> Simulator::step(SimulationSink& sink, double until) {
     }
     CDFF_RETURN_IF_ERROR(flush(sink, micros(next) - 1));
     time_ = next;
-    if (truth) {
+    if (arm) {
+      CDFF_RETURN_IF_ERROR(processArm(next));
+      ++arm_steps_;
+    } else if (truth) {
       CDFF_RETURN_IF_ERROR(processTruth(next));
       ++truth_index_;
     } else {
@@ -410,6 +421,7 @@ Status Simulator::processTruth(double t) {
     eci_T_lvlh.translation() = scenario_.orbit.targetPositionEci(t);
     queue("/truth/tf/lvlh", stamp, toTransform(eci_T_lvlh, "eci", "lvlh", stamp));
   }
+  armTruth(t);
   return Status::ok();
 }
 

@@ -12,7 +12,9 @@
 // /chaser/radar/range, /chaser/tf/<sensor frame> (mountings), /truth/target_pose
 // (servicer_T_target), /truth/target_state (the same with the relative twist),
 // /truth/<sensor>/target_pose (<sensor frame>_T_target), /truth/tf/{servicer,target,lvlh},
-// /truth/target_mesh, /truth/<camera>/depth (optional), /truth/faults.
+// /truth/target_mesh, /truth/<camera>/depth (optional), /truth/faults; with an arm,
+// /chaser/arm/joints, /chaser/arm/wrench, /chaser/tf/<arm base>, /truth/arm/contact,
+// /truth/arm/contact_force, /truth/arm/target_pose.
 //
 // Determinism: every random draw comes from a stream named after the run's seed, the sensor and
 // the measurement index; rendering and ray casting run on one thread. The same scenario, seed and
@@ -87,6 +89,13 @@ class Simulator {
   CameraFaults cameraFaults(const std::string& name, double t) const;  // active at t
   BackgroundView backgroundView(const SensorState& sensor, double t) const;
   Status processTruth(double t);
+  // The manipulator (scenario.arm, simulator_arm.cpp): created with the sensors, stepped at its
+  // rate as an event of its own.
+  Status createArm();
+  double nextArmTime() const;  // infinity without an arm
+  Status processArm(double t);
+  Status beginArm(SimulationMetadata& metadata, std::vector<std::string>& frames);
+  void armTruth(double t);
   Status renderCamera(SensorState& sensor, double t, std::vector<RenderOutput>& renders,
                       const CameraSensor& camera);
   void queue(std::string channel, Timestamp log_time, SimPayload payload);
@@ -104,6 +113,8 @@ class Simulator {
   std::unique_ptr<Renderer> renderer_;
   int target_handle_ = -1, servicer_handle_ = -1;
   std::vector<std::unique_ptr<SensorState>> sensors_;
+  std::unique_ptr<ArmSimulator> arm_;
+  std::uint64_t arm_steps_ = 0;
   std::uint64_t truth_index_ = 0;
   std::vector<bool> fault_started_, fault_ended_;
   std::map<std::pair<Timestamp, std::uint64_t>, SimMessage> queue_;

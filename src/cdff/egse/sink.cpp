@@ -22,6 +22,22 @@ void DigestSink::add(const std::string& s) {
   add(s.data(), s.size());
 }
 
+void DigestSink::add(const Transform& t) {
+  add(&t.stamp, sizeof(t.stamp));
+  add(t.parent_frame);
+  add(t.child_frame);
+  add(t.translation.data(), 3 * sizeof(double));
+  add(t.rotation.coeffs().data(), 4 * sizeof(double));
+}
+
+void DigestSink::add(const Image& i) {
+  add(&i.stamp, sizeof(i.stamp));
+  add(i.frame_id);
+  add(&i.width, sizeof(i.width));
+  add(&i.height, sizeof(i.height));
+  add(i.pixels.data(), i.pixels.size());
+}
+
 Status DigestSink::begin(const SimulationMetadata& m) {
   add(m.scenario);
   add(m.scenario_yaml);
@@ -34,27 +50,13 @@ Status DigestSink::write(const SimMessage& message) {
   ++count_;
   add(message.channel);
   add(&message.log_time, sizeof(message.log_time));
-  auto add_transform = [&](const Transform& t) {
-    add(&t.stamp, sizeof(t.stamp));
-    add(t.parent_frame);
-    add(t.child_frame);
-    add(t.translation.data(), 3 * sizeof(double));
-    add(t.rotation.coeffs().data(), 4 * sizeof(double));
-  };
-  auto add_image = [&](const Image& i) {
-    add(&i.stamp, sizeof(i.stamp));
-    add(i.frame_id);
-    add(&i.width, sizeof(i.width));
-    add(&i.height, sizeof(i.height));
-    add(i.pixels.data(), i.pixels.size());
-  };
   std::visit(
       [&](const auto& v) {
         using T = std::decay_t<decltype(v)>;
         if constexpr (std::is_same_v<T, Image>) {
-          add_image(v);
+          add(v);
         } else if constexpr (std::is_same_v<T, DepthMap>) {
-          add_image(v.image);
+          add(v.image);
         } else if constexpr (std::is_same_v<T, PointCloud>) {
           add(&v.stamp, sizeof(v.stamp));
           add(v.frame_id);
@@ -85,18 +87,27 @@ Status DigestSink::write(const SimMessage& message) {
           const double values[4] = {v.rotation_rate, v.min_range, v.max_range, v.range_noise};
           add(values, sizeof(values));
         } else if constexpr (std::is_same_v<T, Transform>) {
-          add_transform(v);
+          add(v);
         } else if constexpr (std::is_same_v<T, PoseWithCovariance>) {
-          add_transform(v.pose);
+          add(v.pose);
           add(v.covariance.data(), 36 * sizeof(double));
         } else if constexpr (std::is_same_v<T, TriangleMesh>) {
           add(v.frame_id);
           add(v.vertices.data(), v.vertices.size() * sizeof(Eigen::Vector3f));
           add(v.triangles.data(), v.triangles.size() * sizeof(std::array<std::uint32_t, 3>));
         } else if constexpr (std::is_same_v<T, RigidBodyState>) {
-          add_transform(v.pose);
+          add(v.pose);
           add(v.twist.linear.data(), 3 * sizeof(double));
           add(v.twist.angular.data(), 3 * sizeof(double));
+        } else if constexpr (std::is_same_v<T, JointState>) {
+          add(&v.stamp, sizeof(v.stamp));
+          for (const std::string& name : v.names) add(name);
+          add(v.position.data(), v.position.size() * sizeof(double));
+        } else if constexpr (std::is_same_v<T, Wrench>) {
+          add(&v.stamp, sizeof(v.stamp));
+          add(v.frame_id);
+          add(v.force.data(), 3 * sizeof(double));
+          add(v.torque.data(), 3 * sizeof(double));
         } else if constexpr (std::is_same_v<T, FaultEvent>) {
           add(&v.stamp, sizeof(v.stamp));
           add(v.sensor);

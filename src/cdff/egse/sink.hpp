@@ -36,9 +36,9 @@ struct FaultEvent {
   std::string detail;  // human-readable: what happened, with values
 };
 
-using SimPayload =
-    std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement, CameraInfo, LidarInfo,
-                 Transform, PoseWithCovariance, RigidBodyState, TriangleMesh, FaultEvent>;
+using SimPayload = std::variant<Image, DepthMap, PointCloud, ImuSample, RangeMeasurement,
+                                CameraInfo, LidarInfo, Transform, PoseWithCovariance,
+                                RigidBodyState, TriangleMesh, FaultEvent, JointState, Wrench>;
 
 struct SimMessage {
   std::string channel;
@@ -105,6 +105,8 @@ class DigestSink final : public SimulationSink {
  private:
   void add(const void* data, std::size_t size);
   void add(const std::string& s);
+  void add(const Transform& t);
+  void add(const Image& image);
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
   std::size_t count_ = 0;
 };
