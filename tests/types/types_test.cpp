@@ -6,6 +6,7 @@
 #include <random>
 
 #include "cdff/types/statistics.hpp"
+#include "cdff/types/triangle.hpp"
 #include "cdff/types/types.hpp"
 #include "support/synthetic.hpp"
 
@@ -315,6 +316,21 @@ TEST(Statistics, ChiSquareQuantilesMatchPublishedTables) {
       EXPECT_NEAR(chiSquareCdf(chiSquareQuantile(p, dof), dof), p, 1e-9) << dof << " " << p;
   EXPECT_TRUE(std::isnan(chiSquareQuantile(1.0, 6)));
   EXPECT_TRUE(std::isnan(chiSquareQuantile(0.5, 0)));
+}
+
+TEST(Geometry, TheClosestPointOnATriangleIsInItsPlaneOnAnEdgeOrAtAVertex) {
+  const Eigen::Vector3d a(0, 0, 0), b(2, 0, 0), c(0, 2, 0);
+  // Above the inside: the projection; beyond an edge: on it; beyond a vertex: the vertex.
+  EXPECT_LT((closestPointOnTriangle({0.5, 0.5, 3}, a, b, c) - Eigen::Vector3d(0.5, 0.5, 0)).norm(),
+            1e-15);
+  EXPECT_LT((closestPointOnTriangle({1, -1, 1}, a, b, c) - Eigen::Vector3d(1, 0, 0)).norm(), 1e-15);
+  EXPECT_LT((closestPointOnTriangle({2, 2, 0}, a, b, c) - Eigen::Vector3d(1, 1, 0)).norm(), 1e-15);
+  EXPECT_LT((closestPointOnTriangle({-1, -1, 0}, a, b, c) - a).norm(), 1e-15);
+  EXPECT_LT((closestPointOnTriangle({3, -1, 0}, a, b, c) - b).norm(), 1e-15);
+  // A degenerate triangle (a segment) gives a point on it, never NaN.
+  const Eigen::Vector3d q = closestPointOnTriangle({1, 1, 0}, a, b, Eigen::Vector3d(1, 0, 0));
+  EXPECT_TRUE(q.allFinite());
+  EXPECT_NEAR(q.y(), 0.0, 1e-15);
 }
 
 TEST(Geometry, LeftJacobianLinearisesTheExponentialAndItsInverseUndoesIt) {

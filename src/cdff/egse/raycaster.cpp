@@ -8,6 +8,8 @@
 #include <limits>
 #include <vector>
 
+#include "cdff/types/triangle.hpp"
+
 namespace cdff::egse {
 
 struct RayCaster::Impl {
@@ -148,32 +150,6 @@ bool RayCaster::occluded(const Ray& ray) const {
 
 namespace {
 
-/// The point of triangle abc nearest to p: p projected onto the triangle's plane when that falls
-/// inside, else the nearest point of the nearest edge or vertex, told apart by the barycentric
-/// regions of the triangle (the Voronoi regions of its vertices and edges).
-Eigen::Vector3d closestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                  const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denominator = va + vb + vc;
-  if (!(denominator > 0)) return a;  // a degenerate triangle: its first vertex
-  return a + ab * (vb / denominator) + ac * (vc / denominator);
-}
-
 struct PointQueryState {
   const std::vector<Eigen::Vector3f>& vertices;
   const std::vector<std::array<std::uint32_t, 3>>& triangles;
@@ -199,8 +175,8 @@ SurfacePoint RayCaster::closestPoint(const Eigen::Vector3d& query, double max_di
     auto& s = *static_cast<PointQueryState*>(args->userPtr);
     const auto& t = s.triangles[args->primID];
     const Eigen::Vector3d p =
-        closestOnTriangle(s.query, s.vertices[t[0]].cast<double>(), s.vertices[t[1]].cast<double>(),
-                          s.vertices[t[2]].cast<double>());
+        closestPointOnTriangle(s.query, s.vertices[t[0]].cast<double>(),
+                               s.vertices[t[1]].cast<double>(), s.vertices[t[2]].cast<double>());
     const double d = (p - s.query).norm();
     if (d > s.best.distance) return false;
     s.best = {true, p, d, args->primID, s.face_normals[args->primID].cast<double>()};
