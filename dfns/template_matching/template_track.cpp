@@ -382,22 +382,22 @@ Result<Template> afterMatch(const Image& image, Template t, const ImageRegion& m
   // on its grid: the noise of a faint target averages out and the mean of aligned samples keeps
   // the tracked point where it was. A larger template is not averaged: the alignment of a growing
   // target by an estimated scale would blur it and move the point.
-  if (const cv::Mat sample = t.estimates_scale ? cv::Mat() : alignedSample(image, t, match);
-      !sample.empty()) {
+  // A template is taken again when the target has grown by update_scale_ratio: measured by the
+  // scale for a template that estimates it, by the target's extent (or its filling half the box,
+  // where the box clips what it measures) for one too small to. The image is sampled on the
+  // template's grid once, and only when it is needed.
+  if (t.estimates_scale && match.scale() < s.update_scale_ratio * t.scale_at_taking) return t;
+  const cv::Mat sample = alignedSample(image, t, match);
+  if (sample.empty()) return t;
+  if (!t.estimates_scale) {
     t.averaged = std::min(t.averaged + 1, s.template_memory);
     cv::addWeighted(t.pixels, 1.0 - 1.0 / t.averaged, sample, 1.0 / t.averaged, 0.0, t.pixels);
   }
-  // A template is taken again when the target has grown by update_scale_ratio: measured by the
-  // scale for a template that estimates it, by the target's extent (or its filling half the box,
-  // where the box clips what it measures) for one too small to.
-  const cv::Mat sample = alignedSample(image, t, match);
-  if (sample.empty()) return t;
   const double extent = contrastExtent(sample, medianAndMad(sample).first) * match.scale();
   const double box = std::min(match.width, match.height) * match.scale();
-  const bool grown = t.estimates_scale ? match.scale() >= s.update_scale_ratio * t.scale_at_taking
-                                       : extent >= s.update_scale_ratio * t.extent_at_taking ||
-                                             extent >= 0.5 * box;
-  if (!grown) return t;
+  if (!t.estimates_scale && extent < s.update_scale_ratio * t.extent_at_taking &&
+      extent < 0.5 * box)
+    return t;
   // The new box: a margin of one target extent around the tracked point (twice the extent plus 6
   // px), never smaller than a small template's box, and clipped to the image about the point.
   const Eigen::Vector2d c = match.centre();

@@ -10,8 +10,8 @@
 
 #include "cdff/types/bearing.hpp"
 #include "cdff/types/detection.hpp"
-#include "cdff/types/image_region.hpp"
 #include "cdff/types/features.hpp"
+#include "cdff/types/image_region.hpp"
 #include "common.hpp"
 
 namespace cdff::python {
