@@ -6,6 +6,8 @@
 // free space along each ray, which a contact does not observe). Then the mesher
 // (ForceMeshGeneration/TangentDelaunay) on maps of growing size, and the whole DFPC
 // (dfpcs/haptic_scanning.yaml) on the simulator's haptic_scanning run, per force/torque sample.
+// The DFPC's two per-sample DFNs on their own: ForwardKinematics/Kdl per joint state and
+// ContactDetection (both DFIs) per wrench sample, free and pressed.
 #include <benchmark/benchmark.h>
 
 #include <octomap/OcTree.h>
@@ -14,7 +16,9 @@
 #include <random>
 #include <vector>
 
+#include "ContactDetection.gen.hpp"
 #include "ForceMeshGeneration.gen.hpp"
+#include "ForwardKinematics.gen.hpp"
 #include "OctomapUpdate.gen.hpp"
 #include "bench_support.hpp"
 #include "cdff/dfpc/dfpc.hpp"
@@ -169,6 +173,115 @@ void BM_ForceMeshGeneration(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(n));
 }
 BENCHMARK(BM_ForceMeshGeneration)->Arg(30)->Arg(300)->Arg(3000)->Unit(benchmark::kMillisecond);
+
+/// ForwardKinematics/Kdl on the servicer arm (data/arms/servicer_arm.urdf), to the tool's link
+/// or the force/torque sensor's (the DFPC's), per joint state: 1000 postures drawn uniformly
+/// within the joints' limits, cycled, each with the next stamp.
+void BM_ForwardKinematicsKdl(benchmark::State& state, const std::string& link) {
+  auto dfn = bench::createConfigured<dfn::ForwardKinematics>(
+      "ForwardKinematics", "Kdl",
+      fmt::format("{{description: {}/data/arms/servicer_arm.urdf, link: {}}}", CDFF_SOURCE_DIR,
+                  link));
+  if (!dfn) return state.SkipWithError("ForwardKinematics/Kdl not configured");
+  // The joints' limits (rad) in the URDF: roll joints +-170 deg, pitch +-120, wrist roll +-175.
+  const double limits[7] = {2.96706, 2.094395, 2.96706, 2.094395, 2.96706, 2.094395, 3.054326};
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<JointState> postures(1000);
+  for (JointState& s : postures)
+    for (int j = 0; j < 7; ++j) {
+      s.names.push_back(fmt::format("joint_{}", j + 1));
+      s.position.push_back(limits[j] * u(rng));
+    }
+  Timestamp stamp = 0;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    JointState& s = postures[i++ % postures.size()];
+    s.stamp = stamp += 1000;
+    dfn->in.joints.set(s);
+    if (!dfn->process().isOk()) return state.SkipWithError("process failed");
+    benchmark::DoNotOptimize(dfn->out.pose->translation);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK_CAPTURE(BM_ForwardKinematicsKdl, tool_tip, std::string("tool_tip"))
+    ->Name("BM_ForwardKinematics/Kdl/tool_tip");
+BENCHMARK_CAPTURE(BM_ForwardKinematicsKdl, ft_sensor, std::string("ft_sensor"))
+    ->Name("BM_ForwardKinematics/Kdl/ft_sensor");
+
+/// Wrench samples of the servicer arm's sensor (the simulator's figures: noise 0.02 N and
+/// 1 mN m per axis, a turn-on bias of 0.4-0.6 N and 10-20 mN m) with its tool (tip centre
+/// 0.12 m along z, radius 10 mm): `pressed` false, the tool free (bias and noise only); true, a
+/// 1 s press of an oblique face (normal 20 deg off the tool's axis) rising at 1 N per ms to
+/// 10 N, with a Coulomb friction of 0.3 of the push across the normal (so the force is 17 deg
+/// off the normal and HysteresisLineOfAction's normal fit runs on every sample).
+std::vector<Wrench> wrenchSamples(bool pressed, std::size_t count) {
+  const Eigen::Vector3d centre(0, 0, 0.12);
+  const Eigen::Vector3d n = Eigen::Vector3d(0.3, -0.2, -1).normalized();
+  const Eigen::Vector3d across = n.unitOrthogonal();
+  const Eigen::Vector3d at = centre - 0.01 * n;
+  const Eigen::Vector3d bias_force(0.4, -0.3, 0.6), bias_torque(0.01, 0.02, -0.015);
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> noise;
+  std::vector<Wrench> samples(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const double push = pressed ? std::min(10.0, static_cast<double>(i + 1)) : 0.0;
+    const Eigen::Vector3d force = push * n + 0.3 * push * across;
+    Wrench& w = samples[i];
+    w.frame_id = "ft_sensor";
+    w.force = force + bias_force + 0.02 * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    w.torque =
+        at.cross(force) + bias_torque + 0.001 * Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  }
+  return samples;
+}
+
+/// ContactDetection per wrench sample, as the DFPC calls it at 1 kHz: the DFI with its defaults
+/// (the servicer arm's tool and sensor), after 0.6 s of free samples (HysteresisLineOfAction's
+/// initial bias, 0.5 s, not timed); then free samples (the bias tracked) or the press above,
+/// cycled (each cycle a new 1 s press from 1 N, no release between). The counters: the fraction
+/// of samples in contact, and of all samples those with a contact point and normal out (`given`).
+void BM_ContactDetection(benchmark::State& state, const std::string& dfi, bool pressed) {
+  auto dfn = bench::createConfigured<dfn::ContactDetection>("ContactDetection", dfi);
+  if (!dfn) return state.SkipWithError(("ContactDetection/" + dfi + " not configured").c_str());
+  Timestamp stamp = 0;
+  for (Wrench w : wrenchSamples(false, 600)) {
+    w.stamp = stamp += 1000;
+    dfn->in.wrench.set(w);
+    if (!dfn->process().isOk()) return state.SkipWithError("process failed");
+  }
+  std::vector<Wrench> samples = wrenchSamples(pressed, 1000);
+  std::size_t i = 0;
+  std::int64_t in_contact = 0, given = 0;
+  for (auto _ : state) {
+    Wrench& w = samples[i++ % samples.size()];
+    w.stamp = stamp += 1000;
+    dfn->in.wrench.set(w);
+    if (!dfn->process().isOk()) return state.SkipWithError("process failed");
+    in_contact += *dfn->out.in_contact;
+    given += dfn->out.contact.hasValue() && dfn->out.contact->stamp == stamp;
+  }
+  const double samples_run = static_cast<double>(std::max<std::int64_t>(1, state.iterations()));
+  // Every free sample free; the press a contact but for its first newtons (ForceThreshold's
+  // 2 N with the bias), over whole presses.
+  const bool whole = state.iterations() >= static_cast<std::int64_t>(samples.size());
+  if (pressed ? whole && in_contact < 0.99 * samples_run : in_contact > 0)
+    return state.SkipWithError(pressed ? "the press is not a contact"
+                                       : "a free sample is a contact");
+  state.counters["in_contact"] = static_cast<double>(in_contact) / samples_run;
+  state.counters["given"] = static_cast<double>(given) / samples_run;
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK_CAPTURE(BM_ContactDetection, hysteresis_free, std::string("HysteresisLineOfAction"),
+                  false)
+    ->Name("BM_ContactDetection/HysteresisLineOfAction/free");
+BENCHMARK_CAPTURE(BM_ContactDetection, hysteresis_pressed, std::string("HysteresisLineOfAction"),
+                  true)
+    ->Name("BM_ContactDetection/HysteresisLineOfAction/pressed");
+BENCHMARK_CAPTURE(BM_ContactDetection, threshold_free, std::string("ForceThreshold"), false)
+    ->Name("BM_ContactDetection/ForceThreshold/free");
+BENCHMARK_CAPTURE(BM_ContactDetection, threshold_pressed, std::string("ForceThreshold"), true)
+    ->Name("BM_ContactDetection/ForceThreshold/pressed");
 
 /// The DFPC's inputs of a simulated haptic_scanning run (its first 30 s, seed 7), in log order.
 struct ScanRun {
