@@ -1,9 +1,10 @@
 // cdff eval OUT.mcap [--json REPORT.json] [--html REPORT.html]
 //
-// Measures the pose products of a run against the ground truth recorded beside them and gives a
-// verdict per applicable requirement (docs/evaluation.md).
+// Measures the pose and bearing products of a run against the ground truth recorded beside them and
+// gives a verdict per applicable requirement (docs/evaluation.md).
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <memory>
 
@@ -21,6 +22,8 @@ struct EvalArguments {
   std::vector<std::string> products;
   std::vector<std::string> pairs;
   double max_truth_gap_s = 0.5;
+  std::optional<double> focal_px;
+  std::string camera;
   bool check = false;
   bool quiet = false;
 };
@@ -52,6 +55,15 @@ int evaluate(const EvalArguments& args) {
     return 2;
   }
   options.pose.max_truth_gap_s = args.max_truth_gap_s;
+  if (args.focal_px) {
+    if (!(*args.focal_px > 0) || !std::isfinite(*args.focal_px)) {
+      fmt::print(stderr, "error: --focal-px {}: expected a positive number of pixels\n",
+                 *args.focal_px);
+      return 2;
+    }
+    options.focal_px = *args.focal_px;
+  }
+  options.camera_channel = args.camera;
   options.products = args.products;
   for (const std::string& pair : args.pairs) {
     const std::size_t eq = pair.find('=');
@@ -94,7 +106,8 @@ int evaluate(const EvalArguments& args) {
 void addEvalCommand(CLI::App& root, int& exit_code) {
   auto args = std::make_shared<EvalArguments>();
   CLI::App* cmd = root.add_subcommand(
-      "eval", "Measure a run's pose products against its ground truth; requirement verdicts");
+      "eval",
+      "Measure a run's pose and bearing products against its ground truth; requirement verdicts");
   cmd->add_option("FILE", args->inputs, "MCAP recording(s) of a run (cdff run -o)")->required();
   cmd->add_option("--json", args->json_path, "Write the report as JSON (docs/evaluation.md)");
   cmd->add_option("--html", args->html_path, "Write the report as a self-contained HTML page");
@@ -107,6 +120,11 @@ void addEvalCommand(CLI::App& root, int& exit_code) {
   cmd->add_option("--max-truth-gap", args->max_truth_gap_s,
                   "Longest truth gap (s) across which truth is interpolated")
       ->capture_default_str();
+  cmd->add_option("--focal-px", args->focal_px,
+                  "Focal length (px) of bearing errors in pixels (default: the recording's camera "
+                  "calibration)");
+  cmd->add_option("--camera", args->camera,
+                  "Camera calibration channel whose focal length gives bearing errors in pixels");
   cmd->add_flag("--check", args->check, "Exit with status 1 when a requirement fails");
   cmd->add_flag("-q,--quiet", args->quiet, "Do not print the table");
   cmd->callback([args, &exit_code] { exit_code = evaluate(*args); });

@@ -32,7 +32,7 @@ struct RunArguments {
   std::vector<std::string> run_while;
   std::vector<std::string> rois;
   std::vector<std::string> settings;
-  std::vector<std::string> passthrough = {"/truth/"};
+  std::vector<std::string> passthrough = dfpc::ReplayOptions{}.passthrough_prefixes;
   bool no_timing = false;
   std::string compression = "lz4";
   std::optional<double> start_s, end_s;
@@ -216,7 +216,8 @@ void addRunCommand(CLI::App& root, int& exit_code) {
                   "Set an instance's parameter without editing the graph: "
                   "[DFPC/]NODE.PARAM=VALUE, the value YAML (repeatable)");
   run->add_option("--passthrough", args->passthrough,
-                  "Copy input channels with this prefix to the output (repeatable)")
+                  "Copy input channels with this prefix, or matching this pattern (with * ? "
+                  "[]), to the output (repeatable)")
       ->capture_default_str();
   run->add_flag("--no-timing", args->no_timing, "Do not record a timing record per DFN call");
   run->add_option("--compression", args->compression, "Output chunks: none, lz4 or zstd")

@@ -96,6 +96,7 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
   Status fuseRadar(const RadarSample& r, RelativeState& s);
   Status fuseImage(const ImageRegion& m, RelativeState& s, double& nis, bool& fused);
   Result<RelativeState> initialise(const ImageRegion& m);
+  RigidBodyState stateOf(const RelativeState& s) const;
   Bearing bearingOf(const RelativeState& s, const tracking::BearingGeometry& g,
                     const Eigen::Matrix3d& attitude_cov) const;
 
@@ -233,12 +234,20 @@ Bearing BearingFilterExtendedKalman::bearingOf(const RelativeState& s,
   b.covariance = 0.5 * (b.covariance + b.covariance.transpose()).eval();
   if (s.stamp - last_range_ <= static_cast<Timestamp>(params_.lost_after * 1e6)) {
     b.range = n;
-    b.range_variance = d_l.dot(s.covariance.topLeftCorner<3, 3>() * d_l);
+    // The radar's range is to the surface, the centre lies about centre_offset_sigma beyond.
+    b.range_variance = d_l.dot(s.covariance.topLeftCorner<3, 3>() * d_l) +
+                       std::pow(params_.centre_offset_sigma, 2);
     b.range_rate = d_l.dot(v);
     b.range_rate_variance = d_l.dot(s.covariance.bottomRightCorner<3, 3>() * d_l);
   }
   b.designation = designation_;
   return b;
+}
+
+RigidBodyState BearingFilterExtendedKalman::stateOf(const RelativeState& s) const {
+  tracking::ServicerAttitude attitude;
+  if (auto a = attitudes_.at(s.stamp, params_.attitude_tolerance)) attitude = *a;
+  return tracking::toRigidBodyState(s, attitude);
 }
 
 Status BearingFilterExtendedKalman::onProcess() {
@@ -307,7 +316,15 @@ Status BearingFilterExtendedKalman::onProcess() {
   if (!radar_first && radar && radar->valid && next)
     if (Status s = fuseRadar(*radar, *next); !s) return fail(s);
   state_ = next;
-  if (state_) out.state.set(tracking::toRigidBodyState(*state_));
+  if (state_) {
+    RigidBodyState point = stateOf(*state_);
+    RigidBodyState centre = point;
+    // The filter follows the tracked point; the centre lies within centre_offset_sigma of it.
+    centre.covariance.topLeftCorner<3, 3>() +=
+        Eigen::Matrix3d::Identity() * std::pow(params_.centre_offset_sigma, 2);
+    out.state.set(std::move(centre));
+    out.point_state.set(std::move(point));
+  }
   const bool tracking =
       state_ && state_->stamp - last_fix_ <= static_cast<Timestamp>(params_.lost_after * 1e6);
   out.track_state.set(!state_    ? TrackState::kUninitialised

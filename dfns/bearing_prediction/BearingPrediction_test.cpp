@@ -102,7 +102,7 @@ TEST_F(BearingPredictionTest, AStateInAnotherFrame) {
   wrong.pose.parent_frame = "servicer";
   dfn_->in.state.set(wrong);
   dfn_->in.image.set(imageAt(1'000'000));
-  testing::expectRejected(*dfn_, "expected lvlh_T_target");
+  testing::expectRejected(*dfn_, "expected lvlh_T_servicer");
 }
 
 TEST_F(BearingPredictionTest, AnImageOlderThanTheState) {

@@ -20,13 +20,15 @@ def _paths(p):
     return [str(p)] if isinstance(p, (str, os.PathLike)) else [str(x) for x in p]
 
 
-def run(graphs, inputs, output, remaps=(), settings=(), passthrough=("/truth/",),
-        record_timing=True, pairs=(), run_while=()):
+def run(graphs, inputs, output, remaps=(), settings=(),
+        passthrough=("/truth/", "/chaser/camera/*/calibration"), record_timing=True, pairs=(),
+        run_while=()):
     """Runs DFPC graphs over recordings to their end and records the products in `output`.
 
     remaps: "dfpc.input=/channel" to feed an input from another channel.
     settings: "[DFPC/]NODE.PARAM=VALUE" to set instance parameters without editing the graphs.
-    passthrough: input channel prefixes copied to the output (the ground truth by default).
+    passthrough: input channels copied to the output, by prefix or by pattern with * ? []
+        (the ground truth and the cameras' calibrations by default).
     pairs: "/pair=/left/image,/right/image" to make stereo pairs from two image channels.
     run_while: "DFPC=TRACKER:STATE[,STATE]" to run a DFPC only while another's track state is
     one of those (detection while a tracker is UNINITIALISED or LOST).

@@ -369,7 +369,7 @@ void bindDfpc(py::module_& root) {
   m.def("run", &runGraphs, py::arg("graphs"), py::arg("inputs"), py::arg("output"),
         py::arg("remaps") = std::vector<std::string>{},
         py::arg("settings") = std::vector<std::string>{},
-        py::arg("passthrough") = std::vector<std::string>{"/truth/"},
+        py::arg("passthrough") = dfpc::ReplayOptions{}.passthrough_prefixes,
         py::arg("record_timing") = true, py::arg("pairs") = std::vector<std::string>{},
         py::arg("run_while") = std::vector<std::string>{});
   bindCdffApi(m);

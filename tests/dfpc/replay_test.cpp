@@ -28,6 +28,44 @@ nodes:
 connections: [x -> add.a, add.result -> y]
 )";
 
+TEST(Replay, CopiesTheCamerasCalibrationsAndWhatPatternsName) {
+  EXPECT_TRUE(matchesChannelPattern("/truth/target_pose", "/truth/"));
+  EXPECT_FALSE(matchesChannelPattern("/cdff/truth/x", "/truth/"));
+  EXPECT_TRUE(
+      matchesChannelPattern("/chaser/camera/far/calibration", "/chaser/camera/*/calibration"));
+  EXPECT_TRUE(
+      matchesChannelPattern("/chaser/camera/a/b/calibration", "/chaser/camera/*/calibration"));
+  EXPECT_FALSE(matchesChannelPattern("/chaser/camera/far/image", "/chaser/camera/*/calibration"));
+  EXPECT_FALSE(
+      matchesChannelPattern("/chaser/camera/far/calibration/x", "/chaser/camera/*/calibration"));
+  EXPECT_TRUE(matchesChannelPattern("/chaser/lidar2", "/chaser/lidar[0-9]"));
+
+  const auto inputs = [] {
+    MemoryStream input;
+    for (int k = 0; k < 3; ++k) {
+      input.add(number("/sensor/x", k, k));
+      input.add(number("/chaser/camera/far/calibration", k, k));
+      input.add(number("/chaser/camera/far/image", k, k));
+    }
+    return input;
+  };
+  MemoryStream input = inputs();
+  MemorySink sink;
+  ReplayOptions options;
+  options.graph_files = {writeGraph("relay", kRelay)};
+  options.remaps = {parseRemap("relay.x=/sensor/x").value()};
+  ASSERT_OK(replay(input, sink, options).status());
+  EXPECT_EQ(sink.messages("/chaser/camera/far/calibration").size(), 3u);
+  EXPECT_TRUE(sink.messages("/chaser/camera/far/image").empty());
+
+  MemorySink only_images;
+  options.passthrough_prefixes = {"/chaser/*/image"};
+  MemoryStream again = inputs();
+  ASSERT_OK(replay(again, only_images, options).status());
+  EXPECT_EQ(only_images.messages("/chaser/camera/far/image").size(), 3u);
+  EXPECT_TRUE(only_images.messages("/chaser/camera/far/calibration").empty());
+}
+
 TEST(Replay, RunsGraphFilesWithRemappedChannelsAndCopiesTheTruth) {
   MemoryStream input;
   for (int k = 0; k < 4; ++k) {

@@ -5,9 +5,10 @@
 
 #include <Eigen/Dense>
 
+#include "cdff/eval/recording_evaluation.hpp"
 #include "cdff/io/replay.hpp"
-#include "cdff/types/bearing.hpp"
 #include "cdff/types/geometry.hpp"
+#include "cdff/types/image.hpp"
 #include "cdff/types/image_region.hpp"
 
 namespace cdff::far_range {
@@ -32,29 +33,25 @@ double rms(const std::vector<double>& v) {
   return v.empty() ? std::nan("") : std::sqrt(s / static_cast<double>(v.size()));
 }
 
-Result<Evaluation> evaluateFarRange(const std::string& output, double focal_px) {
+Result<Evaluation> evaluateFarRange(const std::string& output) {
   io::Replay replay;
   CDFF_RETURN_IF_ERROR(replay.open({output}));
-  std::map<Timestamp, Eigen::Vector3d> centre;         // servicer frame
   std::map<Timestamp, Eigen::Isometry3d> camera_pose;  // camera_T_target
-  std::vector<Bearing> bearings;
   std::vector<ImageRegion> matches;
   std::optional<ImageRegion> designated;
+  std::optional<CameraModel> camera;
   std::vector<Timestamp> scores;
   while (replay.next()) {
     const io::ReplayMessage& m = replay.message();
     const std::string& c = m.channel();
-    if (c == "/truth/target_pose" || c == "/truth/camera_far/target_pose") {
+    if (c == "/truth/camera_far/target_pose") {
       auto p = m.decode<PoseWithCovariance>();
       if (!p) return p.status();
-      if (c == "/truth/target_pose")
-        centre[(*p)->pose.stamp] = (*p)->pose.translation;
-      else
-        camera_pose[(*p)->pose.stamp] = (*p)->pose.isometry();
-    } else if (c == std::string(kPrefix) + "bearing") {
-      auto b = m.decode<Bearing>();
-      if (!b) return b.status();
-      bearings.push_back(**b);
+      camera_pose[(*p)->pose.stamp] = (*p)->pose.isometry();
+    } else if (c == "/chaser/camera/far/calibration" && !camera) {
+      auto k = m.decode<CameraModel>();
+      if (!k) return k.status();
+      camera = **k;
     } else if (c == std::string(kPrefix) + "match" || c == std::string(kPrefix) + "designated") {
       auto r = m.decode<ImageRegion>();
       if (!r) return r.status();
@@ -67,40 +64,31 @@ Result<Evaluation> evaluateFarRange(const std::string& output, double focal_px) 
     }
   }
   CDFF_RETURN_IF_ERROR(replay.status());
+  if (!camera) return notFound("{}: no far camera calibration passed through", output);
   Evaluation e;
   if (!designated) return e;
   e.designated = designated->stamp;
   e.designation = designated->source;
   for (Timestamp t : scores) e.images += t > designated->stamp ? 1 : 0;
-  for (const Bearing& b : bearings) {
-    const Eigen::Vector3d* p = nearest(centre, b.stamp);
-    if (!p) continue;
-    Sample s;
-    s.stamp = b.stamp;
-    s.range = p->norm();
-    const Eigen::Vector3d u = *p / s.range, err = b.direction - u;
-    s.bearing_px = std::acos(std::clamp(b.direction.dot(u), -1.0, 1.0)) * focal_px;
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(b.covariance, Eigen::ComputeFullU);
-    const Eigen::Matrix<double, 3, 2> across = svd.matrixU().leftCols<2>();
-    const Eigen::Vector2d e2 = across.transpose() * err;
-    s.bearing_nees = e2.dot((across.transpose() * b.covariance * across).inverse() * e2);
-    s.range_error_pct = std::isnan(b.range) ? std::nan("") : 100 * (b.range - s.range) / s.range;
-    e.bearings.push_back(s);
-  }
+  // The bearing against the centre of mass as `cdff eval` measures it.
+  eval::RecordingEvaluationOptions options;
+  options.products = {std::string(kPrefix) + "bearing"};
+  Result<eval::EvaluationReport> report = eval::evaluateRecording({output}, options);
+  if (!report) return report.status();
+  if (report->bearings.size() != 1) return notFound("{}: the bearing was not evaluated", output);
+  e.bearing = report->bearings.front();
   // The designated point: on the designation's ray, at the centre of mass's depth.
   const Eigen::Isometry3d* at = nearest(camera_pose, designated->stamp);
   if (!at) return e;
-  const double cx = 511.5, cy = 511.5;  // the far camera's principal point (1024 x 1024)
   const Eigen::Vector2d d = designated->centre();
-  const Eigen::Vector3d ray((d.x() - cx) / focal_px, (d.y() - cy) / focal_px, 1.0);
+  const Eigen::Vector3d ray((d.x() - camera->cx) / camera->fx, (d.y() - camera->cy) / camera->fy,
+                            1.0);
   const Eigen::Vector3d point_target = at->inverse() * (ray * at->translation().z());
   e.centre_offset_m = point_target.norm();
   for (const ImageRegion& r : matches) {
     const Eigen::Isometry3d* pose = nearest(camera_pose, r.stamp);
     if (!pose || r.stamp <= designated->stamp) continue;
-    const Eigen::Vector3d q = *pose * point_target;
-    const Eigen::Vector2d truth(focal_px * q.x() / q.z() + cx, focal_px * q.y() / q.z() + cy);
-    e.tracked_point_px.push_back((r.centre() - truth).norm());
+    e.tracked_point_px.push_back((r.centre() - camera->project(*pose * point_target)).norm());
   }
   return e;
 }

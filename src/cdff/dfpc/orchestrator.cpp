@@ -1,11 +1,18 @@
 #include "cdff/dfpc/orchestrator.hpp"
 
+#include <fnmatch.h>
+
 #include <algorithm>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 namespace cdff::dfpc {
+
+bool matchesChannelPattern(const std::string& channel, const std::string& pattern) {
+  if (pattern.find_first_of("*?[") == std::string::npos) return channel.rfind(pattern, 0) == 0;
+  return fnmatch(pattern.c_str(), channel.c_str(), 0) == 0;
+}
 
 double RunProgress::fraction() const {
   if (!range) return -1.0;
@@ -304,8 +311,8 @@ Status Orchestrator::process(const Message& message) {
   std::lock_guard lock(mutex_);
   CDFF_RETURN_IF_ERROR(sink_status_);
   if (options_.sink) {
-    for (const std::string& prefix : options_.passthrough_prefixes) {
-      if (message.channel.rfind(prefix, 0) != 0) continue;
+    for (const std::string& pattern : options_.passthrough_prefixes) {
+      if (!matchesChannelPattern(message.channel, pattern)) continue;
       recordSinkError(options_.sink->writeMessage(message));
       ++counters_.passed_through;
       break;

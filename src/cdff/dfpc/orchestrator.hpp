@@ -25,12 +25,17 @@
 
 namespace cdff::dfpc {
 
+/// Whether `channel` is one of a passthrough entry's: `pattern` is a prefix, or a shell pattern
+/// (fnmatch(3), '*' matching '/' too) when it holds * ? or [.
+bool matchesChannelPattern(const std::string& channel, const std::string& pattern);
+
 struct OrchestratorOptions {
   Sink* sink = nullptr;  // where products, events and timings go (none: they are not recorded)
   std::shared_ptr<DataProductManager> products;  // shared with other users; created when null
   Clock* execution_clock = nullptr;  // times DFN calls against budgets (null: DFN diagnostics)
   bool record_timing = true;         // one TimingRecord per DFN call to the sink
-  /// Input channels copied to the sink unchanged, by prefix (e.g. "/truth/" for ground truth).
+  /// Input channels copied to the sink unchanged: by prefix (e.g. "/truth/" for ground truth),
+  /// or by a shell pattern where the entry has * ? or [ (fnmatch(3); * also matches '/').
   std::vector<std::string> passthrough_prefixes;
 };
 

@@ -50,8 +50,9 @@ struct ReplayOptions {
   bool realtime = false;   // pace on the clock instead of as fast as possible
   double speed = 1.0;      // with realtime: stream seconds per clock second
   Clock* clock = nullptr;  // the pacing clock (steady when null)
-  /// Input channels copied to the output: the ground truth by default.
-  std::vector<std::string> passthrough_prefixes = {"/truth/"};
+  /// Input channels copied to the output (prefixes or patterns, OrchestratorOptions): the ground
+  /// truth and the cameras' calibrations by default (evaluation needs both: a bearing's pixels).
+  std::vector<std::string> passthrough_prefixes = {"/truth/", "/chaser/camera/*/calibration"};
   bool record_timing = true;
   std::function<void(const RunProgress&)> progress;
   const std::atomic<bool>* cancel = nullptr;

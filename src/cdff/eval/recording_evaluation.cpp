@@ -3,11 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <set>
 
 #include "cdff/io/replay.hpp"
+#include "cdff/types/bearing.hpp"
+#include "cdff/types/image.hpp"
 
 namespace cdff::eval {
 
@@ -57,6 +60,12 @@ std::string dfpcOf(const std::string& channel) {
   return channel.substr(prefix.size(), end - prefix.size());
 }
 
+// A DFPC's bearing products, with the track-state changes before each (as PoseSeries).
+struct BearingSeries {
+  std::vector<Bearing> bearings;
+  std::vector<std::size_t> changes_before;
+};
+
 struct PoseSeries {
   std::vector<Transform> poses;
   std::vector<std::optional<Matrix6d>> covariances;
@@ -77,6 +86,12 @@ std::string listChannels(const std::map<std::string, PoseSeries>& series) {
   return out.empty() ? "none" : out;
 }
 
+std::string bearingChannels(const std::map<std::string, BearingSeries>& series) {
+  std::string out;
+  for (const auto& [name, s] : series) out += fmt::format("{}{}", out.empty() ? "" : ", ", name);
+  return out.empty() ? "none" : out;
+}
+
 void addNote(RecordingEvaluationNotes* notes, std::string text) {
   if (notes) notes->notes.push_back(std::move(text));
 }
@@ -84,6 +99,8 @@ void addNote(RecordingEvaluationNotes* notes, std::string text) {
 // What the evaluation reads from a recording.
 struct RecordingContents {
   std::map<std::string, PoseSeries> products, truths;
+  std::map<std::string, BearingSeries> bearings;
+  std::map<std::string, double> focal_px;  // camera calibration channel -> its focal length
   // dfpc -> the states its track-state changes left, in recording order, after the state before
   // the first change. A product takes the state of the changes recorded before it (not those
   // at or before its stamp: a DFPC publishes its step's products and then the change the step
@@ -124,6 +141,18 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
       out.step_wall_s[dfpc][m.logTime()] += (*t)->value("wall_s", 0.0);
+    } else if (m.type() == TypeId::of<CameraModel>()) {
+      Result<std::shared_ptr<const CameraModel>> c = m.decode<CameraModel>();
+      if (!c) return c.status();
+      // A pixel's angle at the image centre; fx and fy differ only for non-square pixels.
+      out.focal_px.emplace(channel, 0.5 * ((*c)->fx + (*c)->fy));
+    } else if (m.type() == TypeId::of<Bearing>() && !dfpc.empty()) {
+      Result<std::shared_ptr<const Bearing>> b = m.decode<Bearing>();
+      if (!b) return b.status();
+      BearingSeries& s = out.bearings[channel];
+      s.bearings.push_back(**b);
+      const auto states = out.track_states.find(dfpc);
+      s.changes_before.push_back(states == out.track_states.end() ? 0 : states->second.size() - 1);
     } else if (isPoseType(m.type()) && (!dfpc.empty() || channel.rfind("/truth/", 0) == 0)) {
       const bool is_truth = dfpc.empty();
       Result<DecodedPose> decoded = decodePose(m);
@@ -202,6 +231,107 @@ std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
   return estimates;
 }
 
+// The truth channel for a bearing product (on `channel`, directions in `frame`): the one --pair
+// names, else /truth/target_pose when its parent frame is `frame`, else the first by name whose
+// parent frame is `frame` and child frame the target ("" with a note when there is none).
+Result<std::string> truthChannelForBearing(const std::string& channel, const std::string& frame,
+                                           const std::map<std::string, PoseSeries>& truths,
+                                           const RecordingEvaluationOptions& options,
+                                           RecordingEvaluationNotes* notes) {
+  if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
+    if (!truths.count(p->second))
+      return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
+                      p->second, p->second, listChannels(truths));
+    return p->second;
+  }
+  const auto fits = [&](const PoseSeries& t) {
+    return !t.poses.empty() && t.poses.front().parent_frame == frame &&
+           t.poses.front().child_frame == "target";
+  };
+  if (auto t = truths.find("/truth/target_pose"); t != truths.end() && fits(t->second))
+    return t->first;
+  for (const auto& [name, t] : truths)
+    if (fits(t)) return name;
+  addNote(notes, fmt::format("{} (bearing in '{}'): no truth channel {}_T_target; truth "
+                             "channels: {}",
+                             channel, frame, frame, listChannels(truths)));
+  return std::string();
+}
+
+// The focal length for bearings in pixels: --focal-px, else --camera's, else the only camera
+// calibration of the recording; NaN (with a note) when there are several and none is chosen.
+Result<std::pair<double, std::string>> focalLength(const std::map<std::string, double>& cameras,
+                                                   const RecordingEvaluationOptions& options,
+                                                   RecordingEvaluationNotes* notes) {
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  if (std::isfinite(options.focal_px)) return std::pair{options.focal_px, std::string()};
+  const auto names = [&] {
+    std::vector<std::string> n;
+    for (const auto& [name, f] : cameras) n.push_back(name);
+    return n.empty() ? std::string("none") : fmt::format("{}", fmt::join(n, ", "));
+  };
+  if (!options.camera_channel.empty()) {
+    auto c = cameras.find(options.camera_channel);
+    if (c == cameras.end())
+      return notFound("--camera {}: no camera calibration on that channel; calibrations: {}",
+                      options.camera_channel, names());
+    return std::pair{c->second, c->first};
+  }
+  if (cameras.size() == 1) return std::pair{cameras.begin()->second, cameras.begin()->first};
+  addNote(notes, fmt::format("bearings in pixels need a focal length: {} camera calibrations in "
+                             "the recording ({}); --camera or --focal-px chooses",
+                             cameras.size(), names()));
+  return std::pair{kNaN, std::string()};
+}
+
+// The bearing products' evaluations and verdicts, into `report`.
+Status evaluateBearingProducts(RecordingContents& contents,
+                               const RecordingEvaluationOptions& options,
+                               RecordingEvaluationNotes* notes, EvaluationReport& report) {
+  if (contents.bearings.empty()) return Status::ok();
+  Result<std::pair<double, std::string>> focal = focalLength(contents.focal_px, options, notes);
+  if (!focal) return focal.status();
+  for (auto& [channel, series] : contents.bearings) {
+    const std::string& frame = series.bearings.front().frame_id;
+    Result<std::string> truth_channel =
+        truthChannelForBearing(channel, frame, contents.truths, options, notes);
+    if (!truth_channel) return truth_channel.status();
+    if (truth_channel->empty()) continue;
+    const std::string dfpc = dfpcOf(channel);
+    const std::vector<std::optional<TrackState>>& states = contents.track_states[dfpc];
+    const std::map<Timestamp, double>& walls = contents.step_wall_s[dfpc];
+    std::vector<BearingSample> estimates;
+    for (std::size_t i = 0; i < series.bearings.size(); ++i) {
+      BearingSample e;
+      e.bearing = series.bearings[i];
+      if (!states.empty())
+        if (const std::optional<TrackState>& state = states[series.changes_before[i]];
+            state && !isTracked(*state))
+          e.valid = false;
+      if (auto w = walls.find(e.bearing.stamp); w != walls.end()) e.latency_s = w->second;
+      estimates.push_back(std::move(e));
+    }
+    std::stable_sort(estimates.begin(), estimates.end(), [](const auto& a, const auto& b) {
+      return a.bearing.stamp < b.bearing.stamp;
+    });
+    std::vector<Transform> truth = contents.truths[*truth_channel].poses;
+    std::stable_sort(truth.begin(), truth.end(),
+                     [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+    Result<BearingEvaluation> evaluation =
+        evaluateBearings(estimates, truth, focal->first, options.pose);
+    if (!evaluation)
+      return evaluation.status().withContext(
+          fmt::format("evaluating {} against {}", channel, *truth_channel));
+    evaluation->channel = channel;
+    evaluation->truth_channel = *truth_channel;
+    evaluation->camera_channel = focal->second;
+    for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
+      report.requirements.push_back(std::move(v));
+    report.bearings.push_back(std::move(evaluation).value());
+  }
+  return Status::ok();
+}
+
 }  // namespace
 
 Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths,
@@ -211,7 +341,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   CDFF_RETURN_IF_ERROR(replay.open(paths));
   RecordingContents contents;
   CDFF_RETURN_IF_ERROR(readRecording(replay, contents));
-  auto& [products, truths, track_states, step_wall_s] = contents;
+  auto& [products, truths, bearings, focal_px, track_states, step_wall_s] = contents;
   const std::set<std::string> wanted(options.products.begin(), options.products.end());
   // A damaged recording is evaluated up to the damage, and says so.
   if (Status s = replay.status(); !s.isOk())
@@ -219,17 +349,19 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
             fmt::format("the recording is damaged; evaluated up to the damage: {}", s.message()));
 
   for (const std::string& w : wanted)
-    if (!products.count(w))
+    if (!products.count(w) && !bearings.count(w))
       return notFound(
-          "product channel '{}' is not a pose product of the recording; its pose "
-          "products: {}",
-          w, listChannels(products));
-  if (!wanted.empty())
+          "product channel '{}' is not a pose or bearing product of the recording; its pose "
+          "products: {}; its bearing products: {}",
+          w, listChannels(products), bearingChannels(bearings));
+  if (!wanted.empty()) {
     std::erase_if(products, [&](const auto& p) { return !wanted.count(p.first); });
-  if (products.empty())
+    std::erase_if(bearings, [&](const auto& p) { return !wanted.count(p.first); });
+  }
+  if (products.empty() && bearings.empty())
     return notFound(
         "no pose product (/cdff/<dfpc>/<output> of type PoseWithCovariance, "
-        "RigidBodyState or Transform) in {}",
+        "RigidBodyState or Transform) and no bearing product (Bearing) in {}",
         fmt::join(paths, ", "));
   if (truths.empty())
     return notFound(
@@ -260,11 +392,12 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
       report.requirements.push_back(std::move(v));
     report.products.push_back(std::move(evaluation).value());
   }
-  if (report.products.empty())
+  CDFF_RETURN_IF_ERROR(evaluateBearingProducts(contents, options, notes, report));
+  if (report.products.empty() && report.bearings.empty())
     return notFound(
-        "no pose product has a truth channel of the same transform; products: {}; "
-        "truth: {} (pair them with --pair PRODUCT=TRUTH)",
-        listChannels(products), listChannels(truths));
+        "no pose product has a truth channel of the same transform; products: {}; bearing "
+        "products: {}; truth: {} (pair them with --pair PRODUCT=TRUTH)",
+        listChannels(products), bearingChannels(bearings), listChannels(truths));
   return report;
 }
 

@@ -54,6 +54,89 @@ std::string consistencyText(const CovarianceConsistency& c) {
   return text;
 }
 
+nlohmann::json bearingConsistencyJson(const BearingConsistency& c) {
+  if (c.count == 0 && c.rejected == 0) return nullptr;
+  return {{"count", c.count},
+          {"rejected", c.rejected},
+          {"nees_mean", number(c.nees_mean)},
+          {"nees_p95", number(c.nees_p95)},
+          {"within_95_fraction", number(c.within_95_fraction)},
+          {"range_nees_mean", number(c.range_nees_mean)},
+          {"dof", 2},
+          {"bound_95", BearingConsistency::kChiSquare2Dof95}};
+}
+
+std::string bearingConsistencyText(const BearingConsistency& c) {
+  if (c.count == 0 && c.rejected == 0) return {};
+  std::string text = fmt::format(
+      "covariance: NEES mean {} (2 if honest), p95 {}, {} % within the 95 % bound {:g}; range "
+      "NEES mean {} (1 if honest)",
+      formatValue(c.nees_mean, "{:.3g}"), formatValue(c.nees_p95, "{:.3g}"),
+      formatValue(100.0 * c.within_95_fraction, "{:.1f}"), BearingConsistency::kChiSquare2Dof95,
+      formatValue(c.range_nees_mean, "{:.3g}"));
+  if (c.rejected) text += fmt::format("; {} not of rank 2 across the direction", c.rejected);
+  return text;
+}
+
+nlohmann::json bearingJson(const BearingEvaluation& b) {
+  return {
+      {"channel", b.channel},
+      {"truth_channel", b.truth_channel},
+      {"frame", b.frame},
+      {"camera_channel", b.camera_channel},
+      {"focal_px", number(b.focal_px)},
+      {"frames", b.frames},
+      {"valid_frames", b.valid_frames},
+      {"matched_frames", b.matched_frames},
+      {"ranged_frames", b.ranged_frames},
+      {"tracked_fraction", number(b.tracked_fraction)},
+      {"bearing_error_urad", statisticsJson(b.angle_urad)},
+      {"bearing_error_px", statisticsJson(b.pixels)},
+      {"range_error_pct", statisticsJson(b.range_error_pct)},
+      {"latency_ms", statisticsJson(b.latency_s, 1e3)},
+      {"covariance_consistency", bearingConsistencyJson(b.covariance)},
+      {"rate_hz", number(b.rate_hz)},
+      {"min_rate_hz", number(b.min_rate_hz)},
+      {"range_m", {{"min", number(b.min_range_m)}, {"max", number(b.max_range_m)}}},
+  };
+}
+
+// One verdict's line under its product's statistics.
+std::string verdictLine(const RequirementVerdict& v) {
+  return fmt::format("  {:<13}{:<17}{:<15} {} {} {:g}  {}\n", v.id, v.quantity, toString(v.verdict),
+                     v.verdict == Verdict::kNotApplicable
+                         ? std::string("—")
+                         : fmt::format("{} {:.4g}", v.statistic, v.measured),
+                     v.comparison, v.threshold, v.note);
+}
+
+std::string bearingText(const BearingEvaluation& b, const std::vector<RequirementVerdict>& all) {
+  std::string text =
+      fmt::format("{}  (bearing; truth {}, frame {}; focal length {} px{})\n", b.channel,
+                  b.truth_channel, b.frame, formatValue(b.focal_px, "{:.6g}"),
+                  b.camera_channel.empty() ? "" : " from " + b.camera_channel);
+  text += fmt::format(
+      "  frames {}  valid {}  matched {}  tracked {:.1f} %  rate {} Hz (worst {} Hz)  range "
+      "{}-{} m\n",
+      b.frames, b.valid_frames, b.matched_frames, 100.0 * b.tracked_fraction,
+      formatValue(b.rate_hz, "{:.3g}"), formatValue(b.min_rate_hz, "{:.3g}"),
+      formatValue(b.min_range_m, "{:.4g}"), formatValue(b.max_range_m, "{:.4g}"));
+  text += "                      rmse        p95        max\n";
+  const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
+    text += fmt::format("  {:<18}{:>8}   {:>8}   {:>8}\n", name, formatValue(s.rmse * scale),
+                        formatValue(s.p95 * scale), formatValue(s.max * scale));
+  };
+  row("bearing [urad]", b.angle_urad, 1.0);
+  if (b.pixels.count) row("bearing [px]", b.pixels, 1.0);
+  if (b.range_error_pct.count) row("range [% range]", b.range_error_pct, 1.0);
+  if (b.latency_s.count) row("latency [ms]", b.latency_s, 1e3);
+  if (const std::string c = bearingConsistencyText(b.covariance); !c.empty())
+    text += "  " + c + "\n";
+  for (const RequirementVerdict& v : all)
+    if (v.channel == b.channel) text += verdictLine(v);
+  return text;
+}
+
 double thresholdFor(const std::string& quantity, double range_m) {
   for (const RequirementSpec& spec : poseRequirements()) {
     const bool matches =
@@ -93,6 +176,8 @@ nlohmann::json toJson(const EvaluationReport& report) {
         {"range_m", {{"min", number(p.min_range_m)}, {"max", number(p.max_range_m)}}},
     });
   }
+  nlohmann::json bearings = nlohmann::json::array();
+  for (const BearingEvaluation& b : report.bearings) bearings.push_back(bearingJson(b));
   nlohmann::json requirements = nlohmann::json::array();
   for (const RequirementVerdict& v : report.requirements) {
     requirements.push_back({
@@ -110,11 +195,9 @@ nlohmann::json toJson(const EvaluationReport& report) {
         {"note", v.note},
     });
   }
-  return {{"input", report.input},
-          {"verdict_statistic", report.statistic},
-          {"all_pass", report.allPass()},
-          {"products", products},
-          {"requirements", requirements}};
+  return {{"input", report.input},        {"verdict_statistic", report.statistic},
+          {"all_pass", report.allPass()}, {"products", products},
+          {"bearings", bearings},         {"requirements", requirements}};
 }
 
 std::string toText(const EvaluationReport& report) {
@@ -139,15 +222,10 @@ std::string toText(const EvaluationReport& report) {
     if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
     if (const std::string c = consistencyText(p.covariance); !c.empty()) text += "  " + c + "\n";
     // Each product's verdicts right under its statistics.
-    for (const RequirementVerdict& v : report.requirements) {
-      if (v.channel != p.channel) continue;
-      text += fmt::format(
-          "  {:<13}{:<17}{:<15} {} {} {:g}  {}\n", v.id, v.quantity, toString(v.verdict),
-          v.verdict == Verdict::kNotApplicable ? std::string("—")
-                                               : fmt::format("{} {:.4g}", v.statistic, v.measured),
-          v.comparison, v.threshold, v.note);
-    }
+    for (const RequirementVerdict& v : report.requirements)
+      if (v.channel == p.channel) text += verdictLine(v);
   }
+  for (const BearingEvaluation& b : report.bearings) text += bearingText(b, report.requirements);
   return text;
 }
 
@@ -230,6 +308,73 @@ std::string productPlotsHtml(const PoseEvaluation& p) {
   return html;
 }
 
+double bearingThreshold(RequirementSpec::Quantity quantity) {
+  for (const RequirementSpec& spec : bearingRequirements())
+    if (spec.quantity == quantity) return spec.threshold;
+  return NAN;
+}
+
+// One bearing product: its summary and its plots (error over time and over range, NEES, range).
+std::string bearingHtml(const BearingEvaluation& b) {
+  std::string html = fmt::format(
+      "<h2>{} (bearing)</h2><p>Truth: <code>{}</code>, the direction to the target's centre of "
+      "mass in <code>{}</code>; focal length {} px{}. {} frames, {} valid, {} matched with "
+      "truth, {} with a range; tracked {:.1f} %; rate {} Hz (worst {} Hz).</p>\n",
+      escapeHtml(b.channel), escapeHtml(b.truth_channel), escapeHtml(b.frame),
+      formatValue(b.focal_px, "{:.6g}"),
+      b.camera_channel.empty() ? "" : " (" + escapeHtml(b.camera_channel) + ")", b.frames,
+      b.valid_frames, b.matched_frames, b.ranged_frames, 100.0 * b.tracked_fraction,
+      formatValue(b.rate_hz, "{:.3g}"), formatValue(b.min_rate_hz, "{:.3g}"));
+  html += "<table><tr><th>error</th><th>RMSE</th><th>p95</th><th>max</th></tr>\n";
+  const auto row = [&](const char* name, const ErrorStatistics& s, double scale) {
+    html += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", name,
+                        formatValue(s.rmse * scale), formatValue(s.p95 * scale),
+                        formatValue(s.max * scale));
+  };
+  row("bearing [µrad]", b.angle_urad, 1.0);
+  if (b.pixels.count) row("bearing [px]", b.pixels, 1.0);
+  if (b.range_error_pct.count) row("range [% of range]", b.range_error_pct, 1.0);
+  if (b.latency_s.count) row("latency [ms]", b.latency_s, 1e3);
+  html += "</table>\n";
+  if (const std::string c = bearingConsistencyText(b.covariance); !c.empty())
+    html += fmt::format("<p>The product's {}.</p>\n", escapeHtml(c));
+
+  const bool in_px = b.pixels.count > 0;
+  PlotSeries over_time, over_range, nees, range;
+  const Timestamp t0 = b.errors.empty() ? 0 : b.errors.front().stamp;
+  for (const BearingError& e : b.errors) {
+    const double t = toSeconds(e.stamp - t0), value = in_px ? e.pixels : e.angle_urad;
+    over_time.x.push_back(t);
+    over_time.y.push_back(value);
+    over_range.x.push_back(e.range_m);
+    over_range.y.push_back(value);
+    if (std::isfinite(e.nees)) {
+      nees.x.push_back(t);
+      nees.y.push_back(e.nees);
+    }
+    if (std::isfinite(e.range_error_pct)) {
+      range.x.push_back(t);
+      range.y.push_back(std::abs(e.range_error_pct));
+    }
+  }
+  const char* unit = in_px ? "bearing error [px]" : "bearing error [µrad]";
+  const double threshold = in_px ? bearingThreshold(RequirementSpec::Quantity::kBearingError) : NAN;
+  html += "<div>";
+  html += svgPlot("Bearing error over time", "time since first estimate [s]", unit, over_time,
+                  threshold);
+  html += svgPlot("Bearing error over range", "true range [m]", unit, over_range, threshold, false);
+  if (!nees.x.empty())
+    html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
+                    "time since first estimate [s]", "NEES (2 dof)", nees,
+                    BearingConsistency::kChiSquare2Dof95);
+  if (!range.x.empty())
+    html += svgPlot("Range error over time", "time since first estimate [s]",
+                    "|range error| [% of range]", range,
+                    bearingThreshold(RequirementSpec::Quantity::kRangeError));
+  html += "</div>\n";
+  return html;
+}
+
 }  // namespace
 
 std::string toHtml(const EvaluationReport& report) {
@@ -239,7 +384,7 @@ std::string toHtml(const EvaluationReport& report) {
       "the errors in each requirement's range band.</p>\n",
       escapeHtml(report.input), escapeHtml(report.statistic));
   html +=
-      "<h2>Requirements (seed §7.1)</h2><table><tr><th>id</th><th>channel</th><th>quantity"
+      "<h2>Requirements (seed §7.1, §2.2.2)</h2><table><tr><th>id</th><th>channel</th><th>quantity"
       "</th><th>measured</th><th>threshold</th><th>frames</th><th>verdict</th><th>note</th>"
       "</tr>\n";
   for (const RequirementVerdict& v : report.requirements)
@@ -256,6 +401,7 @@ std::string toHtml(const EvaluationReport& report) {
     html += productHtml(p);
     html += productPlotsHtml(p);
   }
+  for (const BearingEvaluation& b : report.bearings) html += bearingHtml(b);
   html += "</body></html>\n";
   return html;
 }

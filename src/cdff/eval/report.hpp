@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cdff/eval/bearing_evaluation.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/eval/requirements.hpp"
 
@@ -16,6 +17,7 @@ struct EvaluationReport {
   std::string input;              // what was evaluated (file names)
   std::string statistic = "p95";  // the statistic the verdicts use
   std::vector<PoseEvaluation> products;
+  std::vector<BearingEvaluation> bearings;  // far-range tracking's bearing products
   std::vector<RequirementVerdict> requirements;
 
   /// True when no verdict is a fail (not-applicable ones do not count).

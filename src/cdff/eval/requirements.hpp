@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "cdff/eval/bearing_evaluation.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 
 namespace cdff::eval {
@@ -18,14 +19,25 @@ namespace cdff::eval {
 struct RequirementSpec {
   std::string id;     // "SR_DFPC_0100"
   std::string title;  // as in the seed
-  enum class Quantity { kPositionError, kAngleError, kUpdateRate } quantity;
-  double threshold = 0;                     // m, deg or Hz
+  enum class Quantity {
+    kPositionError,
+    kAngleError,
+    kUpdateRate,
+    kBearingError,  // px on the camera
+    kRangeError,    // % of the true range
+  } quantity;
+  double threshold = 0;                     // m, deg, Hz, px or %
   double min_range_m = 0, max_range_m = 0;  // band of true range (accuracy requirements)
 };
 
 /// SR_DFPC_0100 (mid range: < 1 m, < 10 deg), SR_DFPC_0101 (close range: < 0.05 m, < 5 deg),
 /// SR_DFPC_0102 (update rate >= 0.1 Hz), one entry per measured quantity.
 const std::vector<RequirementSpec>& poseRequirements();
+
+/// Far-range tracking's bearing products (seed §2.2.2, issue 18): the bearing of the target's
+/// centre within 1 px on the sensor ("in the order of magnitude of 1 pixel"), an update at least
+/// every second (the seed's 1 Hz navigation), the radar range within 1 % where there is one.
+const std::vector<RequirementSpec>& bearingRequirements();
 
 enum class Verdict { kPass, kFail, kNotApplicable };
 const char* toString(Verdict verdict);
@@ -37,7 +49,8 @@ struct RequirementVerdict {
   std::string id;
   std::string title;
   std::string channel;     // the product channel it was measured on
-  std::string quantity;    // "position_error_m", "angle_error_deg", "update_rate_hz"
+  std::string quantity;    // "position_error_m", "angle_error_deg", "update_rate_hz",
+                           // "bearing_error_px", "range_error_pct"
   std::string comparison;  // "<" or ">="
   std::string statistic;   // "p95", "max", "rmse" or "min" (rates)
   Verdict verdict = Verdict::kNotApplicable;
@@ -49,6 +62,10 @@ struct RequirementVerdict {
 
 /// Verdicts of every requirement of poseRequirements() for one evaluated product.
 std::vector<RequirementVerdict> checkRequirements(const PoseEvaluation& evaluation,
+                                                  Statistic statistic = Statistic::kP95);
+
+/// Verdicts of every requirement of bearingRequirements() for one evaluated bearing product.
+std::vector<RequirementVerdict> checkRequirements(const BearingEvaluation& evaluation,
                                                   Statistic statistic = Statistic::kP95);
 
 }  // namespace cdff::eval

@@ -53,29 +53,35 @@ Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double p
   return Status::ok();
 }
 
-RigidBodyState toRigidBodyState(const RelativeState& s) {
+RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude) {
   RigidBodyState r;
-  r.pose = Transform::identity("lvlh", "target", s.stamp);
-  r.pose.translation = s.x.head<3>();
-  r.twist.linear = s.x.tail<3>();
+  r.pose = Transform::identity("lvlh", "servicer", s.stamp);
+  // The servicer relative to the target is -p, -v: the sign change of both leaves their
+  // covariances (and the cross-covariance) as they are.
+  r.pose.translation = -s.x.head<3>();
+  r.twist.linear = -s.x.tail<3>();
   r.covariance.topLeftCorner<3, 3>() = s.covariance.topLeftCorner<3, 3>();
   r.covariance.block<3, 3>(0, 6) = s.covariance.topRightCorner<3, 3>();
   r.covariance.block<3, 3>(6, 0) = s.covariance.bottomLeftCorner<3, 3>();
   r.covariance.block<3, 3>(6, 6) = s.covariance.bottomRightCorner<3, 3>();
+  if (attitude) {
+    r.pose.rotation = attitude->first;
+    r.covariance.block<3, 3>(3, 3) = attitude->second;
+  }
   return r;
 }
 
 Result<RelativeState> fromRigidBodyState(const RigidBodyState& state) {
   CDFF_RETURN_IF_ERROR(state.validate());
-  if (state.pose.parent_frame != "lvlh")
+  if (state.pose.parent_frame != "lvlh" || state.pose.child_frame != "servicer")
     return invalidInput(
-        "relative state in frame '{}'; expected lvlh_T_target (parent frame 'lvlh', the target's "
-        "orbital axes at the servicer), a BearingFilter's state",
-        state.pose.parent_frame);
+        "relative state {}_T_{}; expected lvlh_T_servicer (the servicer in the target's orbital "
+        "frame), a BearingFilter's state",
+        state.pose.parent_frame, state.pose.child_frame);
   RelativeState s;
   s.stamp = state.pose.stamp;
-  s.x.head<3>() = state.pose.translation;
-  s.x.tail<3>() = state.twist.linear;
+  s.x.head<3>() = -state.pose.translation;
+  s.x.tail<3>() = -state.twist.linear;
   s.covariance.topLeftCorner<3, 3>() = state.covariance.topLeftCorner<3, 3>();
   s.covariance.topRightCorner<3, 3>() = state.covariance.block<3, 3>(0, 6);
   s.covariance.bottomLeftCorner<3, 3>() = state.covariance.block<3, 3>(6, 0);

@@ -6,8 +6,10 @@
 // matcher searches around and the filter's own prediction are the same.
 
 #include <optional>
+#include <utility>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
@@ -37,9 +39,14 @@ Matrix6d whiteAccelerationNoise(double psd, double dt);
 /// Propagates `s` to `stamp` (forward only; an earlier stamp is an error).
 Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd);
 
-/// As a RigidBodyState: lvlh_T_target with the servicer at the origin of "lvlh" (axes only),
-/// the rotation identity with a zero attitude covariance block; twist.linear = v.
-RigidBodyState toRigidBodyState(const RelativeState& s);
+/// The servicer's attitude lvlh_R_servicer and its covariance (rad^2), where known.
+using ServicerAttitude = std::optional<std::pair<Eigen::Quaterniond, Eigen::Matrix3d>>;
+
+/// As a RigidBodyState: lvlh_T_servicer, the servicer in the target's orbital frame (origin at
+/// the target's centre: the simulator's /truth/tf/servicer), so translation -p and twist.linear
+/// -v with their covariances; the rotation the servicer's attitude with its covariance where
+/// `attitude` gives it, else identity with a zero block; no angular velocity (zero, zero block).
+RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude = {});
 /// The inverse; the error names the field that is not a far-range state.
 Result<RelativeState> fromRigidBodyState(const RigidBodyState& state);
 
