@@ -96,7 +96,8 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
   Status fuseRadar(const RadarSample& r, RelativeState& s);
   Status fuseImage(const ImageRegion& m, RelativeState& s, double& nis, bool& fused);
   Result<RelativeState> initialise(const ImageRegion& m);
-  RigidBodyState stateOf(const RelativeState& s) const;
+  /// `state` (for the centre) and `point_state` (the tracked point) at the state's time.
+  void publishState(const RelativeState& s);
   Bearing bearingOf(const RelativeState& s, const tracking::BearingGeometry& g,
                     const Eigen::Matrix3d& attitude_cov) const;
 
@@ -244,10 +245,16 @@ Bearing BearingFilterExtendedKalman::bearingOf(const RelativeState& s,
   return b;
 }
 
-RigidBodyState BearingFilterExtendedKalman::stateOf(const RelativeState& s) const {
+void BearingFilterExtendedKalman::publishState(const RelativeState& s) {
   tracking::ServicerAttitude attitude;
   if (auto a = attitudes_.at(s.stamp, params_.attitude_tolerance)) attitude = *a;
-  return tracking::toRigidBodyState(s, attitude);
+  RigidBodyState point = tracking::toRigidBodyState(s, attitude);
+  RigidBodyState centre = point;
+  // The filter follows the tracked point; the centre lies within centre_offset_sigma of it.
+  centre.covariance.topLeftCorner<3, 3>() +=
+      Eigen::Matrix3d::Identity() * std::pow(params_.centre_offset_sigma, 2);
+  out.state.set(std::move(centre));
+  out.point_state.set(std::move(point));
 }
 
 Status BearingFilterExtendedKalman::onProcess() {
@@ -316,15 +323,7 @@ Status BearingFilterExtendedKalman::onProcess() {
   if (!radar_first && radar && radar->valid && next)
     if (Status s = fuseRadar(*radar, *next); !s) return fail(s);
   state_ = next;
-  if (state_) {
-    RigidBodyState point = stateOf(*state_);
-    RigidBodyState centre = point;
-    // The filter follows the tracked point; the centre lies within centre_offset_sigma of it.
-    centre.covariance.topLeftCorner<3, 3>() +=
-        Eigen::Matrix3d::Identity() * std::pow(params_.centre_offset_sigma, 2);
-    out.state.set(std::move(centre));
-    out.point_state.set(std::move(point));
-  }
+  if (state_) publishState(*state_);
   const bool tracking =
       state_ && state_->stamp - last_fix_ <= static_cast<Timestamp>(params_.lost_after * 1e6);
   out.track_state.set(!state_    ? TrackState::kUninitialised

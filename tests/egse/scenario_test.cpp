@@ -35,7 +35,7 @@ TEST(ScenarioLibrary, HasTheIssuesScenariosAndEveryOneLoads) {
   for (const char* required :
        {"far_range_approach", "mid_range_approach", "close_range_approach", "fly_around_inspection",
         "tumbling_target", "leaving_field_of_view", "under_illuminated", "specular_glare",
-        "earth_background", "sensor_faults", "haptic_scanning"})
+        "earth_background", "sensor_faults", "haptic_scanning", "rendezvous"})
     EXPECT_TRUE(names.count(required)) << required;
   auto path = resolveScenario("mid_range_approach");
   ASSERT_OK(path.status());

@@ -194,6 +194,40 @@ TEST(Simulator, FarRangeSensorsJitterTheAttitudeAndLoseRadarMeasurements) {
   EXPECT_NEAR(static_cast<double>(lost) / static_cast<double>(all), 0.05, 0.02);
 }
 
+TEST(Simulator, ASensorMeasuresOnlyWithinItsActiveRange) {
+  // far_range_approach's first minute closes from 2000 m to about 1996 m; the radar is switched
+  // on between 1997 and 1999 m only, and measures at the truth's times (both 10 Hz).
+  const std::vector<std::string> o = {"sensors.camera_far.enabled=false", "sensors.radar.rate=10",
+                                      "sensors.radar.dropout_probability=0",
+                                      "sensors.radar.active_range=[1997, 1999]"};
+  auto sim = Simulator::create(library("far_range_approach", o), 3, 60.0);
+  ASSERT_TRUE(sim.isOk()) << sim.status().toString();
+  MemorySink sink;
+  ASSERT_TRUE((*sim)->run(sink).isOk());
+  std::map<Timestamp, double> truth_range;
+  std::size_t in_band = 0;
+  for (const PoseWithCovariance& p : sink.on<PoseWithCovariance>("/truth/target_pose")) {
+    const double range = p.pose.translation.norm();
+    truth_range[p.pose.stamp] = range;
+    in_band += range >= 1997 && range <= 1999;
+  }
+  const auto radar = sink.on<RangeMeasurement>("/chaser/radar/range");
+  ASSERT_GT(in_band, 10u);
+  EXPECT_EQ(radar.size(), in_band);
+  for (const RangeMeasurement& m : radar) {
+    ASSERT_TRUE(truth_range.count(m.stamp)) << m.stamp;
+    EXPECT_GE(truth_range[m.stamp], 1997.0);
+    EXPECT_LE(truth_range[m.stamp], 1999.0);
+  }
+  // Bad input: a band whose minimum is not below its maximum names the key and the values.
+  auto bad =
+      loadScenario(*resolveScenario("far_range_approach"), {"sensors.radar.active_range=[20, 10]"});
+  ASSERT_FALSE(bad.isOk());
+  EXPECT_NE(bad.status().message().find("active_range"), std::string::npos)
+      << bad.status().message();
+  EXPECT_NE(bad.status().message().find("min is not below max"), std::string::npos);
+}
+
 TEST(Simulator, TruthTransformsAreConsistent) {
   const Scenario scenario = library("tumbling_target", smallCameras());
   auto sim = Simulator::create(scenario, 1, 0.5);

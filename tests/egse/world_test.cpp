@@ -86,6 +86,32 @@ TEST(Trajectories, DerivativesAreConsistentAndSplinesAreC2) {
   EXPECT_FALSE(splineTranslation({0, 5, 5}, {points[0], points[1], points[2]}).isOk());
 }
 
+TEST(Trajectories, LegsRestAtEveryWaypointAndNeverOvershoot) {
+  // A rendezvous's hold points: 2 km, 100 m (held 20 s), 17 m, 2 m.
+  const std::vector<double> times = {0, 300, 320, 400, 500};
+  const std::vector<Eigen::Vector3d> points = {
+      {0, -2000, 0}, {0, -100, 0}, {0, -100, 0}, {0, -17, 0}, {0, -2, 0}};
+  auto legs = legsTranslation(times, points);
+  ASSERT_OK(legs.status());
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    EXPECT_LT(((*legs)->at(times[i]).position - points[i]).norm(), 1e-9) << i;
+    EXPECT_LT((*legs)->at(times[i]).velocity.norm(), 1e-9) << i;
+  }
+  EXPECT_LT(((*legs)->at(-5).position - points.front()).norm(), 1e-12);
+  EXPECT_LT(((*legs)->at(600).position - points.back()).norm(), 1e-12);
+  EXPECT_LT(((*legs)->at(310).position - points[1]).norm(), 1e-12);  // the hold
+  // Each leg moves one way only: the range never drops below the next waypoint's.
+  double previous = 2000;
+  for (double t = 0; t <= 500; t += 0.5) {
+    const TranslationState s = (*legs)->at(t);
+    EXPECT_LE(-s.position.y(), previous + 1e-9) << "t = " << t;
+    previous = -s.position.y();
+    const TranslationState a = (*legs)->at(t - 1e-4), b = (*legs)->at(t + 1e-4);
+    EXPECT_LT(((b.position - a.position) / 2e-4 - s.velocity).norm(), 1e-4) << "t = " << t;
+  }
+  EXPECT_FALSE(legsTranslation({0, 5, 5}, {points[0], points[1], points[2]}).isOk());
+}
+
 TEST(Attitude, TorqueFreeTumblingConservesMomentumAndEnergy) {
   Orbit free_space;
   free_space.enabled = false;

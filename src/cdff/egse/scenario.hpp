@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -42,6 +43,11 @@ struct SensorConfig {
   double rate = 10.0;    // Hz
   double phase = 0.0;    // s, time of the first measurement
   double latency = 0.0;  // s from the measurement to its availability (log time)
+  /// The band of true range (m, servicer to target centre) in which the sensor is on: the
+  /// mission's timeline switches each sensor on within its phase of the approach (a far-range
+  /// camera from 2 km, the stereo cameras from 20 m). Outside it: no measurement.
+  double min_active_range = 0.0;
+  double max_active_range = std::numeric_limits<double>::infinity();
   /// Mounting: the sensor's body frame in the servicer frame (x along the boresight). Cameras
   /// and the ToF publish in their optical frame (z along the boresight), `<name>_optical`.
   Eigen::Isometry3d servicer_T_mount = Eigen::Isometry3d::Identity();
@@ -131,6 +137,9 @@ struct Scenario {
   bool smooth = true;
   std::vector<double> waypoint_times;
   std::vector<Eigen::Vector3d> waypoints;
+  /// waypoints' `profile: legs`: a minimum-jerk leg between consecutive waypoints, at rest at
+  /// each (a rendezvous's hold points); `spline` (false): one natural cubic spline through all.
+  bool waypoint_legs = false;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero(), axis = Eigen::Vector3d::UnitZ(),
                   reference = -Eigen::Vector3d::UnitY();
   double radius = 10.0, radial_rate = 0.0, angular_rate = 0.0, phase = 0.0;  // fly-around

@@ -38,6 +38,17 @@ Status readMount(const Field& f, Sensor& s) {
   return Status::ok();
 }
 
+/// [min, max] m: the band of true range in which the sensor is on.
+Status readActiveRange(const Field& f, Sensor& s) {
+  std::vector<double> band;
+  CDFF_RETURN_IF_ERROR(f.numbers(band, 2, 2, Range::closed(0, 1e9, "m")));
+  if (!(band[0] < band[1]))
+    return f.fail("[min, max] metres with min < max", "min is not below max");
+  s.min_active_range = band[0];
+  s.max_active_range = band[1];
+  return Status::ok();
+}
+
 /// The keys of every sensor.
 Table<Sensor> sensorKeys(std::string what) {
   Table<Sensor> table(std::move(what));
@@ -46,7 +57,8 @@ Table<Sensor> sensorKeys(std::string what) {
       .optional("rate", schema::number(&Sensor::rate, Range::leftOpen(0, 10000, "Hz")))
       .optional("phase", schema::number(&Sensor::phase, Range::closed(0, 1e6, "s")))
       .optional("latency", schema::number(&Sensor::latency, Range::closed(0, 10, "s")))
-      .optional("mount", readMount);
+      .optional("mount", readMount)
+      .optional("active_range", readActiveRange);
   return table;
 }
 

@@ -67,10 +67,12 @@ Status waypointPositions(const Field& f, Scenario& sc) {
 const Table<Scenario>& waypointsTable() {
   // The times first: the positions are one per time.
   static const Table<Scenario> table =
-      Table<Scenario>("waypoints {type, times, positions}")
+      Table<Scenario>("waypoints {type, times, positions, profile}")
           .optional("type", trajectoryTypeRead)
           .required("times", waypointTimes, "the waypoints' times (s)")
-          .required("positions", waypointPositions, "the waypoints' positions (lvlh, m)");
+          .required("positions", waypointPositions, "the waypoints' positions (lvlh, m)")
+          .optional("profile",
+                    schema::named(&Scenario::waypoint_legs, {{"spline", false}, {"legs", true}}));
   return table;
 }
 

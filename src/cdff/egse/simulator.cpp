@@ -59,7 +59,8 @@ Result<std::unique_ptr<Translation>> makeTranslation(const Scenario& sc, double 
                                     sc.end_time < 0 ? duration : sc.end_time, sc.smooth);
       break;
     case TranslationKind::kWaypoints: {
-      auto spline = splineTranslation(sc.waypoint_times, sc.waypoints);
+      auto spline = sc.waypoint_legs ? legsTranslation(sc.waypoint_times, sc.waypoints)
+                                     : splineTranslation(sc.waypoint_times, sc.waypoints);
       if (!spline) return spline.status();
       translation = std::move(spline).value();
       break;
@@ -453,6 +454,11 @@ Status Simulator::renderCamera(SensorState& sensor, double t, std::vector<Render
 Status Simulator::process(SensorState& sensor, double t) {
   const SensorConfig& c = *sensor.config;
   const Timestamp stamp = micros(t);
+  // Outside its band of range the sensor is off (the mission's timeline).
+  if (c.min_active_range > 0 || std::isfinite(c.max_active_range)) {
+    const double range = world_->servicerTtarget(t).translation().norm();
+    if (range < c.min_active_range || range > c.max_active_range) return Status::ok();
+  }
   const Timestamp latency = micros(c.latency);
   // Frame-level faults: dropped and late measurements (any sensor).
   Rng fault_rng = Rng::stream(seed_, c.name + "/faults", sensor.index);

@@ -313,6 +313,24 @@ class Pointing final : public Attitude {
   double yaw_, pitch_;
 };
 
+// Minimum-jerk legs between consecutive waypoints, at rest at each.
+class Legs final : public Translation {
+ public:
+  Legs(std::vector<double> t, const std::vector<Eigen::Vector3d>& p) : times_(std::move(t)) {
+    for (std::size_t i = 0; i + 1 < p.size(); ++i)
+      legs_.emplace_back(p[i], p[i + 1], times_[i], times_[i + 1], true);
+  }
+  TranslationState at(double t) const override {
+    // The leg under way at t (before the first: the first, at rest; after the last: the last).
+    const auto after = std::upper_bound(times_.begin() + 1, times_.end() - 1, t);
+    return legs_[static_cast<std::size_t>(after - (times_.begin() + 1))].at(t);
+  }
+
+ private:
+  std::vector<double> times_;
+  std::vector<Line> legs_;
+};
+
 }  // namespace
 
 std::unique_ptr<Translation> holdTranslation(const Eigen::Vector3d& position) {
@@ -325,8 +343,8 @@ std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start,
   return std::make_unique<Line>(start, end, t0, t1, smooth);
 }
 
-Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>& times,
-                                                       const std::vector<Eigen::Vector3d>& points) {
+Status checkWaypoints(const std::vector<double>& times,
+                      const std::vector<Eigen::Vector3d>& points) {
   if (times.size() != points.size() || times.size() < 2)
     return invalidParameter(
         "waypoints: {} times and {} points; expected the same number, at least 2", times.size(),
@@ -337,7 +355,19 @@ Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>
           "waypoints: time {} = {} s is not after time {} = {} s; expected "
           "strictly increasing times",
           i, times[i], i - 1, times[i - 1]);
+  return Status::ok();
+}
+
+Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>& times,
+                                                       const std::vector<Eigen::Vector3d>& points) {
+  CDFF_RETURN_IF_ERROR(checkWaypoints(times, points));
   return std::unique_ptr<Translation>(std::make_unique<Spline>(times, points));
+}
+
+Result<std::unique_ptr<Translation>> legsTranslation(const std::vector<double>& times,
+                                                     const std::vector<Eigen::Vector3d>& points) {
+  CDFF_RETURN_IF_ERROR(checkWaypoints(times, points));
+  return std::unique_ptr<Translation>(std::make_unique<Legs>(times, points));
 }
 
 std::unique_ptr<Translation> flyAroundTranslation(const Eigen::Vector3d& centre,

@@ -43,6 +43,10 @@ std::unique_ptr<Translation> lineTranslation(const Eigen::Vector3d& start,
 /// at the first and last point outside the time span. Times strictly increasing, >= 2 points.
 Result<std::unique_ptr<Translation>> splineTranslation(const std::vector<double>& times,
                                                        const std::vector<Eigen::Vector3d>& points);
+/// Minimum-jerk legs from points[i] at times[i] to points[i + 1] at times[i + 1], at rest at each
+/// point (a rendezvous's hold points: a repeated point is a hold). Same checks as the spline.
+Result<std::unique_ptr<Translation>> legsTranslation(const std::vector<double>& times,
+                                                     const std::vector<Eigen::Vector3d>& points);
 /// A circle (or spiral) about `centre`: radius(t) = radius + radial_rate * t in the plane
 /// normal to `axis`, at `rate` rad/s from `phase` (rad, measured from `reference`, a direction
 /// in the plane).
