@@ -56,6 +56,10 @@ Result<dds_entity_t> Participant::createWriter(dds_entity_t topic, const WriterQ
   if (q.durability == Durability::kTransientLocal && q.depth > 0) {
     dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
     dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, q.depth);
+    // Cyclone keeps a transient-local writer's history for late joiners as deep as its
+    // durability service says (1 by default).
+    dds_qset_durability_service(qos, 0, DDS_HISTORY_KEEP_LAST, q.depth, DDS_LENGTH_UNLIMITED,
+                                DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
   } else {
     dds_qset_durability(qos, q.durability == Durability::kTransientLocal
                                  ? DDS_DURABILITY_TRANSIENT_LOCAL
