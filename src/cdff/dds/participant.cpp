@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
+
 namespace cdff::dds {
 
 Status ddsError(dds_return_t code, std::string_view what) {
@@ -13,6 +15,14 @@ Status ddsError(dds_return_t code, std::string_view what) {
 Result<std::unique_ptr<Participant>> Participant::create(int domain) {
   if (domain < 0 || domain > kMaxDomainId)
     return invalidParameter("DDS domain {}; expected 0 to {}", domain, kMaxDomainId);
+  const char* uri = std::getenv("CYCLONEDDS_URI");
+  if (uri == nullptr || *uri == '\0') {
+    // The domain lives until the process ends; a second create() finds it there.
+    const dds_entity_t created =
+        dds_create_domain(static_cast<dds_domainid_t>(domain), kDefaultConfiguration);
+    if (created < 0 && created != DDS_RETCODE_PRECONDITION_NOT_MET)
+      return ddsError(created, fmt::format("configuring DDS domain {}", domain));
+  }
   const dds_entity_t participant =
       dds_create_participant(static_cast<dds_domainid_t>(domain), nullptr, nullptr);
   if (participant < 0)

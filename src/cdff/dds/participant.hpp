@@ -11,7 +11,7 @@
 //    (transient-local durability, `cdff node`): a recorder started after the node still gets
 //    them; volatile readers (ROS 2's default) match it too;
 //  - readers keep every sample until it is taken.
-// The domain gets Cyclone's default configuration, or $CYCLONEDDS_URI when set.
+// The domain gets kDefaultConfiguration, or $CYCLONEDDS_URI when set.
 
 #include <cstdint>
 #include <map>
@@ -39,6 +39,18 @@ struct WriterQos {
 struct ReaderQos {
   Durability durability = Durability::kVolatile;
 };
+
+/// The Cyclone configuration of a domain when $CYCLONEDDS_URI is not set. Large samples (a 2 MB
+/// image) need large UDP datagrams and socket buffers: with Cyclone's defaults (1344-byte
+/// fragments in 14 kB messages, a 1 MB receive buffer) a burst of fragments overflows the buffer
+/// and each loss costs a retransmission round (~100 ms per 2 MB image on loopback, ddsperf
+/// included); with 64 kB messages and up to 16 MB of buffer (as much as net.core.rmem_max
+/// allows) a 2 MB image takes ~0.5 ms. Data go by unicast (multicast for discovery only), so
+/// that one publisher's samples reach a reader through one socket, in order.
+inline constexpr const char* kDefaultConfiguration =
+    "<CycloneDDS><Domain><General><AllowMulticast>spdp</AllowMulticast>"
+    "<MaxMessageSize>65500B</MaxMessageSize></General><Internal>"
+    "<SocketReceiveBufferSize min=\"default\" max=\"16MB\"/></Internal></Domain></CycloneDDS>";
 
 /// The largest DDS domain id (Cyclone's default port mapping).
 inline constexpr int kMaxDomainId = 232;
