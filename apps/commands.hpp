@@ -17,5 +17,6 @@ void addInitialStateCommand(CLI::App& root, int& exit_code);
 void addModelCommands(CLI::App& root, int& exit_code);
 void addTrainCommand(CLI::App& root, int& exit_code);
 void addCampaignCommands(CLI::App& root, int& exit_code);
+void addDdsCommands(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

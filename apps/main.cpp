@@ -62,6 +62,7 @@ int main(int argc, char** argv) {
   cdff::app::addModelCommands(app, exit_code);
   cdff::app::addTrainCommand(app, exit_code);
   cdff::app::addCampaignCommands(app, exit_code);
+  cdff::app::addDdsCommands(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {

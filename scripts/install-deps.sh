@@ -12,6 +12,8 @@ packages=(
   libembree-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libzstd-dev liblz4-dev zlib1g-dev libboost-dev
+  # DDS transport (Eclipse Cyclone DDS; its IDL compiler idlc and ddsperf are in -tools)
+  cyclonedds-dev cyclonedds-tools
   # real data to validate on (ViSP tracking sequences with ground truth)
   visp-images-data
   # tests, benchmarks, bindings

@@ -101,17 +101,30 @@ Status McapSink::writeMessage(const Message& message) {
   return Status::ok();
 }
 
-Status McapSink::writeEvent(const Event& event) {
+nlohmann::json eventRecord(const Event& event) {
   const std::string source =
       event.instance.empty() ? event.dfpc : fmt::format("{}.{}", event.dfpc, event.instance);
-  CDFF_RETURN_IF_ERROR(recorder_.writeJson(options_.event_channel, event.stamp,
-                                           {{"level", eventLevel(event.type)},
-                                            {"source", source},
-                                            {"kind", toString(event.kind())},
-                                            {"type", toString(event.type)},
-                                            {"dfpc", event.dfpc},
-                                            {"instance", event.instance},
-                                            {"message", event.message}}));
+  return {{"level", eventLevel(event.type)}, {"source", source},   {"kind", toString(event.kind())},
+          {"type", toString(event.type)},    {"dfpc", event.dfpc}, {"instance", event.instance},
+          {"message", event.message}};
+}
+
+nlohmann::json timingRecord(const TimingRecord& timing) {
+  return {{"dfn", std::string(timing.instance)},
+          {"dfn_type", std::string(timing.dfn)},
+          {"dfi", std::string(timing.dfi)},
+          {"wall_s", timing.wall_s},
+          {"cpu_s", timing.cpu_s},
+          {"status", toString(timing.status)}};
+}
+
+std::string timingChannel(std::string_view dfpc) {
+  return fmt::format("/cdff/{}/timing", dfpc);
+}
+
+Status McapSink::writeEvent(const Event& event) {
+  CDFF_RETURN_IF_ERROR(
+      recorder_.writeJson(options_.event_channel, event.stamp, eventRecord(event)));
   ++events_written_;
   return Status::ok();
 }
@@ -119,16 +132,8 @@ Status McapSink::writeEvent(const Event& event) {
 Status McapSink::writeTiming(const TimingRecord& timing) {
   auto channel = timing_channels_.find(timing.dfpc);
   if (channel == timing_channels_.end())
-    channel = timing_channels_
-                  .emplace(std::string(timing.dfpc), fmt::format("/cdff/{}/timing", timing.dfpc))
-                  .first;
-  return recorder_.writeJson(channel->second, timing.stamp,
-                             {{"dfn", std::string(timing.instance)},
-                              {"dfn_type", std::string(timing.dfn)},
-                              {"dfi", std::string(timing.dfi)},
-                              {"wall_s", timing.wall_s},
-                              {"cpu_s", timing.cpu_s},
-                              {"status", toString(timing.status)}});
+    channel = timing_channels_.emplace(std::string(timing.dfpc), timingChannel(timing.dfpc)).first;
+  return recorder_.writeJson(channel->second, timing.stamp, timingRecord(timing));
 }
 
 Status McapSink::flush() {

@@ -17,6 +17,7 @@
 #include <map>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "cdff/dfpc/replay.hpp"
@@ -84,6 +85,14 @@ class McapSink final : public Sink {
 /// The event level recorded for each kind of event: "error" for faults that a DFN reported and
 /// failed recoveries, "warning" for other faults and warnings, "info" otherwise.
 const char* eventLevel(EventType type);
+
+/// An event as recordings hold it on /cdff/events: level, source, kind, type, dfpc, instance,
+/// message (docs/recording.md).
+nlohmann::json eventRecord(const Event& event);
+/// A DFN call's timing record, as recorded on timingChannel(dfpc).
+nlohmann::json timingRecord(const TimingRecord& timing);
+/// "/cdff/<dfpc>/timing".
+std::string timingChannel(std::string_view dfpc);
 
 /// replay() from MCAP files (merged by time) into an MCAP file, as a script or a campaign run
 /// wants it: the output is closed after a failed run too, so that what was produced is kept.

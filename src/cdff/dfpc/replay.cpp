@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -78,7 +79,10 @@ Status checkSettingsApplied(const std::vector<ParameterSetting>& settings,
 
 }  // namespace
 
-Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options) {
+namespace {
+
+// The graphs of a run with their --set settings and remaps applied.
+Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
   if (options.graph_files.empty()) return invalidParameter("no DFPC graph to run");
   std::vector<ParameterSetting> settings;
   for (const std::string& text : options.parameter_settings) {
@@ -98,6 +102,33 @@ Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions&
   }
   CDFF_RETURN_IF_ERROR(checkSettingsApplied(settings, applied_to, graphs));
   CDFF_RETURN_IF_ERROR(applyRemaps(graphs, options.remaps));
+  return graphs;
+}
+
+}  // namespace
+
+Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& options) {
+  Result<std::vector<GraphSpec>> graphs = loadGraphs(options);
+  if (!graphs) return graphs.status();
+  std::set<std::string> produced;
+  for (const GraphSpec& g : *graphs)
+    for (const DfpcOutputSpec& out : g.outputs) produced.insert(g.outputChannel(out));
+  std::vector<ChannelInfo> inputs;
+  std::set<std::string> seen;
+  for (const GraphSpec& g : *graphs)
+    for (const DfpcInputSpec& in : g.inputs) {
+      if (produced.count(in.channel) || !seen.insert(in.channel).second) continue;
+      const TypeId type = findType(in.type);
+      if (!type) return notFound("input '{}.{}': unknown type '{}'", g.name, in.name, in.type);
+      inputs.push_back({in.channel, type, 0});
+    }
+  return inputs;
+}
+
+Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options) {
+  Result<std::vector<GraphSpec>> loaded = loadGraphs(options);
+  if (!loaded) return loaded.status();
+  std::vector<GraphSpec>& graphs = *loaded;
   OrchestratorOptions o;
   o.sink = &sink;
   o.record_timing = options.record_timing;

@@ -69,6 +69,11 @@ struct ReplayResult {
 /// write, a run-while rule that names a DFPC not loaded, an image without its mounting (pairs).
 Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options);
 
+/// The channels that the graphs of `options` (with their settings and remaps) read from outside
+/// the run, with their types: every DFPC input whose channel no loaded DFPC's output produces.
+/// What a live input must provide (`cdff node` subscribes to them). Errors: as replay()'s.
+Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& options);
+
 /// A one-line progress bar on a terminal ("[#####.....]  52.0 %  t = 12.30 s  4 517 messages"),
 /// redrawn at most every `interval_s` of steady time; nothing when disabled (not a terminal).
 class ProgressBar {
