@@ -6,7 +6,8 @@
 //   CDFF type            ASN.1 type                       loss
 //   Timestamp            Time                             none
 //   Eigen::Vector3d      Point                            none
-//   Eigen::Isometry3d    Pose                             none (a unit quaternion)
+//   Eigen::Isometry3d    Pose                             the rotation matrix as its quaternion
+//                                                         (back within 1e-15)
 //   Transform            Transform                        none
 //   PoseWithCovariance   TransformWithCovariance          none
 //   RigidBodyState       RigidBodyState                   none
