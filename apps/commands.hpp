@@ -9,6 +9,8 @@ namespace cdff::app {
 void addDfnCommands(CLI::App& root, int& exit_code);
 void addDemoCommand(CLI::App& root, int& exit_code);
 void addLogCommands(CLI::App& root, int& exit_code);
+/// `cdff log export` (log_export_command.cpp), under the `log` subcommand.
+void addLogExportCommand(CLI::App& log, int& exit_code);
 void addSimCommand(CLI::App& root, int& exit_code);
 void addDfpcCommands(CLI::App& root, int& exit_code);
 void addRunCommand(CLI::App& root, int& exit_code);

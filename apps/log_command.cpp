@@ -1,4 +1,5 @@
-// cdff log info | cat | cut: inspect, print and cut MCAP recordings (docs/recording.md).
+// cdff log info | cat | cut | export: inspect, print, cut and export MCAP recordings
+// (docs/recording.md; export: log_export_command.cpp, docs/asn1.md).
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -415,7 +416,7 @@ int cut(const std::vector<std::string>& paths, const std::string& output,
 }  // namespace
 
 void addLogCommands(CLI::App& root, int& exit_code) {
-  CLI::App* log = root.add_subcommand("log", "Inspect, print and cut MCAP recordings");
+  CLI::App* log = root.add_subcommand("log", "Inspect, print, cut and export MCAP recordings");
   log->require_subcommand(1);
 
   CLI::App* info_cmd = log->add_subcommand(
@@ -471,6 +472,8 @@ void addLogCommands(CLI::App& root, int& exit_code) {
   cut_cmd->callback([=, &exit_code] {
     exit_code = cut(*cut_files, *output, *cut_channels, *cut_window, *compression, *chunk_size);
   });
+
+  addLogExportCommand(*log, exit_code);
 }
 
 }  // namespace cdff::app

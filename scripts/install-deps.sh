@@ -14,6 +14,8 @@ packages=(
   libzstd-dev liblz4-dev zlib1g-dev libboost-dev
   # DDS transport (Eclipse Cyclone DDS; its IDL compiler idlc and ddsperf are in -tools)
   cyclonedds-dev cyclonedds-tools
+  # ESROCOS ASN.1 types: uPER codecs generated at build time (asn1c's skeletons are in the package)
+  asn1c
   # real data to validate on (ViSP tracking sequences with ground truth)
   visp-images-data
   # tests, benchmarks, bindings
