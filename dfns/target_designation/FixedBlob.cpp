@@ -52,6 +52,11 @@ std::vector<Blob> blobsOf(const Image& image, double min_snr, int max_area) {
     b.centroid /= b.flux;
     b.box = {stats.at<int>(l, cv::CC_STAT_LEFT), stats.at<int>(l, cv::CC_STAT_TOP),
              stats.at<int>(l, cv::CC_STAT_WIDTH), stats.at<int>(l, cv::CC_STAT_HEIGHT)};
+    // A blob cut by the image's edge (the Earth's limb, a body entering the field) is not whole:
+    // its centroid is not an object's.
+    if (b.box.x == 0 || b.box.y == 0 || b.box.x + b.box.width == f.cols ||
+        b.box.y + b.box.height == f.rows)
+      continue;
     out.push_back(b);
   }
   std::sort(out.begin(), out.end(), [](const Blob& a, const Blob& b) { return a.flux > b.flux; });
@@ -116,18 +121,27 @@ class TargetDesignationFixedBlob final : public TargetDesignationFixedBlobBase {
         ++moved;
     }
     if (fixed.empty() || (moved == 0 && now.size() > 1)) return std::nullopt;
-    const Blob& target = *fixed.front();  // brightest first
-    const int side = static_cast<int>(
-        std::ceil(std::max(target.box.width, target.box.height) + 2 * params_.margin));
-    ImageRegion d = ImageRegion::box(target.centroid.x() - 0.5 * (side - 1),
-                                     target.centroid.y() - 0.5 * (side - 1), side, side);
+    // The brightest fixed blob whose box, with its margin, lies in the image (the matcher takes
+    // its template there; a target at the edge is designated once it is further in).
+    std::optional<ImageRegion> region;
+    for (const Blob* b : fixed) {
+      const int side =
+          static_cast<int>(std::ceil(std::max(b->box.width, b->box.height) + 2 * params_.margin));
+      const double x = b->centroid.x() - 0.5 * (side - 1), y = b->centroid.y() - 0.5 * (side - 1);
+      if (x >= 0 && y >= 0 && x + side <= image.width && y + side <= image.height) {
+        region = ImageRegion::box(x, y, side, side);
+        break;
+      }
+    }
+    if (!region) return std::nullopt;
+    ImageRegion& d = *region;
     d.stamp = image.stamp;
     d.frame_id = image.frame_id;
     d.source = "automatic";
     // The centroid's uncertainty: a few tenths of a pixel for a blob of a few pixels.
     d.covariance = 0.25 * Eigen::Matrix2d::Identity();
     history_.clear();
-    return d;
+    return region;
   }
 
   std::deque<std::vector<Blob>> history_;

@@ -7,6 +7,8 @@
 
 #include <random>
 
+#include <opencv2/imgproc.hpp>
+
 #include "TargetDesignation.gen.hpp"
 #include "cdff/types/opencv.hpp"
 #include "support/dfn_testing.hpp"
@@ -31,8 +33,10 @@ class TargetDesignationTest : public ::testing::Test {
   std::mt19937 rng_{5};
   const Eigen::Vector2d target_{300.4, 251.7};
 
-  /// Frame k: the target (an elongated blob, 3 x 2 px) fixed, the stars shifted by k * drift.
-  Image frame(int k, const Eigen::Vector2d& drift) {
+  /// Frame k: the target (an elongated blob, 3 x 2 px) fixed, the stars shifted by k * drift;
+  /// with `limb`, the Earth's sunlit limb, brighter than everything, cut by the image's bottom
+  /// edge and fixed too (the Earth below the line of sight).
+  Image frame(int k, const Eigen::Vector2d& drift, bool limb = false) {
     cv::Mat f(512, 512, CV_32F, cv::Scalar(4.0f));
     std::normal_distribution<float> noise(0.0f, 1.5f);
     for (float& p : cv::Mat_<float>(f)) p += noise(rng_);
@@ -44,6 +48,7 @@ class TargetDesignationTest : public ::testing::Test {
       const double x = where(stars) + k * drift.x(), y = where(stars) + k * drift.y();
       spot(f, x, y, 0.8, bright(stars));
     }
+    if (limb) cv::ellipse(f, {256, 900}, {400, 400}, 0, 0, 360, cv::Scalar(250), cv::FILLED);
     cv::Mat bytes;
     f.convertTo(bytes, CV_8U);
     return fromMat(bytes, static_cast<Timestamp>(k) * 1'000'000, "camera_far_optical").value();
@@ -60,6 +65,17 @@ TEST_F(TargetDesignationTest, PicksTheBlobThatStaysPutWhileTheStarsDrift) {
   EXPECT_EQ(d.source, "automatic");
   EXPECT_LT((d.centre() - target_).norm(), 0.3);
   EXPECT_GE(d.width, 12);  // the blob and a margin
+}
+
+TEST_F(TargetDesignationTest, AFixedBlobCutByTheImageEdgeIsNotTheTarget) {
+  // The limb is the brightest blob that stays put, but its centroid is not an object's: only a
+  // blob whole in the image, with its designation's margin, is designated.
+  for (int k = 0; k < 3; ++k) {
+    dfn_->in.image.set(frame(k, {4.0, -2.5}, true));
+    ASSERT_TRUE(dfn_->process().isOk()) << dfn_->diagnostics().last_error;
+  }
+  ASSERT_NE(dfn_->out.designation.get(), nullptr);
+  EXPECT_LT((dfn_->out.designation->centre() - target_).norm(), 0.5);
 }
 
 TEST_F(TargetDesignationTest, WaitsWhileNothingMoves) {
