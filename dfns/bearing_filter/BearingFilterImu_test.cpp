@@ -1,5 +1,5 @@
 // BearingFilter with the servicer's IMU: a servicer 1.5 km from the target manoeuvring (thrust of
-// up to 0.08 m/s^2, as the rendezvous's time-compressed far leg) with an accelerometer biased by
+// up to 0.07 m/s^2, as the rendezvous's time-compressed far leg) with an accelerometer biased by
 // (0.02, -0.015, 0.01) m/s^2 (the seed's MTi: 0.02 m/s^2 turn-on, 1 sigma), its noise density
 // 0.002 m/s^2/sqrt(Hz), mounted turned on the servicer; images at 1 Hz with 0.1 px of noise,
 // AHRS samples at 10 Hz, the radar at 1 Hz. The truth is the controlled Clohessy-Wiltshire
