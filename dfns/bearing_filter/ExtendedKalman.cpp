@@ -8,12 +8,13 @@
 #include <nlohmann/json.hpp>
 
 #include "BearingFilter.gen.hpp"
+#include "cdff/tracking/imu_thrust.hpp"
 #include "cdff/tracking/relative_motion.hpp"
 
 namespace cdff::dfn {
 namespace {
 
-using tracking::Matrix6d;
+using tracking::Matrix9d;
 using tracking::RelativeState;
 
 /// A radar measurement record, checked.
@@ -59,10 +60,10 @@ Result<RadarSample> parseRadar(const nlohmann::json& j) {
 /// Joseph-form update of `s` with measurement z (innovation y) of Jacobian h and noise r.
 template <int M>
 void update(RelativeState& s, const Eigen::Matrix<double, M, 1>& y,
-            const Eigen::Matrix<double, M, 6>& h, const Eigen::Matrix<double, M, M>& r) {
+            const Eigen::Matrix<double, M, 9>& h, const Eigen::Matrix<double, M, M>& r) {
   const Eigen::Matrix<double, M, M> innovation_cov = h * s.covariance * h.transpose() + r;
-  const Eigen::Matrix<double, 6, M> k = s.covariance * h.transpose() * innovation_cov.inverse();
-  const Matrix6d a = Matrix6d::Identity() - k * h;
+  const Eigen::Matrix<double, 9, M> k = s.covariance * h.transpose() * innovation_cov.inverse();
+  const Matrix9d a = Matrix9d::Identity() - k * h;
   s.x += k * y;
   s.covariance = a * s.covariance * a.transpose() + k * r * k.transpose();
   s.covariance = 0.5 * (s.covariance + s.covariance.transpose()).eval();
@@ -77,6 +78,7 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
     attitudes_ = {};
     latest_radar_.reset();
     designation_.clear();
+    imu_ = {};
     return Status::ok();
   }
 
@@ -84,6 +86,8 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
 
  private:
   double meanMotion() const { return tracking::meanMotion(params_.orbit_altitude); }
+  /// Propagates `s` to `stamp`, with the IMU's measured thrust where there is one.
+  Status propagateTo(RelativeState& s, Timestamp stamp);
   /// The measurement's covariance, each eigenvalue at least min_measurement_sigma^2 (px^2).
   Eigen::Matrix2d measurementCovariance(const ImageRegion& m) const {
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m.covariance);
@@ -107,7 +111,21 @@ class BearingFilterExtendedKalman final : public BearingFilterExtendedKalmanBase
   Timestamp last_fix_ = 0;
   Timestamp last_range_ = std::numeric_limits<Timestamp>::min() / 2;
   std::string designation_;
+  tracking::ImuHistory imu_;
 };
+
+Status BearingFilterExtendedKalman::propagateTo(RelativeState& s, Timestamp stamp) {
+  const tracking::AccelerometerModel model{params_.accel_noise_density, params_.accel_bias_sigma,
+                                           params_.accel_bias_random_walk};
+  const tracking::MeasuredThrust thrust =
+      imu_.between(s.stamp, stamp, attitudes_, params_.attitude_tolerance, model);
+  if (thrust.samples_without_attitude > 0)
+    warn(fmt::format(
+        "{} IMU samples between t = {} us and t = {} us left out: no servicer attitude within "
+        "{} s of them",
+        thrust.samples_without_attitude, s.stamp, stamp, params_.attitude_tolerance));
+  return tracking::propagate(s, stamp, meanMotion(), params_.acceleration_psd, thrust);
+}
 
 Result<tracking::BearingGeometry> BearingFilterExtendedKalman::geometryAt(
     Timestamp stamp, const std::string& frame, Eigen::Matrix3d& attitude_cov) const {
@@ -131,17 +149,17 @@ Result<tracking::BearingGeometry> BearingFilterExtendedKalman::geometryAt(
 Status BearingFilterExtendedKalman::fuseRadar(const RadarSample& r, RelativeState& s) {
   double range = r.range;
   if (r.stamp >= s.stamp) {
-    CDFF_RETURN_IF_ERROR(tracking::propagate(s, r.stamp, meanMotion(), params_.acceleration_psd));
+    CDFF_RETURN_IF_ERROR(propagateTo(s, r.stamp));
   } else if (s.stamp - r.stamp <= 200'000) {
     range += r.range_rate * static_cast<double>(s.stamp - r.stamp) * 1e-6;  // a little late
   } else {
     return invalidInput("input 'radar' at t = {} us is older than the filter's time (t = {} us)",
                         r.stamp, s.stamp);
   }
-  const Eigen::Vector3d p = s.x.head<3>(), v = s.x.tail<3>();
+  const Eigen::Vector3d p = s.position(), v = s.velocity();
   const double n = p.norm();
   const Eigen::Vector3d d = p / n;
-  Eigen::Matrix<double, 2, 6> h = Eigen::Matrix<double, 2, 6>::Zero();
+  Eigen::Matrix<double, 2, 9> h = Eigen::Matrix<double, 2, 9>::Zero();
   h.block<1, 3>(0, 0) = d.transpose();
   h.block<1, 3>(1, 0) = ((v - d * d.dot(v)) / n).transpose();
   h.block<1, 3>(1, 3) = d.transpose();
@@ -176,7 +194,7 @@ Result<RelativeState> BearingFilterExtendedKalman::initialise(const ImageRegion&
   const Eigen::Matrix3d along = ray * ray.transpose();
   s.covariance.topLeftCorner<3, 3>() =
       range_sigma * range_sigma * along + across_var * (Eigen::Matrix3d::Identity() - along);
-  s.covariance.bottomRightCorner<3, 3>() =
+  s.covariance.block<3, 3>(3, 3) =
       params_.initial_velocity_sigma * params_.initial_velocity_sigma * Eigen::Matrix3d::Identity();
   if (radar) last_range_ = m.stamp;
   return s;
@@ -192,11 +210,11 @@ Status BearingFilterExtendedKalman::fuseImage(const ImageRegion& m, RelativeStat
   Eigen::Matrix3d attitude_cov;
   auto g = geometryAt(m.stamp, m.frame_id, attitude_cov);
   if (!g) return g.status().withContext("input 'measurement'");
-  CDFF_RETURN_IF_ERROR(tracking::propagate(s, m.stamp, meanMotion(), params_.acceleration_psd));
-  const Eigen::Vector3d p = s.x.head<3>();
+  CDFF_RETURN_IF_ERROR(propagateTo(s, m.stamp));
+  const Eigen::Vector3d p = s.position();
   const std::optional<Eigen::Vector2d> predicted = g->pixelOf(p);
   if (!predicted) return Status::ok();  // behind the camera: nothing to compare (not fused)
-  Eigen::Matrix<double, 2, 6> h = Eigen::Matrix<double, 2, 6>::Zero();
+  Eigen::Matrix<double, 2, 9> h = Eigen::Matrix<double, 2, 9>::Zero();
   h.leftCols<3>() = g->positionJacobian(p);
   const Eigen::Matrix<double, 2, 3> ja = g->attitudeJacobian(p);
   Eigen::Matrix2d r = measurementCovariance(m) + ja * attitude_cov * ja.transpose();
@@ -217,7 +235,7 @@ Status BearingFilterExtendedKalman::fuseImage(const ImageRegion& m, RelativeStat
 Bearing BearingFilterExtendedKalman::bearingOf(const RelativeState& s,
                                                const tracking::BearingGeometry& g,
                                                const Eigen::Matrix3d& attitude_cov) const {
-  const Eigen::Vector3d p = s.x.head<3>(), v = s.x.tail<3>();
+  const Eigen::Vector3d p = s.position(), v = s.velocity();
   const double n = p.norm();
   const Eigen::Vector3d d_l = p / n;
   const Eigen::Matrix3d servicer_R_lvlh = g.lvlh_R_servicer.transpose();
@@ -239,7 +257,7 @@ Bearing BearingFilterExtendedKalman::bearingOf(const RelativeState& s,
     b.range_variance = d_l.dot(s.covariance.topLeftCorner<3, 3>() * d_l) +
                        std::pow(params_.centre_offset_sigma, 2);
     b.range_rate = d_l.dot(v);
-    b.range_rate_variance = d_l.dot(s.covariance.bottomRightCorner<3, 3>() * d_l);
+    b.range_rate_variance = d_l.dot(s.covariance.block<3, 3>(3, 3) * d_l);
   }
   b.designation = designation_;
   return b;
@@ -249,7 +267,7 @@ void BearingFilterExtendedKalman::publishState(const RelativeState& s) {
   tracking::ServicerAttitude attitude;
   if (auto a = attitudes_.at(s.stamp, params_.attitude_tolerance)) attitude = *a;
   RigidBodyState point = tracking::toRigidBodyState(s, attitude);
-  RigidBodyState centre = point;
+  RigidBodyState centre = tracking::toRigidBodyState(s, attitude, /*with_bias=*/false);
   // The filter follows the tracked point; the centre lies within centre_offset_sigma of it.
   centre.covariance.topLeftCorner<3, 3>() +=
       Eigen::Matrix3d::Identity() * std::pow(params_.centre_offset_sigma, 2);
@@ -259,6 +277,8 @@ void BearingFilterExtendedKalman::publishState(const RelativeState& s) {
 
 Status BearingFilterExtendedKalman::onProcess() {
   if (in.attitude.isFresh()) CDFF_RETURN_IF_ERROR(attitudes_.add(*in.attitude));
+  if (in.imu.isFresh() && params_.use_imu)
+    CDFF_RETURN_IF_ERROR(imu_.add(*in.imu, in.imu_mount.get()));
   std::optional<RadarSample> radar;
   if (in.radar.isFresh()) {
     Result<RadarSample> parsed = parseRadar(*in.radar);
@@ -268,7 +288,7 @@ Status BearingFilterExtendedKalman::onProcess() {
   const ImageRegion* m = in.measurement.isFresh() ? in.measurement.get() : nullptr;
   const ImageRegion* prediction = in.prediction.isFresh() ? in.prediction.get() : nullptr;
   if (m) CDFF_RETURN_IF_ERROR(m->validate().withContext("input 'measurement'"));
-  if (!m && !prediction && !radar) return Status::ok();  // an attitude sample, kept
+  if (!m && !prediction && !radar) return Status::ok();  // an attitude or IMU sample, kept
 
   // Work on a copy so that a failed call leaves the filter as it was.
   std::optional<RelativeState> next = state_;
@@ -292,6 +312,10 @@ Status BearingFilterExtendedKalman::onProcess() {
   if (m && (!next || (designation && lost))) {
     Result<RelativeState> started = initialise(*m);
     if (!started) return fail(started.status().withContext("input 'measurement'"));
+    if (next && next->hasBias()) {  // the accelerometer's bias outlives the track
+      started->x.tail<3>() = next->x.tail<3>();
+      started->covariance.bottomRightCorner<3, 3>() = next->covariance.bottomRightCorner<3, 3>();
+    }
     next = *started;
     fused = true;
     at = m;
@@ -304,10 +328,7 @@ Status BearingFilterExtendedKalman::onProcess() {
           "input 'prediction' at t = {} us is older than the filter's time (t = {} us); expected "
           "images in time order",
           prediction->stamp, next->stamp));
-    if (Status s =
-            tracking::propagate(*next, prediction->stamp, meanMotion(), params_.acceleration_psd);
-        !s)
-      return fail(s);
+    if (Status s = propagateTo(*next, prediction->stamp); !s) return fail(s);
     at = prediction;
   }
   if (designation) designation_ = m->source;

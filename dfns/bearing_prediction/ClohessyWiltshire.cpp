@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "BearingPrediction.gen.hpp"
+#include "cdff/tracking/imu_thrust.hpp"
 #include "cdff/tracking/relative_motion.hpp"
 
 namespace cdff::dfn {
@@ -11,12 +12,15 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
  protected:
   Status onConfigure() override {
     attitudes_ = {};
+    imu_ = {};
     return Status::ok();
   }
 
   Status onProcess() override {
     if (in.attitude.isFresh()) CDFF_RETURN_IF_ERROR(attitudes_.add(*in.attitude));
-    if (!in.image.isFresh()) return Status::ok();  // an attitude sample, kept for later
+    if (in.imu.isFresh() && params_.use_imu)
+      CDFF_RETURN_IF_ERROR(imu_.add(*in.imu, in.imu_mount.get()));
+    if (!in.image.isFresh()) return Status::ok();  // an attitude or IMU sample, kept for later
     for (const auto& [set, name] : {std::pair{in.state.get() != nullptr, "state"},
                                     std::pair{in.camera_mount.get() != nullptr, "camera_mount"}})
       if (!set) return invalidInput("input '{}' is not set; expected it with every image", name);
@@ -38,9 +42,15 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
     if (image.stamp < last.stamp)
       return invalidInput("input 'image' at t = {} us is older than the state (t = {} us)",
                           image.stamp, last.stamp);
+    const tracking::MeasuredThrust thrust = imu_.between(
+        last.stamp, image.stamp, attitudes_, params_.attitude_tolerance,
+        {params_.accel_noise_density, params_.accel_bias_sigma, params_.accel_bias_random_walk});
+    if (thrust.samples_without_attitude > 0)
+      warn(fmt::format("{} IMU samples before t = {} us left out: no servicer attitude within {} s",
+                       thrust.samples_without_attitude, image.stamp, params_.attitude_tolerance));
     CDFF_RETURN_IF_ERROR(tracking::propagate(*state, image.stamp,
                                              tracking::meanMotion(params_.orbit_altitude),
-                                             params_.acceleration_psd));
+                                             params_.acceleration_psd, thrust));
     auto attitude = attitudes_.at(image.stamp, params_.attitude_tolerance);
     if (!attitude) {
       warn(attitude.status().message());
@@ -81,6 +91,7 @@ class BearingPredictionClohessyWiltshire final : public BearingPredictionClohess
 
  private:
   tracking::AttitudeHistory attitudes_;
+  tracking::ImuHistory imu_;
 };
 CDFF_REGISTER_DFI(BearingPredictionClohessyWiltshire);
 

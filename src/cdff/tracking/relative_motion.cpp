@@ -40,30 +40,50 @@ Matrix6d whiteAccelerationNoise(double psd, double dt) {
   return q;
 }
 
-Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd) {
+Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd,
+                 double bias_walk_psd) {
   if (stamp < s.stamp)
     return invalidInput("cannot propagate the relative state back from t = {} us to t = {} us",
                         s.stamp, stamp);
   const double dt = static_cast<double>(stamp - s.stamp) * 1e-6;
   const Matrix6d phi = cwTransition(mean_motion, dt);
-  s.x = phi * s.x;
-  s.covariance = phi * s.covariance * phi.transpose() + whiteAccelerationNoise(psd, dt);
-  s.covariance = 0.5 * (s.covariance + s.covariance.transpose()).eval();
+  const Vector6d x = s.x.head<6>();
+  s.x.head<6>() = phi * x;
+  // The position and velocity blocks as the 6-state filter computes them; the bias's
+  // cross-covariance carried by the transition.
+  const Matrix6d p = s.covariance.topLeftCorner<6, 6>();
+  Matrix6d q = phi * p * phi.transpose() + whiteAccelerationNoise(psd, dt);
+  s.covariance.topLeftCorner<6, 6>() = 0.5 * (q + q.transpose());
+  if (s.hasBias()) {
+    const Eigen::Matrix<double, 6, 3> cross = phi * s.covariance.topRightCorner<6, 3>();
+    s.covariance.topRightCorner<6, 3>() = cross;
+    s.covariance.bottomLeftCorner<3, 6>() = cross.transpose();
+    s.covariance.bottomRightCorner<3, 3>() += bias_walk_psd * dt * Eigen::Matrix3d::Identity();
+  }
   s.stamp = stamp;
   return Status::ok();
 }
 
-RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude) {
+namespace {
+// The state's indices in a RigidBodyState's covariance [dt, dtheta, dv, domega]: p, v, b.
+constexpr int kRigidIndex[9] = {0, 1, 2, 6, 7, 8, 9, 10, 11};
+}  // namespace
+
+RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude,
+                                bool with_bias) {
   RigidBodyState r;
   r.pose = Transform::identity("lvlh", "servicer", s.stamp);
   // The servicer relative to the target is -p, -v: the sign change of both leaves their
-  // covariances (and the cross-covariance) as they are.
+  // covariances (and the cross-covariance) as they are; b keeps its sign, so its
+  // cross-covariance with p and v changes sign.
   r.pose.translation = -s.x.head<3>();
-  r.twist.linear = -s.x.tail<3>();
-  r.covariance.topLeftCorner<3, 3>() = s.covariance.topLeftCorner<3, 3>();
-  r.covariance.block<3, 3>(0, 6) = s.covariance.topRightCorner<3, 3>();
-  r.covariance.block<3, 3>(6, 0) = s.covariance.bottomLeftCorner<3, 3>();
-  r.covariance.block<3, 3>(6, 6) = s.covariance.bottomRightCorner<3, 3>();
+  r.twist.linear = -s.x.segment<3>(3);
+  const int n = with_bias ? 9 : 6;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      r.covariance(kRigidIndex[i], kRigidIndex[j]) =
+          ((i < 6) != (j < 6) ? -1.0 : 1.0) * s.covariance(i, j);
+  if (with_bias) r.twist.angular = s.x.tail<3>();
   if (attitude) {
     r.pose.rotation = attitude->first;
     r.covariance.block<3, 3>(3, 3) = attitude->second;
@@ -81,11 +101,12 @@ Result<RelativeState> fromRigidBodyState(const RigidBodyState& state) {
   RelativeState s;
   s.stamp = state.pose.stamp;
   s.x.head<3>() = -state.pose.translation;
-  s.x.tail<3>() = -state.twist.linear;
-  s.covariance.topLeftCorner<3, 3>() = state.covariance.topLeftCorner<3, 3>();
-  s.covariance.topRightCorner<3, 3>() = state.covariance.block<3, 3>(0, 6);
-  s.covariance.bottomLeftCorner<3, 3>() = state.covariance.block<3, 3>(6, 0);
-  s.covariance.bottomRightCorner<3, 3>() = state.covariance.block<3, 3>(6, 6);
+  s.x.segment<3>(3) = -state.twist.linear;
+  s.x.tail<3>() = state.twist.angular;
+  for (int i = 0; i < 9; ++i)
+    for (int j = 0; j < 9; ++j)
+      s.covariance(i, j) =
+          ((i < 6) != (j < 6) ? -1.0 : 1.0) * state.covariance(kRigidIndex[i], kRigidIndex[j]);
   return s;
 }
 

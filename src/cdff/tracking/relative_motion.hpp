@@ -19,12 +19,22 @@ namespace cdff::tracking {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector9d = Eigen::Matrix<double, 9, 1>;
+using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
-/// The state: x = [p, v], p the target's centre minus the servicer's (m, LVLH axes), v its rate.
+/// The state: x = [p, v, b], p the target's centre minus the servicer's (m, LVLH axes), v its
+/// rate, b the bias of the servicer's accelerometer (m/s^2, servicer axes) when an IMU's thrust
+/// drives the model (imu_thrust.hpp). Without an IMU, b and its covariance block stay zero and
+/// the filter is the 6-state one.
 struct RelativeState {
   Timestamp stamp = 0;
-  Vector6d x = Vector6d::Zero();
-  Matrix6d covariance = Matrix6d::Zero();
+  Vector9d x = Vector9d::Zero();
+  Matrix9d covariance = Matrix9d::Zero();
+
+  Eigen::Vector3d position() const { return x.head<3>(); }
+  Eigen::Vector3d velocity() const { return x.segment<3>(3); }
+  /// Whether the bias states are in use (their covariance is set).
+  bool hasBias() const { return covariance.bottomRightCorner<3, 3>().trace() > 0; }
 };
 
 /// The mean motion (rad/s) of a circular orbit `altitude` metres above the Earth's equatorial
@@ -36,8 +46,11 @@ double meanMotion(double altitude);
 Matrix6d cwTransition(double n, double dt);
 /// The covariance a white acceleration of `psd` (m^2/s^3 per axis) adds over dt seconds.
 Matrix6d whiteAccelerationNoise(double psd, double dt);
-/// Propagates `s` to `stamp` (forward only; an earlier stamp is an error).
-Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd);
+/// Propagates `s` to `stamp` (forward only; an earlier stamp is an error) with no measured
+/// thrust: the bias states, if any, keep their value (their covariance grows by `bias_walk_psd`
+/// per second, (m/s^2)^2/s).
+Status propagate(RelativeState& s, Timestamp stamp, double mean_motion, double psd,
+                 double bias_walk_psd = 0.0);
 
 /// The servicer's attitude lvlh_R_servicer and its covariance (rad^2), where known.
 using ServicerAttitude = std::optional<std::pair<Eigen::Quaterniond, Eigen::Matrix3d>>;
@@ -45,8 +58,12 @@ using ServicerAttitude = std::optional<std::pair<Eigen::Quaterniond, Eigen::Matr
 /// As a RigidBodyState: lvlh_T_servicer, the servicer in the target's orbital frame (origin at
 /// the target's centre: the simulator's /truth/tf/servicer), so translation -p and twist.linear
 /// -v with their covariances; the rotation the servicer's attitude with its covariance where
-/// `attitude` gives it, else identity with a zero block; no angular velocity (zero, zero block).
-RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude = {});
+/// `attitude` gives it, else identity with a zero block. twist.angular is not an angular
+/// velocity: it carries the accelerometer bias b (zero without an IMU) and the covariance's
+/// omega rows and columns b's (with its cross-covariance), so that BearingPrediction propagates
+/// the filter's model; `with_bias` false leaves them zero (a state for users).
+RigidBodyState toRigidBodyState(const RelativeState& s, const ServicerAttitude& attitude = {},
+                                bool with_bias = true);
 /// The inverse; the error names the field that is not a far-range state.
 Result<RelativeState> fromRigidBodyState(const RigidBodyState& state);
 
