@@ -67,7 +67,7 @@ TEST(ScenarioErrors, NameFileLineKeyAndValue) {
       parseScenario("duration: 10\nsensors:\n  camera_left:\n    exposur_time: 0.01\n", "s.yaml"),
       {"s.yaml", 4, 5},
       "s.yaml:4:5: sensors.camera_left.exposur_time: unknown key; expected one of {type, enabled, "
-      "rate, phase, latency, mount, width, height");
+      "rate, phase, latency, mount, active_range, width, height");
   expectError(
       parseScenario("duration: 10\nsensors:\n  camera_left:\n    exposur_time: 0.01\n", "s.yaml"),
       "shadow_map_size} (did you mean 'exposure_time'?)");
@@ -194,9 +194,10 @@ TEST(ScenarioOverrides, SetDottedKeysAndReportThem) {
   expectError(parseScenario("", "s.yaml", {"sensors.lidar.rang_noise=1"}),
               {"--set sensors.lidar.rang_noise=1", 0, 0},
               "--set sensors.lidar.rang_noise=1: sensors.lidar.rang_noise: unknown key; expected "
-              "one of {type, enabled, rate, phase, latency, mount, elevations_deg, firing_cycle, "
-              "laser_interval, min_range, max_range, range_noise, dropout_probability, "
-              "spurious_rate, motion_during_scan} (did you mean 'range_noise'?)");
+              "one of {type, enabled, rate, phase, latency, mount, active_range, elevations_deg, "
+              "firing_cycle, laser_interval, min_range, max_range, range_noise, "
+              "dropout_probability, spurious_rate, motion_during_scan} (did you mean "
+              "'range_noise'?)");
   expectError(parseScenario("", "s.yaml", {"duration"}), "--set duration: expected KEY=VALUE");
   expectError(parseScenario("faults: []\n", "s.yaml", {"faults.2.start=1"}),
               "'faults.2' indexes a list of 0 items");

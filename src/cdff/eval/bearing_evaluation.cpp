@@ -92,7 +92,7 @@ Result<BearingEvaluation> evaluateBearings(const std::vector<BearingSample>& est
 
   std::vector<double> angle, pixels, range_pct, latency;
   std::size_t rejected = 0;
-  Timestamp first_valid = 0, last_valid = 0, longest_gap = 0;
+  UpdateRates rates;
   result.frames = estimates.size();
   for (const BearingSample& s : estimates) {
     const Bearing& b = s.bearing;
@@ -100,9 +100,7 @@ Result<BearingEvaluation> evaluateBearings(const std::vector<BearingSample>& est
     const bool usable =
         s.valid && b.direction.allFinite() && std::abs(b.direction.norm() - 1.0) < 1e-6;
     if (!usable) continue;
-    if (result.valid_frames > 0) longest_gap = std::max(longest_gap, b.stamp - last_valid);
-    if (result.valid_frames == 0) first_valid = b.stamp;
-    last_valid = b.stamp;
+    rates.add(b.stamp);
     ++result.valid_frames;
     if (s.latency_s) latency.push_back(*s.latency_s);
 
@@ -140,11 +138,8 @@ Result<BearingEvaluation> evaluateBearings(const std::vector<BearingSample>& est
   result.range_error_pct = ErrorStatistics::of(std::move(range_pct));
   result.latency_s = ErrorStatistics::of(std::move(latency));
   result.covariance = bearingConsistencyOf(result.errors, rejected);
-  if (result.valid_frames >= 2 && last_valid > first_valid) {
-    result.rate_hz =
-        static_cast<double>(result.valid_frames - 1) / toSeconds(last_valid - first_valid);
-    result.min_rate_hz = 1.0 / toSeconds(longest_gap);
-  }
+  result.rate_hz = rates.meanHz();
+  result.min_rate_hz = rates.worstHz();
   if (!result.errors.empty()) {
     const auto [lo, hi] = std::minmax_element(
         result.errors.begin(), result.errors.end(),

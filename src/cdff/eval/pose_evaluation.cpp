@@ -174,13 +174,11 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
 
   std::vector<double> position, percent, angle, latency;
   std::size_t rejected_covariances = 0;
-  Timestamp first_valid = 0, last_valid = 0, longest_gap = 0;
+  UpdateRates rates;
   result.frames = estimates.size();
   for (const EstimateSample& e : estimates) {
     if (!e.valid) continue;
-    if (result.valid_frames > 0) longest_gap = std::max(longest_gap, e.pose.stamp - last_valid);
-    if (result.valid_frames == 0) first_valid = e.pose.stamp;
-    last_valid = e.pose.stamp;
+    rates.add(e.pose.stamp);
     ++result.valid_frames;
     if (e.latency_s) latency.push_back(*e.latency_s);
 
@@ -207,11 +205,8 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
   result.latency_s = ErrorStatistics::of(std::move(latency));
   result.covariance = consistencyOf(result.errors, rejected_covariances);
 
-  if (result.valid_frames >= 2 && last_valid > first_valid) {
-    result.rate_hz =
-        static_cast<double>(result.valid_frames - 1) / toSeconds(last_valid - first_valid);
-    result.min_rate_hz = 1.0 / toSeconds(longest_gap);
-  }
+  result.rate_hz = rates.meanHz();
+  result.min_rate_hz = rates.worstHz();
   if (!result.errors.empty()) {
     const auto [lo, hi] = std::minmax_element(
         result.errors.begin(), result.errors.end(),

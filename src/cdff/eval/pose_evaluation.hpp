@@ -13,6 +13,7 @@
 // 6 means the covariance is pessimistic, well above 6 optimistic (a filter that trusts it gates
 // out good measurements, a planner that trusts it takes risks it does not know of).
 
+#include <algorithm>
 #include <limits>
 #include <optional>
 #include <string>
@@ -41,6 +42,27 @@ struct ErrorStatistics {
   double rmse = 0, p95 = 0, max = 0;
 
   static ErrorStatistics of(std::vector<double> errors);
+};
+
+/// The update rates of a series of valid estimates, added in time order.
+class UpdateRates {
+ public:
+  void add(Timestamp stamp) {
+    if (count_ == 0) first_ = stamp;
+    if (count_ > 0) longest_gap_ = std::max(longest_gap_, stamp - last_);
+    last_ = stamp;
+    ++count_;
+  }
+  std::size_t count() const { return count_; }
+  /// (count - 1) / the span from the first to the last; 0 with fewer than two or no span.
+  double meanHz() const { return spans() ? (count_ - 1) / toSeconds(last_ - first_) : 0.0; }
+  /// 1 / the longest interval between two consecutive ones: the worst update rate.
+  double worstHz() const { return spans() ? 1.0 / toSeconds(longest_gap_) : 0.0; }
+
+ private:
+  bool spans() const { return count_ >= 2 && last_ > first_; }
+  std::size_t count_ = 0;
+  Timestamp first_ = 0, last_ = 0, longest_gap_ = 0;
 };
 
 /// The error of one matched estimate.

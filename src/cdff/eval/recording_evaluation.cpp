@@ -171,18 +171,28 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
   return Status::ok();
 }
 
+// The truth channel that --pair names for `channel` (nullopt when none does); an error when it
+// names a channel that is not a truth pose.
+Result<std::optional<std::string>> pairedTruth(const std::string& channel,
+                                               const std::map<std::string, PoseSeries>& truths,
+                                               const RecordingEvaluationOptions& options) {
+  const auto p = options.pairs.find(channel);
+  if (p == options.pairs.end()) return std::optional<std::string>();
+  if (!truths.count(p->second))
+    return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
+                    p->second, p->second, listChannels(truths));
+  return std::optional<std::string>(p->second);
+}
+
 // The truth channel to measure `product` (on `channel`) against: the one --pair names, else the
 // one of the same transform; "" (with a note) when there is none.
 Result<std::string> truthChannelFor(const std::string& channel, const PoseSeries& product,
                                     const std::map<std::string, PoseSeries>& truths,
                                     const RecordingEvaluationOptions& options,
                                     RecordingEvaluationNotes* notes) {
-  if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
-    if (!truths.count(p->second))
-      return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
-                      p->second, p->second, listChannels(truths));
-    return p->second;
-  }
+  Result<std::optional<std::string>> paired = pairedTruth(channel, truths, options);
+  if (!paired) return paired.status();
+  if (*paired) return **paired;
   std::vector<std::string> candidates;
   for (const auto& [name, t] : truths)
     if (framesOf(t) == framesOf(product)) candidates.push_back(name);
@@ -238,12 +248,9 @@ Result<std::string> truthChannelForBearing(const std::string& channel, const std
                                            const std::map<std::string, PoseSeries>& truths,
                                            const RecordingEvaluationOptions& options,
                                            RecordingEvaluationNotes* notes) {
-  if (auto p = options.pairs.find(channel); p != options.pairs.end()) {
-    if (!truths.count(p->second))
-      return notFound("--pair {}={}: no truth pose channel '{}'; truth channels: {}", channel,
-                      p->second, p->second, listChannels(truths));
-    return p->second;
-  }
+  Result<std::optional<std::string>> paired = pairedTruth(channel, truths, options);
+  if (!paired) return paired.status();
+  if (*paired) return **paired;
   const auto fits = [&](const PoseSeries& t) {
     return !t.poses.empty() && t.poses.front().parent_frame == frame &&
            t.poses.front().child_frame == "target";
