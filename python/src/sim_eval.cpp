@@ -2,6 +2,7 @@
 // trajectory library into an MCAP recording, as `cdff sim -o` does, and evaluate a run's
 // recording against its ground truth, returning what `cdff eval --json` writes.
 
+#include <cmath>
 #include <optional>
 
 #include <fmt/format.h>
@@ -79,7 +80,8 @@ eval::Statistic statisticNamed(const std::string& name) {
 
 py::object evaluate(const std::vector<std::string>& paths, const std::string& statistic,
                     double max_truth_gap_s, const std::vector<std::string>& products,
-                    const std::map<std::string, std::string>& pairs) {
+                    const std::map<std::string, std::string>& pairs,
+                    const std::optional<double>& focal_px, const std::string& camera) {
   eval::RecordingEvaluationOptions options;
   options.statistic = statisticNamed(statistic);
   if (!(max_truth_gap_s > 0))
@@ -90,6 +92,13 @@ py::object evaluate(const std::vector<std::string>& paths, const std::string& st
   options.pose.max_truth_gap_s = max_truth_gap_s;
   options.products = products;
   options.pairs = pairs;
+  if (focal_px) {
+    if (!(*focal_px > 0) || !std::isfinite(*focal_px))
+      raise(invalidParameter(
+          "cdff.eval.evaluate: focal_px = {}; expected a positive number of pixels", *focal_px));
+    options.focal_px = *focal_px;
+  }
+  options.camera_channel = camera;
   eval::RecordingEvaluationNotes notes;
   Result<eval::EvaluationReport> report = Status::ok();
   {
@@ -112,7 +121,8 @@ void bindSimAndEval(py::module_& root) {
   ev.def("evaluate", &evaluate, py::arg("recordings"), py::arg("statistic") = "p95",
          py::arg("max_truth_gap_s") = eval::PoseEvaluationOptions{}.max_truth_gap_s,
          py::arg("products") = std::vector<std::string>{},
-         py::arg("pairs") = std::map<std::string, std::string>{});
+         py::arg("pairs") = std::map<std::string, std::string>{}, py::arg("focal_px") = py::none(),
+         py::arg("camera") = std::string());
 }
 
 }  // namespace cdff::python

@@ -123,3 +123,28 @@ def test_missing_files_and_names(tmp_path):
         cdff.sim.run("mid_range_approach", tmp_path / "x.mcap", overrides={"sensors.lidar.rate": -1})
     with pytest.raises(cdff.InvalidParameterError, match="statistic 'median'"):
         cdff.eval.evaluate(tmp_path / "x.mcap", statistic="median")
+
+
+def test_far_range_bearings_evaluated_as_the_command_does(tmp_path):
+    # 40 s of the far-range approach (seed 1: designated automatically at 12 s); the run's
+    # recording carries the far camera's calibration, so the bearing's error comes in pixels.
+    sim = tmp_path / "far.mcap"
+    cdff.sim.run("far_range_approach", sim, seed=1, duration=40.0)
+    run = tmp_path / "run.mcap"
+    cdff.dfpc.run([SOURCE / "dfpcs/far_range_tracking.yaml"], [sim], run)
+    report = cdff.eval.evaluate(run, products=["/cdff/far_range_tracking/bearing"])
+    cli_json = tmp_path / "report.json"
+    subprocess.run([BUILD / "apps/cdff", "eval", run, "--json", cli_json, "-q",
+                    "--product", "/cdff/far_range_tracking/bearing"], check=True)
+    report.pop("notes")
+    assert report == json.loads(cli_json.read_text())
+    (bearing,) = report["bearings"]
+    assert bearing["camera_channel"] == "/chaser/camera/far/calibration"
+    assert bearing["valid_frames"] > 10
+    # 2 km: the tracked point within a few pixels of the centre of mass (docs/far-range-tracking.md)
+    assert bearing["bearing_error_px"]["rmse"] < 4.0
+    given = cdff.eval.evaluate(run, products=["/cdff/far_range_tracking/bearing"], focal_px=1000.0)
+    px = given["bearings"][0]["bearing_error_px"]["max"]
+    assert px == pytest.approx(bearing["bearing_error_urad"]["max"] * 1e-3, rel=1e-9)
+    with pytest.raises(cdff.InvalidParameterError, match="focal_px = -1"):
+        cdff.eval.evaluate(run, focal_px=-1.0)
