@@ -54,17 +54,6 @@ Vector6d rk4(const Vector6d& x, double t, double h) {
   return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
 }
 
-/// A servicer attitude whose x axis points at `p` (z radial up).
-Eigen::Matrix3d pointingAt(const Eigen::Vector3d& p) {
-  const Eigen::Vector3d x = p.normalized();
-  const Eigen::Vector3d y = Eigen::Vector3d::UnitX().cross(x).normalized();
-  Eigen::Matrix3d r;
-  r.col(0) = x;
-  r.col(1) = y;
-  r.col(2) = x.cross(y);
-  return r;
-}
-
 Transform imuMount() {
   Transform m = Transform::identity("servicer", "imu", 0);
   m.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
@@ -117,7 +106,7 @@ class BearingFilterWithImu : public ::testing::Test {
     for (int k = 0; k <= seconds * per_second; ++k) {
       const double t = k / kImuRate;
       const Timestamp stamp = static_cast<Timestamp>(std::llround(t * 1e6));
-      const Eigen::Matrix3d r = pointingAt(x.head<3>());
+      const Eigen::Matrix3d r = testing::servicerPointingAt(x.head<3>());
       if (k % 12 == 0) {
         PoseWithCovariance a;
         a.pose = Transform::identity("lvlh", "servicer", stamp);
@@ -278,7 +267,7 @@ TEST_F(BearingFilterImuBadInput, SamplesWithoutAnAttitudeAreLeftOutWithAWarning)
   f->in.imu_mount.set(imuMount());
   PoseWithCovariance a;
   a.pose = Transform::identity("lvlh", "servicer", 0);
-  a.pose.rotation = Eigen::Quaterniond(pointingAt({15, 1500, -10}));
+  a.pose.rotation = Eigen::Quaterniond(testing::servicerPointingAt({15, 1500, -10}));
   f->in.attitude.set(a);
   ASSERT_TRUE(f->process().isOk());
   ImageRegion m = ImageRegion::box(500, 500, 1, 1);

@@ -53,17 +53,6 @@ Vector6d integrate(const Vector6d& x0, double seconds) {
   return x;
 }
 
-/// A servicer attitude whose x axis points at `p` (z radial up), turned by `jitter`.
-Eigen::Matrix3d pointingAt(const Eigen::Vector3d& p, const Eigen::Vector3d& jitter) {
-  const Eigen::Vector3d x = p.normalized();
-  const Eigen::Vector3d y = Eigen::Vector3d::UnitX().cross(x).normalized();
-  Eigen::Matrix3d r;
-  r.col(0) = x;
-  r.col(1) = y;
-  r.col(2) = x.cross(y);
-  return r * expSO3(jitter).toRotationMatrix();
-}
-
 TEST(RelativeMotion, TheClosedFormMatchesTheIntegratedEquations) {
   Vector6d x0;
   x0 << 30, 2000, -15, 0.02, -0.5, 0.01;
@@ -132,7 +121,7 @@ class BearingFilterOnADrift : public ::testing::Test {
       const Eigen::Vector3d jitter =
           2e-4 * Eigen::Vector3d(std::sin(0.3 * k), std::cos(0.21 * k), std::sin(0.17 * k + 1));
       tracking::BearingGeometry g = truth_geometry;
-      g.lvlh_R_servicer = pointingAt(xk.head<3>(), jitter);
+      g.lvlh_R_servicer = testing::servicerPointingAt(xk.head<3>(), jitter);
       filter_->in.attitude.set(attitudeSample(g.lvlh_R_servicer, stamp));
       if (radar) filter_->in.radar.set(radarAt(xk, stamp));
       const bool matched = k < missing_from || k > missing_to;

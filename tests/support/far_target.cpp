@@ -72,4 +72,14 @@ Transform farCameraMount() {
   return t;
 }
 
+Eigen::Matrix3d servicerPointingAt(const Eigen::Vector3d& p, const Eigen::Vector3d& jitter) {
+  const Eigen::Vector3d x = p.normalized();
+  const Eigen::Vector3d y = Eigen::Vector3d::UnitX().cross(x).normalized();
+  Eigen::Matrix3d r;
+  r.col(0) = x;
+  r.col(1) = y;
+  r.col(2) = x.cross(y);
+  return r * expSO3(jitter).toRotationMatrix();
+}
+
 }  // namespace cdff::testing

@@ -22,5 +22,10 @@ CameraModel farCamera();
 /// Its mounting servicer_T_camera_far_optical: looking along the servicer's x (optical x = -y,
 /// y = -z), 0.45 m forward and 0.05 m up.
 Transform farCameraMount();
+/// A servicer attitude lvlh_R_servicer whose x axis points at `p` (lvlh) with its z as close to
+/// radial up as it can be (far_range_approach's target pointing), turned by `jitter` (rad, its
+/// own axes).
+Eigen::Matrix3d servicerPointingAt(const Eigen::Vector3d& p,
+                                   const Eigen::Vector3d& jitter = Eigen::Vector3d::Zero());
 
 }  // namespace cdff::testing

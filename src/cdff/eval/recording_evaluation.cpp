@@ -215,6 +215,31 @@ Result<std::string> truthChannelFor(const std::string& channel, const PoseSeries
   return truth_channel;
 }
 
+// Whether its DFPC was tracking when a product was recorded after `changes_before` of its
+// track-state changes (`states`, empty: a DFPC without a track state, always).
+bool trackedAfter(const std::vector<std::optional<TrackState>>& states,
+                  std::size_t changes_before) {
+  if (states.empty()) return true;
+  // A state this version does not know (an older recording's) is taken as tracked.
+  const std::optional<TrackState>& state = states[changes_before];
+  return !state || isTracked(*state);
+}
+
+// The wall time of the DFPC's step at `stamp`, where the run recorded it.
+std::optional<double> latencyAt(const std::map<Timestamp, double>& walls, Timestamp stamp) {
+  const auto w = walls.find(stamp);
+  return w == walls.end() ? std::nullopt : std::optional<double>(w->second);
+}
+
+// A truth channel's poses in stamp order.
+std::vector<Transform> sortedTruth(const std::map<std::string, PoseSeries>& truths,
+                                   const std::string& channel) {
+  std::vector<Transform> truth = truths.at(channel).poses;
+  std::stable_sort(truth.begin(), truth.end(),
+                   [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
+  return truth;
+}
+
 // The product's poses as estimates, in stamp order: not valid where not finite or while its
 // DFPC's track was not tracking (`states`); with the latency of the step that made them.
 std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
@@ -227,13 +252,8 @@ std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
     EstimateSample e;
     e.pose = pose;
     e.covariance = product.covariances[i];
-    e.valid = isFinite(pose);
-    if (!states.empty()) {
-      // A state this version does not know (an older recording's) is taken as tracked.
-      const std::optional<TrackState>& state = states[product.changes_before[i]];
-      if (state && !isTracked(*state)) e.valid = false;
-    }
-    if (auto w = walls.find(pose.stamp); w != walls.end()) e.latency_s = w->second;
+    e.valid = isFinite(pose) && trackedAfter(states, product.changes_before[i]);
+    e.latency_s = latencyAt(walls, pose.stamp);
     estimates.push_back(e);
   }
   std::stable_sort(estimates.begin(), estimates.end(),
@@ -311,21 +331,15 @@ Status evaluateBearingProducts(RecordingContents& contents,
     for (std::size_t i = 0; i < series.bearings.size(); ++i) {
       BearingSample e;
       e.bearing = series.bearings[i];
-      if (!states.empty())
-        if (const std::optional<TrackState>& state = states[series.changes_before[i]];
-            state && !isTracked(*state))
-          e.valid = false;
-      if (auto w = walls.find(e.bearing.stamp); w != walls.end()) e.latency_s = w->second;
+      e.valid = trackedAfter(states, series.changes_before[i]);
+      e.latency_s = latencyAt(walls, e.bearing.stamp);
       estimates.push_back(std::move(e));
     }
     std::stable_sort(estimates.begin(), estimates.end(), [](const auto& a, const auto& b) {
       return a.bearing.stamp < b.bearing.stamp;
     });
-    std::vector<Transform> truth = contents.truths[*truth_channel].poses;
-    std::stable_sort(truth.begin(), truth.end(),
-                     [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
-    Result<BearingEvaluation> evaluation =
-        evaluateBearings(estimates, truth, focal->first, options.pose);
+    Result<BearingEvaluation> evaluation = evaluateBearings(
+        estimates, sortedTruth(contents.truths, *truth_channel), focal->first, options.pose);
     if (!evaluation)
       return evaluation.status().withContext(
           fmt::format("evaluating {} against {}", channel, *truth_channel));
@@ -386,10 +400,8 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     const std::string dfpc = dfpcOf(channel);
     const std::vector<EstimateSample> estimates =
         estimatesOf(product, track_states[dfpc], step_wall_s[dfpc]);
-    std::vector<Transform> truth = truths[*truth_channel].poses;
-    std::stable_sort(truth.begin(), truth.end(),
-                     [](const auto& a, const auto& b) { return a.stamp < b.stamp; });
-    Result<PoseEvaluation> evaluation = evaluatePoses(estimates, truth, options.pose);
+    Result<PoseEvaluation> evaluation =
+        evaluatePoses(estimates, sortedTruth(truths, *truth_channel), options.pose);
     if (!evaluation)
       return evaluation.status().withContext(
           fmt::format("evaluating {} against {}", channel, *truth_channel));
