@@ -210,5 +210,146 @@ TEST(StereoPairs, AnImageWithoutItsMountingIsAnErrorThatNamesTheFrame) {
   EXPECT_EQ(parseStereoPairing("/p=/l,/r")->right, "/r");
 }
 
+// The second form of a rule: a condition over the DFPCs' track states, ranges and products (the
+// seed's Table 1 hand-overs: a DFPC runs from a range on, while another tracks).
+const std::string kRanging = R"(name: ranging
+inputs: [{name: pose, type: PoseWithCovariance, channel: /ranging/pose}]
+outputs:
+  - {name: state, type: RigidBodyState, role: target_state, timeout_s: 1.5}
+nodes:
+  to_state: {dfn: StateFromPose, dfi: UnknownTwist}
+connections: [pose -> to_state.pose, to_state.state -> state]
+)";
+
+Message poseAt(double seconds, double range) {
+  PoseWithCovariance p;
+  p.pose = Transform::identity("servicer", "target", fromSeconds(seconds));
+  p.pose.translation = Eigen::Vector3d(range, 0, 0);
+  p.covariance = Matrix6d::Identity() * 0.01;
+  return Message::of<PoseWithCovariance>("/ranging/pose", fromSeconds(seconds), p);
+}
+
+std::vector<std::pair<EventType, Timestamp>> activations(const MemorySink& sink,
+                                                         const std::string& dfpc) {
+  std::vector<std::pair<EventType, Timestamp>> out;
+  for (const Event& e : sink.events())
+    if (e.kind() == EventKind::kActivation && e.dfpc == dfpc) out.emplace_back(e.type, e.stamp);
+  return out;
+}
+
+TEST(ConditionRule, ADfpcRunsFromARangeOnWhileAnotherDoesNotTrack) {
+  MemorySink sink;
+  Orchestrator o({&sink});
+  ASSERT_OK(o.add(makeDfpc(kRanging)));
+  ASSERT_OK(o.add(makeDfpc(kDetection)));
+  std::string tracking = kTracking;
+  tracking.replace(tracking.find("/cdff/tracking/initial"), 22, "/cdff/detection/detection");
+  ASSERT_OK(o.add(makeDfpc(tracking)));
+  Result<ActivationRule> rule = parseActivationRule(
+      "detection: ranging.range < 10 and tracking.track_state in [UNINITIALISED, LOST]");
+  ASSERT_OK(rule.status());
+  EXPECT_EQ(rule->dfpc, "detection");
+  ASSERT_OK(o.runWhile(std::move(rule).value()));
+  ASSERT_OK(o.startAll());
+  // 0 s: 20 m away, no detection; 1 s: 8 m, so from the next message (1.5 s: a rule reads what
+  // the messages before made) the detection runs and the tracker takes its product; 2 s:
+  // tracked, the detection stops; 3 s: lost (a jump), it runs again; from 4.6 s
+  // the range is older than its output's timeout (1.5 s): unset, the detection stops.
+  ASSERT_OK(o.process(poseAt(0, 20)));
+  ASSERT_OK(o.process(number("/camera/frame", 0.5, 1.0)));
+  ASSERT_OK(o.process(poseAt(1, 8)));
+  ASSERT_OK(o.process(number("/camera/frame", 1.5, 1.1)));
+  ASSERT_OK(o.process(poseAt(2, 7)));
+  ASSERT_OK(o.process(number("/camera/frame", 2.5, 1.2)));
+  ASSERT_OK(o.process(poseAt(3.0, 6)));
+  ASSERT_OK(o.process(number("/camera/frame", 3.5, 9.0)));
+  ASSERT_OK(o.process(number("/camera/frame", 4.2, 9.1)));
+  ASSERT_OK(o.process(number("/camera/frame", 4.6, 9.2)));
+  using P = std::pair<EventType, Timestamp>;
+  EXPECT_EQ(activations(sink, "detection"),
+            (std::vector<P>{{EventType::kDeactivated, 0},
+                            {EventType::kActivated, fromSeconds(1.5)},
+                            {EventType::kDeactivated, fromSeconds(2)},
+                            {EventType::kActivated, fromSeconds(4.2)},
+                            {EventType::kDeactivated, fromSeconds(4.6)}}));
+  EXPECT_EQ(values(sink, "/cdff/detection/detection"), (std::vector<double>{1.1, 9.1}));
+  // The events say what the rule read.
+  const std::vector<Event> activated = sink.events(EventType::kActivated);
+  ASSERT_FALSE(activated.empty());
+  EXPECT_EQ(activated[0].message,
+            "'ranging.range < 10 and tracking.track_state in [UNINITIALISED, LOST]' holds "
+            "(ranging.range = 8.00 m, tracking.track_state = UNINITIALISED); 'detection' runs "
+            "while it holds");
+  const std::vector<Event> deactivated = sink.events(EventType::kDeactivated);
+  ASSERT_EQ(deactivated.size(), 3u);
+  EXPECT_NE(deactivated[2].message.find("ranging.range = unset"), std::string::npos)
+      << deactivated[2].message;
+}
+
+TEST(ConditionRule, ReadsAScalarProductAndItsOwnTrackState) {
+  MemorySink sink;
+  Orchestrator o({&sink});
+  ASSERT_OK(o.add(makeDfpc(kDetection)));
+  ASSERT_OK(o.add(makeDfpc(kTracking)));
+  // The tracker runs while the detection's last product is above 2, or while it tracks itself
+  // (a bare track_state is the ruled DFPC's own).
+  ASSERT_OK(o.runWhile(
+      parseActivationRule("tracking: detection.detection > 2 or track_state == TRACKING").value()));
+  ASSERT_OK(o.startAll());
+  ASSERT_OK(o.process(number("/camera/frame", 0, 1.0)));  // unset: the tracker stops
+  ASSERT_OK(o.process(number("/camera/frame", 1, 3.0)));  // detection 1 before it: stopped
+  // Detection 3: it runs from here, initialised.
+  ASSERT_OK(o.process(number("/cdff/tracking/initial", 1.5, 2.5)));
+  ASSERT_OK(o.process(number("/camera/frame", 2, 1.9)));  // detection 3: runs, tracks 1.9
+  ASSERT_OK(o.process(number("/camera/frame", 3, 1.8)));  // detection 1.9, but it tracks
+  using P = std::pair<EventType, Timestamp>;
+  EXPECT_EQ(
+      activations(sink, "tracking"),
+      (std::vector<P>{{EventType::kDeactivated, 0}, {EventType::kActivated, fromSeconds(1.5)}}));
+  EXPECT_EQ(o.status("tracking")->track_state, TrackState::kTracking);
+  EXPECT_NE(sink.events(EventType::kActivated)[0].message.find("detection.detection = 3"),
+            std::string::npos)
+      << sink.events(EventType::kActivated)[0].message;
+}
+
+TEST(ConditionRule, BadConditionsAreRefusedWithWhatWasExpected) {
+  const auto parseError = [](const std::string& text) {
+    return parseActivationRule(text).status().message();
+  };
+  EXPECT_NE(parseError("detection: ").find("the condition is empty"), std::string::npos);
+  EXPECT_NE(parseError(": tracking.track_state == LOST").find("the DFPC's name is empty"),
+            std::string::npos);
+  EXPECT_NE(parseError("detection: tracking.range <").find("condition 'tracking.range <'"),
+            std::string::npos)
+      << parseError("detection: tracking.range <");
+
+  MemorySink sink;
+  Orchestrator o({&sink});
+  ASSERT_OK(o.add(makeDfpc(kRanging)));
+  ASSERT_OK(o.add(makeDfpc(kDetection)));
+  ASSERT_OK(o.add(makeDfpc(kTracking)));
+  const auto refusal = [&](const std::string& text) {
+    Result<ActivationRule> rule = parseActivationRule(text);
+    return rule ? o.runWhile(*rule).message() : rule.status().message();
+  };
+  EXPECT_NE(refusal("detection: tracker.track_state == LOST").find("no DFPC 'tracker'"),
+            std::string::npos);
+  EXPECT_NE(refusal("detection: tracking.speed > 1")
+                .find("DFPC 'tracking' has no output 'speed'; expected one of {track_state, pose}"),
+            std::string::npos)
+      << refusal("detection: tracking.speed > 1");
+  EXPECT_NE(refusal("detection: tracking.range > 1").find("no product to take a range from"),
+            std::string::npos);
+  EXPECT_NE(refusal("detection: ranging.track_state == LOST").find("declares no track_state"),
+            std::string::npos);
+  EXPECT_NE(refusal("detection: ranging.state > 1").find("can only be compared with unset"),
+            std::string::npos)
+      << refusal("detection: ranging.state > 1");
+  EXPECT_NE(refusal("detection: tracking.track_state == LOSING").find("LOSING"), std::string::npos);
+  EXPECT_NE(refusal("nobody: ranging.range < 3").find("no DFPC 'nobody'"), std::string::npos);
+  ASSERT_OK(o.runWhile(parseActivationRule("detection: ranging.range < 3").value()));
+  EXPECT_NE(refusal("detection=tracking:LOST").find("one rule per DFPC"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace cdff::dfpc

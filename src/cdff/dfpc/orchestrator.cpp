@@ -3,6 +3,7 @@
 #include <fnmatch.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -22,16 +23,41 @@ double RunProgress::fraction() const {
                     1.0);
 }
 
+namespace {
+
+constexpr const char* kRuleForms =
+    "expected DFPC=TRACKER:STATE[,STATE...] (e.g. detection=visual_tracking:UNINITIALISED,LOST) "
+    "or DFPC: CONDITION (e.g. 'visual_tracking: lidar_tracking.track_state == TRACKING and "
+    "lidar_tracking.range < 5')";
+
+std::string trimmed(const std::string& text) {
+  const std::size_t first = text.find_first_not_of(" \t");
+  if (first == std::string::npos) return "";
+  return text.substr(first, text.find_last_not_of(" \t") - first + 1);
+}
+
+Result<ActivationRule> parseConditionRule(const std::string& text, std::size_t colon) {
+  ActivationRule rule;
+  rule.dfpc = trimmed(text.substr(0, colon));
+  rule.condition = trimmed(text.substr(colon + 1));
+  if (rule.dfpc.empty() || rule.condition.empty())
+    return invalidParameter("run-while rule '{}': {} is empty; {}", text,
+                            rule.dfpc.empty() ? "the DFPC's name" : "the condition", kRuleForms);
+  Result<Condition> parsed = Condition::parse(rule.condition, {});
+  if (!parsed) return invalidParameter("run-while rule '{}': {}", text, parsed.status().message());
+  return rule;
+}
+
+}  // namespace
+
 Result<ActivationRule> parseActivationRule(const std::string& text) {
   const auto bad = [&](const std::string& why) {
-    return invalidParameter(
-        "run-while rule '{}': {}; expected DFPC=TRACKER:STATE[,STATE...] "
-        "(e.g. detection=visual_tracking:UNINITIALISED,LOST)",
-        text, why);
+    return invalidParameter("run-while rule '{}': {}; {}", text, why, kRuleForms);
   };
   const std::size_t eq = text.find('=');
-  const std::size_t colon = text.find(':', eq == std::string::npos ? 0 : eq);
-  if (eq == std::string::npos || colon == std::string::npos) return bad("no '=' and ':'");
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos) return bad("no ':'");
+  if (eq == std::string::npos || eq > colon) return parseConditionRule(text, colon);
   ActivationRule rule;
   rule.dfpc = text.substr(0, eq);
   rule.tracker = text.substr(eq + 1, colon - eq - 1);
@@ -179,42 +205,184 @@ Status Orchestrator::runWhile(ActivationRule rule) {
   std::lock_guard lock(mutex_);
   const Entry* dfpc = find(rule.dfpc);
   if (!dfpc) return unknown(rule.dfpc).withContext("run-while rule");
-  const Entry* tracker = find(rule.tracker);
-  if (!tracker) return unknown(rule.tracker).withContext("run-while rule");
-  if (rule.dfpc == rule.tracker)
-    return invalidInput("run-while rule: DFPC '{}' cannot follow its own track state", rule.dfpc);
-  if (!tracker->dfpc->spec().track_state)
-    return invalidInput("run-while rule for '{}': DFPC '{}' declares no track_state to follow",
-                        rule.dfpc, rule.tracker);
-  if (rule.states.empty())
-    return invalidInput("run-while rule for '{}': no track state to run in", rule.dfpc);
   for (const RuleState& r : activation_rules_)
     if (r.rule.dfpc == rule.dfpc)
-      return invalidInput("DFPC '{}' already runs while '{}' is in given states; one rule per DFPC",
-                          rule.dfpc, r.rule.tracker);
-  activation_rules_.push_back({std::move(rule), dfpc->dfpc.get(), tracker->dfpc.get()});
+      return invalidInput("DFPC '{}' already runs under the rule '{}'; one rule per DFPC",
+                          rule.dfpc, r.rule.condition.empty() ? r.rule.tracker : r.rule.condition);
+  RuleState state{std::move(rule), dfpc->dfpc.get(), nullptr, std::nullopt, {}};
+  if (!state.rule.condition.empty()) {
+    CDFF_RETURN_IF_ERROR(bindCondition(state));
+    activation_rules_.push_back(std::move(state));
+    return Status::ok();
+  }
+  const ActivationRule& r = state.rule;
+  const Entry* tracker = find(r.tracker);
+  if (!tracker) return unknown(r.tracker).withContext("run-while rule");
+  if (r.dfpc == r.tracker)
+    return invalidInput("run-while rule: DFPC '{}' cannot follow its own track state", r.dfpc);
+  if (!tracker->dfpc->spec().track_state)
+    return invalidInput("run-while rule for '{}': DFPC '{}' declares no track_state to follow",
+                        r.dfpc, r.tracker);
+  if (r.states.empty())
+    return invalidInput("run-while rule for '{}': no track state to run in", r.dfpc);
+  state.tracker = tracker->dfpc.get();
+  activation_rules_.push_back(std::move(state));
   return Status::ok();
+}
+
+namespace {
+
+/// The output whose position gives a DFPC's range: its first target_state or target_pose
+/// product (RigidBodyState or PoseWithCovariance), else its first Bearing product.
+std::optional<std::size_t> rangeOutput(const GraphSpec& spec) {
+  const auto& outs = spec.outputs;
+  for (std::size_t i = 0; i < outs.size(); ++i)
+    if ((outs[i].role == "target_state" || outs[i].role == "target_pose") &&
+        (outs[i].type == "RigidBodyState" || outs[i].type == "PoseWithCovariance"))
+      return i;
+  for (std::size_t i = 0; i < outs.size(); ++i)
+    if (outs[i].type == "Bearing") return i;
+  return std::nullopt;
+}
+
+}  // namespace
+
+Result<Orchestrator::RuleRef> Orchestrator::bindRuleRef(const Condition::Ref& ref,
+                                                        TypeId& type) const {
+  RuleRef out;
+  out.entry = find(ref.instance);
+  if (!out.entry) return unknown(ref.instance).withContext(fmt::format("'{}'", ref.text()));
+  const GraphSpec& spec = out.entry->dfpc->spec();
+  for (std::size_t i = 0; i < spec.outputs.size(); ++i)
+    if (spec.outputs[i].name == ref.port) {
+      out.output = i;
+      type = findType(spec.outputs[i].type);
+      return out;
+    }
+  if (ref.port == "track_state") {
+    if (!spec.track_state)
+      return invalidInput("'{}': DFPC '{}' declares no track_state", ref.text(), ref.instance);
+    out.kind = RuleRef::Kind::kTrackState;
+    type = TypeId::of<TrackState>();
+    return out;
+  }
+  std::vector<std::string> names{"track_state"};
+  if (ref.port == "range") {
+    const std::optional<std::size_t> o = rangeOutput(spec);
+    if (!o)
+      return invalidInput(
+          "'{}': DFPC '{}' has no product to take a range from; expected an output with role "
+          "target_state or target_pose (RigidBodyState, PoseWithCovariance) or of type Bearing",
+          ref.text(), ref.instance);
+    out.kind = RuleRef::Kind::kRange;
+    out.output = *o;
+    type = TypeId::of<double>();
+    return out;
+  }
+  if (rangeOutput(spec)) names.push_back("range");
+  for (const DfpcOutputSpec& o : spec.outputs) names.push_back(o.name);
+  return notFound("'{}': DFPC '{}' has no output '{}'; expected one of {{{}}}", ref.text(),
+                  ref.instance, ref.port, fmt::join(names, ", "));
+}
+
+Status Orchestrator::bindCondition(RuleState& rule) const {
+  const std::string where = fmt::format("run-while rule for '{}'", rule.rule.dfpc);
+  Result<Condition> parsed = Condition::parse(rule.rule.condition, {});
+  if (!parsed) return parsed.status().withContext(where);
+  std::vector<TypeId> types;
+  for (Condition::Ref ref : parsed->refs()) {
+    if (ref.instance.empty()) ref.instance = rule.rule.dfpc;  // a bare track_state: its own
+    TypeId type;
+    Result<RuleRef> bound = bindRuleRef(ref, type);
+    if (!bound) return bound.status().withContext(where);
+    bound->type = type;
+    rule.refs.push_back(*bound);
+    types.push_back(type);
+  }
+  CDFF_RETURN_IF_ERROR(parsed->bind(types, {}).withContext(where));
+  rule.condition = std::move(parsed).value();
+  return Status::ok();
+}
+
+const void* Orchestrator::ruleValue(RuleRef& ref, Timestamp stamp) const {
+  const Dfpc& dfpc = *ref.entry->dfpc;
+  if (ref.kind == RuleRef::Kind::kTrackState) {
+    ref.track_state = dfpc.trackState();
+    return &ref.track_state;
+  }
+  const std::string& product = ref.entry->outputs[ref.output].product;
+  Result<Product> latest = products_->latest(product);
+  if (!latest) return nullptr;
+  if (ref.kind == RuleRef::Kind::kProduct) return latest->value.raw();
+  const double timeout = dfpc.spec().outputs[ref.output].timeout_s;
+  if (timeout > 0 && toSeconds(stamp - latest->stamp) > timeout) return nullptr;
+  if (const auto bearing = latest->as<Bearing>()) {
+    ref.range = bearing->range;
+  } else if (const auto state = latest->as<RigidBodyState>()) {
+    ref.range = state->pose.translation.norm();
+  } else if (const auto pose = latest->as<PoseWithCovariance>()) {
+    ref.range = pose->pose.translation.norm();
+  } else {
+    return nullptr;
+  }
+  return std::isfinite(ref.range) ? &ref.range : nullptr;
+}
+
+namespace {
+
+/// A value a rule read, for its event: a track state's name, a range, a scalar product's value.
+std::string describeValue(bool range, TypeId type, const void* value) {
+  if (!value) return "unset";
+  if (range) return fmt::format("{:.2f} m", *static_cast<const double*>(value));
+  if (type == TypeId::of<TrackState>())
+    return std::string(toString(*static_cast<const TrackState*>(value)));
+  if (type == TypeId::of<double>())
+    return fmt::format("{:.6g}", *static_cast<const double*>(value));
+  if (type == TypeId::of<int>()) return fmt::format("{}", *static_cast<const int*>(value));
+  if (type == TypeId::of<bool>()) return *static_cast<const bool*>(value) ? "true" : "false";
+  if (type == TypeId::of<std::string>())
+    return fmt::format("'{}'", *static_cast<const std::string*>(value));
+  return "set";
+}
+
+}  // namespace
+
+bool Orchestrator::ruleHolds(RuleState& r, Timestamp stamp, std::string& why) const {
+  if (!r.condition) {
+    const TrackState followed = r.tracker->trackState();
+    why = fmt::format("'{}' is {}; '{}' runs while it is {}", r.rule.tracker, toString(followed),
+                      r.rule.dfpc, joinTrackStates(r.rule.states, " or "));
+    return std::find(r.rule.states.begin(), r.rule.states.end(), followed) != r.rule.states.end();
+  }
+  std::vector<const void*> values;
+  for (RuleRef& ref : r.refs) values.push_back(ruleValue(ref, stamp));
+  const bool holds = r.condition->evaluate([&](std::size_t i) { return values[i]; });
+  std::vector<std::string> read;
+  for (std::size_t i = 0; i < r.refs.size(); ++i) {
+    read.push_back(fmt::format(
+        "{} = {}", r.condition->refs()[i].text(),
+        describeValue(r.refs[i].kind == RuleRef::Kind::kRange, r.refs[i].type, values[i])));
+  }
+  why = fmt::format("'{}' {} ({}); '{}' runs while it holds", r.rule.condition,
+                    holds ? "holds" : "does not hold", fmt::join(read, ", "), r.rule.dfpc);
+  return holds;
 }
 
 Status Orchestrator::applyActivationRules(Timestamp stamp) {
   for (RuleState& r : activation_rules_) {
-    const ActivationRule& rule = r.rule;
     const DfpcState state = r.dfpc->state();
     const bool running = state == DfpcState::kRunning;
     if (!running && !(state == DfpcState::kStopped && r.stopped_by_rule)) continue;
-    const TrackState followed = r.tracker->trackState();
-    const bool wanted =
-        std::find(rule.states.begin(), rule.states.end(), followed) != rule.states.end();
+    std::string why;
+    const bool wanted = ruleHolds(r, stamp, why);
     if (wanted == running) continue;
     CDFF_RETURN_IF_ERROR(wanted ? r.dfpc->start(stamp) : r.dfpc->stop());
     r.stopped_by_rule = !wanted;
     Event event;
     event.stamp = stamp;
     event.type = wanted ? EventType::kActivated : EventType::kDeactivated;
-    event.dfpc = rule.dfpc;
-    event.message =
-        fmt::format("'{}' is {}; '{}' runs while it is {}", rule.tracker, toString(followed),
-                    rule.dfpc, joinTrackStates(rule.states, " or "));
+    event.dfpc = r.rule.dfpc;
+    event.message = std::move(why);
     onEvent(event);
   }
   return Status::ok();

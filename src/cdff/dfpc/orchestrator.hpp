@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "cdff/dfpc/clock.hpp"
+#include "cdff/dfpc/condition.hpp"
 #include "cdff/dfpc/data_product_manager.hpp"
 #include "cdff/dfpc/dfpc.hpp"
 #include "cdff/dfpc/stream.hpp"
@@ -68,15 +69,25 @@ struct RunSummary {
   bool cancelled = false;
 };
 
-/// Runs one DFPC only while another's track state is one of some states: the seed's Figure 5,
-/// detection running while a tracker is UNINITIALISED or LOST and stopped while it tracks.
+/// Runs one DFPC only while a condition holds: the seed's Figure 5 (detection running while a
+/// tracker is UNINITIALISED or LOST, stopped while it tracks) and Table 1's hand-overs by range
+/// and track state. Two forms:
+///  - "DFPC=TRACKER:STATE[,STATE...]": while TRACKER's track state is one of the states;
+///  - "DFPC: CONDITION": while CONDITION holds, written in the conditions' language
+///    (condition.hpp) over the loaded DFPCs: `X.track_state` (X's track state), `X.range` (the
+///    distance to the target that X estimates: the position's norm of its latest target_state or
+///    target_pose product, or its Bearing product's range; unset when X has none, or none
+///    younger than the output's timeout) and `X.OUTPUT` (the latest value of X's product), e.g.
+///    "visual_tracking: lidar_tracking.track_state == TRACKING and lidar_tracking.range < 5".
 struct ActivationRule {
-  std::string dfpc;     // the DFPC started and stopped
-  std::string tracker;  // the DFPC whose track state decides (its graph declares track_state)
-  std::vector<TrackState> states;  // `dfpc` runs while the tracker is in one of these
+  std::string dfpc;                // the DFPC started and stopped
+  std::string tracker;             // the first form: the DFPC whose track state decides
+  std::vector<TrackState> states;  // the first form: `dfpc` runs while the tracker is in one
+  std::string condition;           // the second form's CONDITION (empty for the first form)
 };
 
-/// Parses "DFPC=TRACKER:STATE[,STATE...]", e.g. "detection=visual_tracking:UNINITIALISED,LOST".
+/// Parses either form (see ActivationRule); the condition's syntax is checked here, its names
+/// when the rule is added to an Orchestrator.
 Result<ActivationRule> parseActivationRule(const std::string& text);
 
 class Orchestrator final : private DfpcObserver {
@@ -104,11 +115,11 @@ class Orchestrator final : private DfpcObserver {
   Status stopAll();  // stops the running ones
   Status resetAll();
 
-  /// Adds a rule: before every message, `rule.dfpc` is started when the tracker's track state
-  /// is one of `rule.states` and stopped otherwise, with an `activated` or `deactivated` event
-  /// (the DFPC as a whole) that names the tracker's state. A DFPC that a caller stopped is not
-  /// restarted by its rule. One rule per DFPC; both DFPCs loaded, distinct, and the tracker with
-  /// a track state.
+  /// Adds a rule: before every message, `rule.dfpc` is started when the rule holds and stopped
+  /// otherwise, with an `activated` or `deactivated` event (the DFPC as a whole) that gives the
+  /// values the rule read. A DFPC that a caller stopped is not restarted by its rule. One rule
+  /// per DFPC; every DFPC it names loaded; a followed track state declared by its graph; a
+  /// condition's refs naming a DFPC's track_state, range or output, compared as its type allows.
   Status runWhile(ActivationRule rule);
 
   /// Every DFPC input (not optional) has its channel among `available`, or among the loaded
@@ -174,12 +185,28 @@ class Orchestrator final : private DfpcObserver {
   std::vector<Entry> entries_;
   std::unordered_map<std::string, std::vector<Route>> routes_;  // channel -> DFPC inputs
   std::vector<Message> internal_;  // products waiting to be routed within this step
+  /// What a condition's ref reads: a DFPC's track state, its range, or one of its products.
+  struct RuleRef {
+    enum class Kind { kTrackState, kRange, kProduct } kind = Kind::kProduct;
+    const Entry* entry = nullptr;
+    std::size_t output = 0;  // kRange: the output it is computed from; kProduct: the product
+    TypeId type;             // the value's
+    double range = 0;        // kRange: the value of the last evaluation
+    TrackState track_state = TrackState::kUninitialised;  // kTrackState: the same
+  };
   struct RuleState {
     ActivationRule rule;
-    Dfpc* dfpc;                    // rule.dfpc, resolved once (DFPCs are never removed)
-    const Dfpc* tracker;           // rule.tracker
-    bool stopped_by_rule = false;  // a DFPC stopped by a caller stays stopped
+    Dfpc* dfpc;                          // rule.dfpc, resolved once (DFPCs are never removed)
+    const Dfpc* tracker;                 // rule.tracker (the first form)
+    std::optional<Condition> condition;  // the second form, bound
+    std::vector<RuleRef> refs;           // condition->refs()[i] reads refs[i]
+    bool stopped_by_rule = false;        // a DFPC stopped by a caller stays stopped
   };
+  Result<RuleRef> bindRuleRef(const Condition::Ref& ref, TypeId& type) const;
+  Status bindCondition(RuleState& rule) const;
+  /// Whether the rule holds at `stamp`, and the values it read, for the event's message.
+  bool ruleHolds(RuleState& rule, Timestamp stamp, std::string& why) const;
+  const void* ruleValue(RuleRef& ref, Timestamp stamp) const;
   std::vector<RuleState> activation_rules_;
   Status sink_status_;
   RunSummary counters_;
