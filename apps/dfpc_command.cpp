@@ -3,17 +3,38 @@
 
 #include "cdff/dfpc/dfpc.hpp"
 #include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/replay.hpp"
+#include "cdff/dfpc/run_set.hpp"
 #include "commands.hpp"
 
 namespace cdff::app {
 
 namespace {
 
+// A run set: its graphs, settings, maps and rules, as `cdff run` would load them.
+bool checkRunSet(const std::string& path) {
+  Result<dfpc::RunSet> set = dfpc::loadRunSet(path);
+  dfpc::ReplayOptions options;
+  options.graph_files = {path};
+  const Status status = set ? dfpc::checkRun(options) : set.status();
+  if (!status) {
+    fmt::print(stderr, "{}: {}\n", path, status.message());
+    return false;
+  }
+  fmt::print("{}: ok: run set '{}', {} DFPCs, {} rules\n", path, set->name, set->graph_files.size(),
+             set->run_while.size());
+  return true;
+}
+
 // Every problem of each graph (structure, DFNs, types, connections, cycles, conditions,
 // recoveries, then parameters); 0 when all are sound, 1 otherwise.
 int checkGraphs(const std::vector<std::string>& paths) {
   int failures = 0;
   for (const std::string& path : paths) {
+    if (dfpc::isRunSetFile(path)) {
+      failures += checkRunSet(path) ? 0 : 1;
+      continue;
+    }
     Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(path);
     if (!spec) {
       fmt::print(stderr, "{}\n", spec.status().message());
@@ -59,7 +80,7 @@ void addDfpcCommands(CLI::App& root, int& exit_code) {
   CLI::App* check = dfpc->add_subcommand(
       "check", "Validate DFPC graphs: DFNs, ports, types, cycles, conditions, parameters");
   auto paths = std::make_shared<std::vector<std::string>>();
-  check->add_option("GRAPH", *paths, "DFPC graph files (YAML)")->required();
+  check->add_option("GRAPH", *paths, "DFPC graph files or run sets (YAML)")->required();
   check->callback([paths, &exit_code] { exit_code = checkGraphs(*paths); });
 
   CLI::App* graph = dfpc->add_subcommand("graph", "Print a DFPC graph as Graphviz DOT");

@@ -1,6 +1,7 @@
 // cdff run GRAPH.yaml... -i IN.mcap [-i MORE.mcap] -o OUT.mcap [--set NODE.PARAM=VALUE ...]
-//          [--map DFPC.INPUT=/channel] [--pair /pair=/left,/right] [--run-while
-//          DFPC=TRACKER:STATES] [--roi X,Y,W,H@TIME]
+//          [--map DFPC.INPUT=/channel] [--pair /pair=/left,/right] [--run-while RULE]
+//          [--roi X,Y,W,H@TIME]
+// A GRAPH may be a run set (graphs, maps, settings, pairs and rules in one file; docs/dfpc.md).
 //
 // Replays recordings through one or several DFPCs and records the ground truth of the inputs,
 // every product, every event and one timing record per DFN call into OUT.
@@ -194,7 +195,8 @@ void addRunCommand(CLI::App& root, int& exit_code) {
   auto args = std::make_shared<RunArguments>();
   CLI::App* run = root.add_subcommand(
       "run", "Replay MCAP recordings through DFPC graphs; record products, events, timings");
-  run->add_option("GRAPH", args->graphs, "DFPC graph files (YAML), run together")->required();
+  run->add_option("GRAPH", args->graphs, "DFPC graph files or run sets (YAML), run together")
+      ->required();
   run->add_option("-i,--input", args->inputs, "Input MCAP file (repeatable; merged by time)")
       ->required();
   run->add_option("-o,--output", args->output, "Output MCAP file")->required();
@@ -207,8 +209,9 @@ void addRunCommand(CLI::App& root, int& exit_code) {
                   "Make stereo pairs from two image channels: /pair=/left/image,/right/image "
                   "(repeatable)");
   run->add_option("--run-while", args->run_while,
-                  "Run a DFPC only while another's track state is one of some states: "
-                  "DFPC=TRACKER:STATE[,STATE] (repeatable)");
+                  "Run a DFPC only while a rule holds: DFPC=TRACKER:STATE[,STATE] (another's "
+                  "track state), or 'DFPC: CONDITION' over the DFPCs' track_state, range and "
+                  "outputs, e.g. 'visual_tracking: lidar_tracking.range < 5' (repeatable)");
   run->add_option("--roi", args->rois,
                   "Designate the target: the box X,Y,W,H (pixels) of the image at TIME s from "
                   "the start, sent on /cdff/designation (far-range tracking; repeatable)");

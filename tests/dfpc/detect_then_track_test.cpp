@@ -312,6 +312,31 @@ TEST(ConditionRule, ReadsAScalarProductAndItsOwnTrackState) {
       << sink.events(EventType::kActivated)[0].message;
 }
 
+TEST(ConditionRule, TrackStateIsTheDfpcsEvenWithAnOutputOfThatName) {
+  // The tracker also publishes its status as an output named track_state (lidar_tracking
+  // does): unset until the tracker first runs, where the DFPC's track state has its initial
+  // value from the start.
+  std::string tracking = kTracking;
+  tracking.replace(tracking.find("outputs: [{name: pose, type: Double}]"), 37,
+                   "outputs: [{name: pose, type: Double}, {name: track_state, type: TrackState}]");
+  tracking.replace(tracking.find("tracker.estimate -> pose]"), 25,
+                   "tracker.estimate -> pose, tracker.status -> track_state]");
+  MemorySink sink;
+  Orchestrator o({&sink});
+  ASSERT_OK(o.add(makeDfpc(kDetection)));
+  ASSERT_OK(o.add(makeDfpc(tracking)));
+  ASSERT_OK(
+      o.runWhile(parseActivationRule("detection: tracking.track_state == UNINITIALISED").value()));
+  ASSERT_OK(o.startAll());
+  ASSERT_OK(o.process(number("/cdff/tracking/initial", 0, 1.0)));
+  ASSERT_OK(o.process(number("/camera/frame", 1, 1.0)));  // the tracker tracks from here
+  ASSERT_OK(o.process(number("/camera/frame", 2, 1.0)));
+  // Held at 0 s (the output was unset then) and 1 s; stopped once the tracker tracks.
+  using P = std::pair<EventType, Timestamp>;
+  EXPECT_EQ(activations(sink, "detection"),
+            (std::vector<P>{{EventType::kDeactivated, fromSeconds(2)}}));
+}
+
 TEST(ConditionRule, BadConditionsAreRefusedWithWhatWasExpected) {
   const auto parseError = [](const std::string& text) {
     return parseActivationRule(text).status().message();

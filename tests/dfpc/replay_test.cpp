@@ -6,7 +6,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include <fmt/format.h>
+
 #include "cdff/dfpc/replay.hpp"
+#include "cdff/dfpc/run_set.hpp"
 #include "test_helpers.hpp"
 
 namespace cdff::dfpc {
@@ -136,6 +139,77 @@ TEST(Replay, TheProgressBarShowsTheFractionStreamTimeAndMessages) {
   ProgressBar off(stderr, false);
   off.update(p);  // draws nothing when not on a terminal
   off.finish();
+}
+
+// A run set: two graphs, a remap, a setting and a rule in one file, as `cdff run` would take
+// them on its command line; the second graph runs only while the first's product is above 1,
+// and gets its latched configuration (/config/offset) when it starts, however late.
+const std::string kGated = R"(name: gated
+inputs:
+  - {name: x, type: Double, channel: /in/x}
+  - {name: offset, type: Double, channel: /config/offset, latched: true}
+outputs: [{name: y, type: Double}]
+nodes:
+  add: {dfn: ProbeRelay, dfi: Plain, trigger: {on: [a]}}
+connections: [x -> add.a, offset -> add.b, add.result -> y]
+)";
+
+TEST(RunSet, RunsItsGraphsWithItsMapsSettingsAndRules) {
+  const std::string relay = writeGraph("set_relay", kRelay),
+                    gated = writeGraph("set_gated", kGated);
+  const std::string set =
+      writeGraph("set", fmt::format(R"(name: both
+doc: the relay, and the gated relay while the relay's output is above 1
+graphs: [{}, {}]
+map: [relay.x=/sensor/x, gated.x=/sensor/x]
+set: [relay/add.offset=0.25]
+run_while: ["gated: relay.y > 1"]
+)",
+                                    std::filesystem::path(relay).filename().string(), gated));
+  Result<RunSet> loaded = loadRunSet(set);
+  ASSERT_OK(loaded.status());
+  EXPECT_EQ(loaded->name, "both");
+  EXPECT_EQ(loaded->graph_files, (std::vector<std::string>{relay, gated}));
+  EXPECT_TRUE(isRunSetFile(set));
+  EXPECT_FALSE(isRunSetFile(relay));
+
+  MemoryStream input({number("/config/offset", 0, 10), number("/sensor/x", 1, 0.5),
+                      number("/sensor/x", 2, 1.0), number("/sensor/x", 3, 2.0)});
+  MemorySink sink;
+  ReplayOptions options;
+  options.graph_files = {set};
+  options.parameter_settings = {"relay/add.offset=0.5"};  // the command line's wins
+  ASSERT_OK(replay(input, sink, options).status());
+  EXPECT_EQ(testing::values(sink, "/cdff/relay/y"), (std::vector<double>{1.0, 1.5, 2.5}));
+  // relay.y = 1.5 > 1 from t = 2 on: gated runs from t = 3 with the offset it missed at t = 0.
+  EXPECT_EQ(testing::values(sink, "/cdff/gated/y"), (std::vector<double>{12.0}));
+  EXPECT_TRUE(checkRun(options).isOk());
+}
+
+TEST(RunSet, BadRunSetsAreRefusedAtTheirLine) {
+  const std::string relay = writeGraph("set_relay", kRelay);
+  const auto error = [&](const std::string& name, const std::string& text) {
+    return loadRunSet(writeGraph(name, text)).status().toString();
+  };
+  EXPECT_NE(error("set_key", fmt::format("graphs: [{}]\nrun_whilst: []\n", relay))
+                .find("cdff_replay_set_key.yaml:2:1: run_whilst: unknown key"),
+            std::string::npos)
+      << error("set_key", fmt::format("graphs: [{}]\nrun_whilst: []\n", relay));
+  EXPECT_NE(error("set_nofile", "graphs: [nowhere.yaml]\n").find("no file"), std::string::npos);
+  EXPECT_NE(error("set_empty", "graphs: []\n").find("graphs = []: empty"), std::string::npos)
+      << error("set_empty", "graphs: []\n");
+  const std::string bad_rule = fmt::format("graphs: [{}]\nrun_while:\n  - 'relay: y >'\n", relay);
+  EXPECT_NE(error("set_rule", bad_rule).find("cdff_replay_set_rule.yaml:3:5"), std::string::npos)
+      << error("set_rule", bad_rule);
+  const std::string bad_map = fmt::format("graphs: [{}]\nmap: [relay.x]\n", relay);
+  EXPECT_NE(error("set_map", bad_map).find("expected DFPC.INPUT=/channel"), std::string::npos)
+      << error("set_map", bad_map);
+  // Names are checked against the loaded graphs, before anything runs.
+  ReplayOptions options;
+  options.graph_files = {writeGraph(
+      "set_names", fmt::format("graphs: [{}]\nrun_while: ['relay: nobody.y > 1']\n", relay))};
+  EXPECT_NE(checkRun(options).message().find("no DFPC 'nobody'"), std::string::npos)
+      << checkRun(options).message();
 }
 
 }  // namespace

@@ -99,6 +99,15 @@ Status Dfpc::start(std::optional<Timestamp> now) {
   // stopped is neither ticked through nor a silence.
   started_ = false;
   emit(EventType::kStarted, "", "");
+  // The configurations that came while it was not running, delivered at the start's time (the
+  // values keep their own stamps): stream time does not go back to when they came.
+  std::vector<std::optional<Message>> latched = std::move(latched_);
+  latched_.clear();
+  for (std::size_t i = 0; i < latched.size(); ++i) {
+    if (!latched[i]) continue;
+    latched[i]->stamp = step_stamp_;
+    CDFF_RETURN_IF_ERROR(deliver(i, *latched[i]));
+  }
   return Status::ok();
 }
 
@@ -141,6 +150,10 @@ Status Dfpc::deliver(std::size_t input, const Message& message) {
   if (input >= input_edges_.size()) return notFound("DFPC '{}' has no input #{}", name(), input);
   if (state_ != DfpcState::kRunning) {
     ++ignored_;
+    if (spec_.inputs[input].latched && message.type() == input_types_[input]) {
+      latched_.resize(spec_.inputs.size());
+      latched_[input] = message;
+    }
     return Status::ok();
   }
   if (message.type() != input_types_[input] || message.value.empty()) {

@@ -236,6 +236,8 @@ class Dfpc {
   Timestamp stream_time_ = 0;
   TrackState track_state_ = TrackState::kUninitialised;
   std::optional<Timestamp> last_product_;
+  /// Per input: the latest message of a latched input that came while not running.
+  std::vector<std::optional<Message>> latched_;
   std::uint64_t messages_ = 0, ignored_ = 0, products_ = 0, faults_ = 0, recoveries_ = 0;
   std::string last_fault_;
 };

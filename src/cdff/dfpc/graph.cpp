@@ -163,7 +163,7 @@ GraphBuilder::GraphBuilder(std::string name, std::source_location where) {
 GraphBuilder& GraphBuilder::input(std::string name, std::string type, std::string channel,
                                   std::source_location where) {
   spec_.inputs.push_back(
-      {std::move(name), std::move(type), std::move(channel), false, SourceLocation::of(where)});
+      {std::move(name), std::move(type), std::move(channel), false, false, SourceLocation::of(where)});
   return *this;
 }
 

@@ -118,6 +118,10 @@ struct DfpcInputSpec {
   std::string type;       // a port type name, e.g. "PoseWithCovariance"
   std::string channel;    // the stream channel that feeds it
   bool optional = false;  // a run may lack the channel
+  /// A configuration that comes once (a sensor's mounting, a calibration): the latest message
+  /// that arrives while the DFPC is not running is kept and delivered when it starts, so that a
+  /// DFPC started late by a rule has it.
+  bool latched = false;
   SourceLocation at;
 };
 

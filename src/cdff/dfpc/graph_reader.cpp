@@ -110,7 +110,8 @@ const Table<DfpcInputSpec>& inputTable() {
               "the input's name")
           .required("type", schema::text(&DfpcInputSpec::type), "a data type name")
           .required("channel", schema::text(&DfpcInputSpec::channel), "the channel that feeds it")
-          .optional("optional", schema::flag(&DfpcInputSpec::optional));
+          .optional("optional", schema::flag(&DfpcInputSpec::optional))
+          .optional("latched", schema::flag(&DfpcInputSpec::latched));
   return table;
 }
 

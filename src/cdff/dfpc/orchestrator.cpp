@@ -253,19 +253,21 @@ Result<Orchestrator::RuleRef> Orchestrator::bindRuleRef(const Condition::Ref& re
   out.entry = find(ref.instance);
   if (!out.entry) return unknown(ref.instance).withContext(fmt::format("'{}'", ref.text()));
   const GraphSpec& spec = out.entry->dfpc->spec();
+  // The DFPC's track state first: it always has a value (its initial one), where an output of
+  // the same name is unset until first produced.
+  if (ref.port == "track_state" && spec.track_state) {
+    out.kind = RuleRef::Kind::kTrackState;
+    type = TypeId::of<TrackState>();
+    return out;
+  }
   for (std::size_t i = 0; i < spec.outputs.size(); ++i)
     if (spec.outputs[i].name == ref.port) {
       out.output = i;
       type = findType(spec.outputs[i].type);
       return out;
     }
-  if (ref.port == "track_state") {
-    if (!spec.track_state)
-      return invalidInput("'{}': DFPC '{}' declares no track_state", ref.text(), ref.instance);
-    out.kind = RuleRef::Kind::kTrackState;
-    type = TypeId::of<TrackState>();
-    return out;
-  }
+  if (ref.port == "track_state")
+    return invalidInput("'{}': DFPC '{}' declares no track_state", ref.text(), ref.instance);
   std::vector<std::string> names{"track_state"};
   if (ref.port == "range") {
     const std::optional<std::size_t> o = rangeOutput(spec);

@@ -8,6 +8,7 @@
 #include <fmt/ranges.h>
 
 #include "cdff/dfpc/designation.hpp"
+#include "cdff/dfpc/run_set.hpp"
 
 namespace cdff::dfpc {
 
@@ -107,7 +108,63 @@ Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
 
 }  // namespace
 
-Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& options) {
+namespace {
+
+/// The orchestrator of a run (options expanded): its graphs loaded, created and added, its
+/// rules bound.
+Result<std::unique_ptr<Orchestrator>> buildOrchestrator(const ReplayOptions& options,
+                                                        const OrchestratorOptions& o) {
+  Result<std::vector<GraphSpec>> loaded = loadGraphs(options);
+  if (!loaded) return loaded.status();
+  auto orchestrator = std::make_unique<Orchestrator>(o);
+  for (GraphSpec& g : *loaded) {
+    Result<std::unique_ptr<Dfpc>> dfpc = Dfpc::create(std::move(g));
+    if (!dfpc) return dfpc.status();
+    CDFF_RETURN_IF_ERROR(orchestrator->add(std::move(dfpc).value()));
+  }
+  for (const ActivationRule& rule : options.run_while)
+    CDFF_RETURN_IF_ERROR(orchestrator->runWhile(rule));
+  return orchestrator;
+}
+
+}  // namespace
+
+Status checkRun(const ReplayOptions& given) {
+  Result<ReplayOptions> expanded = expandRunSets(given);
+  if (!expanded) return expanded.status();
+  return buildOrchestrator(*expanded, {}).status();
+}
+
+Result<ReplayOptions> expandRunSets(const ReplayOptions& options) {
+  ReplayOptions out = options;
+  out.graph_files.clear();
+  std::vector<std::string> settings;
+  for (const std::string& path : options.graph_files) {
+    if (!isRunSetFile(path)) {
+      out.graph_files.push_back(path);
+      continue;
+    }
+    Result<RunSet> set = loadRunSet(path);
+    if (!set) return set.status();
+    out.graph_files.insert(out.graph_files.end(), set->graph_files.begin(), set->graph_files.end());
+    settings.insert(settings.end(), set->settings.begin(), set->settings.end());
+    for (const std::string& m : set->maps) out.remaps.push_back(parseRemap(m).value());
+    for (const std::string& p : set->pairs)
+      out.stereo_pairs.push_back(parseStereoPairing(p).value());
+    for (const std::string& r : set->run_while)
+      out.run_while.push_back(parseActivationRule(r).value());
+  }
+  // The run sets' settings first: a setting of the command line given later wins.
+  settings.insert(settings.end(), options.parameter_settings.begin(),
+                  options.parameter_settings.end());
+  out.parameter_settings = std::move(settings);
+  return out;
+}
+
+Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& given) {
+  Result<ReplayOptions> expanded = expandRunSets(given);
+  if (!expanded) return expanded.status();
+  const ReplayOptions& options = *expanded;
   Result<std::vector<GraphSpec>> graphs = loadGraphs(options);
   if (!graphs) return graphs.status();
   std::set<std::string> produced;
@@ -125,22 +182,17 @@ Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& options) {
   return inputs;
 }
 
-Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options) {
-  Result<std::vector<GraphSpec>> loaded = loadGraphs(options);
-  if (!loaded) return loaded.status();
-  std::vector<GraphSpec>& graphs = *loaded;
+Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& given) {
+  Result<ReplayOptions> expanded = expandRunSets(given);
+  if (!expanded) return expanded.status();
+  const ReplayOptions& options = *expanded;
   OrchestratorOptions o;
   o.sink = &sink;
   o.record_timing = options.record_timing;
   o.passthrough_prefixes = options.passthrough_prefixes;
-  Orchestrator orchestrator(o);
-  for (GraphSpec& g : graphs) {
-    Result<std::unique_ptr<Dfpc>> dfpc = Dfpc::create(std::move(g));
-    if (!dfpc) return dfpc.status();
-    CDFF_RETURN_IF_ERROR(orchestrator.add(std::move(dfpc).value()));
-  }
-  for (const ActivationRule& rule : options.run_while)
-    CDFF_RETURN_IF_ERROR(orchestrator.runWhile(rule));
+  Result<std::unique_ptr<Orchestrator>> built = buildOrchestrator(options, o);
+  if (!built) return built.status();
+  Orchestrator& orchestrator = **built;
   CDFF_RETURN_IF_ERROR(orchestrator.startAll());
   RunOptions run;
   run.realtime = options.realtime;

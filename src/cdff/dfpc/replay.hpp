@@ -34,7 +34,9 @@ struct ChannelRemap {
 Result<ChannelRemap> parseRemap(const std::string& text);
 
 struct ReplayOptions {
-  std::vector<std::string> graph_files;  // one DFPC per file; all run together
+  /// One DFPC per graph file, all run together; a run set (run_set.hpp) adds its graphs, maps,
+  /// settings, pairs and rules (after the options' own settings, so that a --set overrides it).
+  std::vector<std::string> graph_files;
   std::vector<ChannelRemap> remaps;
   /// Stereo pairs made from two image channels of the input (StereoPairStream), for the DFPCs
   /// that take StereoImagePair.
@@ -62,6 +64,14 @@ struct ReplayResult {
   RunSummary summary;
   std::vector<DfpcStatus> dfpcs;  // at the end of the run
 };
+
+/// The options with every run set of graph_files replaced by its graphs, its maps, settings,
+/// pairs and rules added (replay() and externalInputs() do it themselves).
+Result<ReplayOptions> expandRunSets(const ReplayOptions& options);
+
+/// Everything replay() checks before it reads the input: the run sets, graphs, settings,
+/// remaps and rules (`cdff dfpc check` on a run set).
+Status checkRun(const ReplayOptions& options);
 
 /// Loads the graphs, applies the remaps, checks the input's channels, runs the input to its end
 /// and flushes the sink. Errors: a graph that does not load (every problem, with file:line), a
