@@ -125,6 +125,83 @@ TEST(RecordingEvaluation, PairsByFramesAndUsesTrackStateAndTiming) {
   EXPECT_TRUE(report->allPass());
 }
 
+// The phases of the run (seed Table 1, by the true range): 17 m -> 2 m in 30 s is mid range
+// until the range falls below 5 m (24.05 s), then close range; each phase has its own verdicts
+// over the estimates made during it, the update rate counting the phase's ends.
+TEST(RecordingEvaluation, GivesEachPhaseItsOwnVerdicts) {
+  const fs::path run = scratch("phases.mcap");
+  writeRun(run);
+  Result<EvaluationReport> report = evaluateRecording({run.string()});
+  ASSERT_TRUE(report.isOk()) << report.status().message();
+  ASSERT_EQ(report->phases.size(), 2u);
+  const PhaseResult& mid = report->phases[0];
+  const PhaseResult& close = report->phases[1];
+  EXPECT_EQ(mid.span.phase.name, "mid range");
+  EXPECT_EQ(close.span.phase.name, "close range");
+  EXPECT_EQ(mid.span.start, 0);
+  EXPECT_EQ(mid.span.end, fromSeconds(24.05));
+  EXPECT_EQ(close.span.start, fromSeconds(24.1));
+  EXPECT_EQ(close.span.end, fromSeconds(30.0));
+  const auto verdict = [](const PhaseResult& phase, const std::string& id,
+                          const std::string& quantity) -> const RequirementVerdict* {
+    for (const RequirementVerdict& v : phase.verdicts)
+      if (v.id == id && v.quantity == quantity && v.channel == "/cdff/trk/pose") return &v;
+    return nullptr;
+  };
+  // Mid range: the loss from 10 s to 12.1 s is its longest gap.
+  const RequirementVerdict* mid_rate = verdict(mid, "SR_DFPC_0102", "update_rate_hz");
+  ASSERT_NE(mid_rate, nullptr);
+  EXPECT_NEAR(mid_rate->measured, 1.0 / 2.2, 1e-6);
+  const RequirementVerdict* mid_position = verdict(mid, "SR_DFPC_0100", "position_error_m");
+  ASSERT_NE(mid_position, nullptr);
+  EXPECT_EQ(mid_position->verdict, Verdict::kPass);
+  EXPECT_EQ(mid_position->frames, 220u);  // 0-24 s at 10 Hz, the 21 lost ones out
+  EXPECT_NEAR(mid_position->measured, kOffsetM, 1e-9);
+  // Close range: products every 0.1 s from the phase's start; nothing under 2 m (SR_DFPC_0101
+  // does not apply and is left out).
+  const RequirementVerdict* close_rate = verdict(close, "SR_DFPC_0102", "update_rate_hz");
+  ASSERT_NE(close_rate, nullptr);
+  EXPECT_NEAR(close_rate->measured, 10.0, 1e-6);
+  EXPECT_EQ(verdict(close, "SR_DFPC_0101", "position_error_m"), nullptr);
+  ASSERT_NE(verdict(close, "SR_DFPC_0100", "angle_error_deg"), nullptr);
+  EXPECT_EQ(verdict(close, "SR_DFPC_0100", "angle_error_deg")->frames, 60u);  // 24.1-30 s
+
+  const nlohmann::json json = toJson(*report);
+  ASSERT_EQ(json.at("phases").size(), 2u);
+  EXPECT_EQ(json["phases"][1]["name"], "close range");
+  EXPECT_NEAR(json["phases"][1]["start_s"].get<double>(), 24.1, 1e-9);
+  EXPECT_NE(toText(*report).find("close range  (0-5 m; 24.1-30.0 s)"), std::string::npos)
+      << toText(*report);
+  // The plots share the run's time axis and mark each phase's start.
+  const std::string html = toHtml(*report);
+  EXPECT_NE(html.find("time since the run's start [s]"), std::string::npos);
+  EXPECT_NE(html.find("class='marker'"), std::string::npos);
+}
+
+TEST(Phases, SpansFollowTheTrueRangeAndGapsCountThePhasesEnds) {
+  std::vector<Transform> truth;
+  for (int k = 0; k <= 200; ++k) {  // 200 m -> 0 m, one sample a second
+    Transform t = Transform::identity("servicer", "target", fromSeconds(k));
+    t.translation = {0, 0, 200.0 - k};
+    truth.push_back(t);
+  }
+  const std::vector<PhaseSpan> spans = phaseSpans(truth);
+  ASSERT_EQ(spans.size(), 3u);
+  EXPECT_EQ(spans[0].phase.name, "far range");
+  EXPECT_EQ(spans[0].end, fromSeconds(100));  // 100 m: far range's band starts there
+  EXPECT_EQ(spans[1].start, fromSeconds(101));
+  EXPECT_EQ(spans[1].end, fromSeconds(195));  // 5 m belongs to mid range
+  EXPECT_EQ(spans[2].start, fromSeconds(196));
+  EXPECT_TRUE(phaseSpans({}).empty());
+  // A product from 20 s to 90 s, every 10 s, in a phase from 0 to 100 s: the 20 s before it
+  // is the longest gap; with nothing in the phase, the whole phase is.
+  std::vector<Timestamp> stamps;
+  for (int s = 20; s <= 90; s += 10) stamps.push_back(fromSeconds(s));
+  EXPECT_DOUBLE_EQ(longestGapWithin(stamps, 0, fromSeconds(100)), 20.0);
+  EXPECT_DOUBLE_EQ(longestGapWithin(stamps, fromSeconds(20), fromSeconds(130)), 40.0);
+  EXPECT_DOUBLE_EQ(longestGapWithin({}, 0, fromSeconds(100)), 100.0);
+}
+
 // A DFPC publishes its external initial state before the track is acquired: the products stamped
 // before the first track-state change take the state that change leaves (UNINITIALISED here);
 // neither those nor the products while ACQUIRING, 1 m off, count as tracked frames.

@@ -19,6 +19,7 @@ th:first-child, td:first-child { text-align: left; }
 .plot .tick, .plot .label { font-size: 11px; fill: #444; }
 .plot .data { fill: none; stroke: #1f77b4; stroke-width: 1; }
 .plot .point { fill: #1f77b4; } .plot .threshold { stroke: #d62728; stroke-dasharray: 5 4; }
+.plot .marker { stroke: #555; stroke-dasharray: 2 3; }
 )";
 
 namespace {
@@ -59,7 +60,7 @@ std::string escapeHtml(const std::string& text) {
 
 std::string svgPlot(const std::string& title, const std::string& x_label,
                     const std::string& y_label, const PlotSeries& data, double threshold,
-                    bool connect) {
+                    bool connect, const std::vector<PlotMarker>& markers) {
   constexpr double kWidth = 560, kHeight = 260, kLeft = 62, kRight = 14, kTop = 26, kBottom = 40;
   const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
   std::string svg = fmt::format(
@@ -100,6 +101,13 @@ std::string svgPlot(const std::string& title, const std::string& x_label,
         "<line x1='{0}' x2='{1}' y1='{2:.1f}' y2='{2:.1f}' class='threshold'/>"
         "<text x='{1}' y='{3:.1f}' class='tick' text-anchor='end'>requirement {4:g}</text>",
         kLeft, kLeft + plot_w, py(threshold), py(threshold) - 3, threshold);
+  for (const PlotMarker& m : markers) {
+    if (m.x < x_min || m.x > x_max) continue;
+    svg += fmt::format(
+        "<line x1='{0:.1f}' x2='{0:.1f}' y1='{1}' y2='{2}' class='marker'/>"
+        "<text x='{3:.1f}' y='{4}' class='tick'>{5}</text>",
+        px(m.x), kTop, kTop + plot_h, px(m.x) + 3, kTop + 10, escapeHtml(m.label));
+  }
   if (connect) {
     svg += "<polyline class='data' points='";
     for (std::size_t i = 0; i < data.x.size(); ++i)

@@ -19,10 +19,17 @@ struct PlotSeries {
   std::vector<double> x, y;
 };
 
-/// One scatter-and-line plot as inline SVG: axes with ticks, the data, and an optional
-/// horizontal threshold line (the requirement) drawn dashed; `connect` draws the line.
+/// A vertical line across a plot at x, labelled (a phase's start).
+struct PlotMarker {
+  double x = 0;
+  std::string label;
+};
+
+/// One scatter-and-line plot as inline SVG: axes with ticks, the data, an optional horizontal
+/// threshold line (the requirement) drawn dashed, and vertical markers within the data's span;
+/// `connect` draws the line.
 std::string svgPlot(const std::string& title, const std::string& x_label,
                     const std::string& y_label, const PlotSeries& data, double threshold = NAN,
-                    bool connect = true);
+                    bool connect = true, const std::vector<PlotMarker>& markers = {});
 
 }  // namespace cdff::eval

@@ -312,6 +312,62 @@ Result<std::pair<double, std::string>> focalLength(const std::map<std::string, d
 }
 
 // The bearing products' evaluations and verdicts, into `report`.
+/// The phases from the target's truth (/truth/target_pose, servicer_T_target), and the plots'
+/// time origin: the first truth sample of any channel.
+void startPhases(const std::map<std::string, PoseSeries>& truths, EvaluationReport& report) {
+  bool first = true;
+  for (const auto& [channel, series] : truths)
+    for (const Transform& t : series.poses)
+      if (first || t.stamp < report.start) {
+        report.start = t.stamp;
+        first = false;
+      }
+  if (!truths.count("/truth/target_pose")) return;
+  for (const PhaseSpan& span : phaseSpans(sortedTruth(truths, "/truth/target_pose")))
+    report.phases.push_back({span, {}});
+}
+
+Timestamp stampOf(const EstimateSample& e) {
+  return e.pose.stamp;
+}
+Timestamp stampOf(const BearingSample& e) {
+  return e.bearing.stamp;
+}
+
+/// Each phase's verdicts of one product (pose or bearing): `evaluate` measures the estimates
+/// made during the phase; the update rate is the longest gap in the phase, its ends included.
+template <typename Sample, typename Evaluate>
+void addPhaseVerdicts(const std::string& channel, const std::vector<Sample>& estimates,
+                      const Evaluate& evaluate, Statistic statistic,
+                      std::vector<PhaseResult>& phases) {
+  for (PhaseResult& phase : phases) {
+    const PhaseSpan& span = phase.span;
+    std::vector<Sample> during;
+    std::vector<Timestamp> valid;
+    for (const Sample& e : estimates) {
+      if (stampOf(e) < span.start || stampOf(e) > span.end) continue;
+      during.push_back(e);
+      if (e.valid) valid.push_back(stampOf(e));
+    }
+    if (valid.empty()) continue;
+    auto evaluation = evaluate(during);
+    if (!evaluation) continue;  // the whole product's evaluation has reported it
+    evaluation->channel = channel;
+    const double gap = longestGapWithin(valid, span.start, span.end);
+    evaluation->min_rate_hz = gap > 0 ? 1.0 / gap : std::numeric_limits<double>::infinity();
+    for (RequirementVerdict& v : checkRequirements(*evaluation, statistic)) {
+      if (v.verdict == Verdict::kNotApplicable) continue;
+      v.note = v.quantity == "update_rate_hz"
+                   ? fmt::format(
+                         "1 / longest time without a valid estimate in the {}, its "
+                         "start and end included",
+                         span.phase.name)
+                   : fmt::format("{}; {}", span.phase.name, v.note);
+      phase.verdicts.push_back(std::move(v));
+    }
+  }
+}
+
 Status evaluateBearingProducts(RecordingContents& contents,
                                const RecordingEvaluationOptions& options,
                                RecordingEvaluationNotes* notes, EvaluationReport& report) {
@@ -349,6 +405,13 @@ Status evaluateBearingProducts(RecordingContents& contents,
     for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
       report.requirements.push_back(std::move(v));
     report.bearings.push_back(std::move(evaluation).value());
+    const std::vector<Transform> truth = sortedTruth(contents.truths, *truth_channel);
+    addPhaseVerdicts(
+        channel, estimates,
+        [&](const std::vector<BearingSample>& during) {
+          return evaluateBearings(during, truth, focal->first, options.pose);
+        },
+        options.statistic, report.phases);
   }
   return Status::ok();
 }
@@ -393,6 +456,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   EvaluationReport report;
   report.input = fmt::format("{}", fmt::join(paths, ", "));
   report.statistic = toString(options.statistic);
+  startPhases(truths, report);
   for (auto& [channel, product] : products) {
     Result<std::string> truth_channel = truthChannelFor(channel, product, truths, options, notes);
     if (!truth_channel) return truth_channel.status();
@@ -410,6 +474,13 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
       report.requirements.push_back(std::move(v));
     report.products.push_back(std::move(evaluation).value());
+    const std::vector<Transform> truth = sortedTruth(truths, *truth_channel);
+    addPhaseVerdicts(
+        channel, estimates,
+        [&](const std::vector<EstimateSample>& during) {
+          return evaluatePoses(during, truth, options.pose);
+        },
+        options.statistic, report.phases);
   }
   CDFF_RETURN_IF_ERROR(evaluateBearingProducts(contents, options, notes, report));
   if (report.products.empty() && report.bearings.empty())

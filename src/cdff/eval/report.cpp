@@ -155,6 +155,33 @@ bool EvaluationReport::allPass() const {
                       [](const RequirementVerdict& v) { return v.verdict == Verdict::kFail; });
 }
 
+namespace {
+
+nlohmann::json verdictJson(const RequirementVerdict& v) {
+  return {
+      {"id", v.id},
+      {"title", v.title},
+      {"channel", v.channel},
+      {"quantity", v.quantity},
+      {"statistic", v.statistic},
+      {"comparison", v.comparison},
+      {"verdict", toString(v.verdict)},
+      {"measured",
+       v.verdict == Verdict::kNotApplicable ? nlohmann::json(nullptr) : number(v.measured)},
+      {"threshold", v.threshold},
+      {"frames", v.frames},
+      {"note", v.note},
+  };
+}
+
+std::string phaseRange(const PhaseSpec& phase) {
+  return std::isfinite(phase.max_range_m)
+             ? fmt::format("{:g}-{:g} m", phase.min_range_m, phase.max_range_m)
+             : fmt::format("from {:g} m", phase.min_range_m);
+}
+
+}  // namespace
+
 nlohmann::json toJson(const EvaluationReport& report) {
   nlohmann::json products = nlohmann::json::array();
   for (const PoseEvaluation& p : report.products) {
@@ -179,25 +206,26 @@ nlohmann::json toJson(const EvaluationReport& report) {
   nlohmann::json bearings = nlohmann::json::array();
   for (const BearingEvaluation& b : report.bearings) bearings.push_back(bearingJson(b));
   nlohmann::json requirements = nlohmann::json::array();
-  for (const RequirementVerdict& v : report.requirements) {
-    requirements.push_back({
-        {"id", v.id},
-        {"title", v.title},
-        {"channel", v.channel},
-        {"quantity", v.quantity},
-        {"statistic", v.statistic},
-        {"comparison", v.comparison},
-        {"verdict", toString(v.verdict)},
-        {"measured",
-         v.verdict == Verdict::kNotApplicable ? nlohmann::json(nullptr) : number(v.measured)},
-        {"threshold", v.threshold},
-        {"frames", v.frames},
-        {"note", v.note},
+  for (const RequirementVerdict& v : report.requirements) requirements.push_back(verdictJson(v));
+  nlohmann::json phases = nlohmann::json::array();
+  for (const PhaseResult& phase : report.phases) {
+    nlohmann::json verdicts = nlohmann::json::array();
+    for (const RequirementVerdict& v : phase.verdicts) verdicts.push_back(verdictJson(v));
+    phases.push_back({
+        {"name", phase.span.phase.name},
+        {"range_m", {number(phase.span.phase.min_range_m), number(phase.span.phase.max_range_m)}},
+        {"start_s", toSeconds(phase.span.start - report.start)},
+        {"end_s", toSeconds(phase.span.end - report.start)},
+        {"verdicts", verdicts},
     });
   }
-  return {{"input", report.input},        {"verdict_statistic", report.statistic},
-          {"all_pass", report.allPass()}, {"products", products},
-          {"bearings", bearings},         {"requirements", requirements}};
+  return {{"input", report.input},
+          {"verdict_statistic", report.statistic},
+          {"all_pass", report.allPass()},
+          {"products", products},
+          {"bearings", bearings},
+          {"requirements", requirements},
+          {"phases", phases}};
 }
 
 std::string toText(const EvaluationReport& report) {
@@ -226,6 +254,18 @@ std::string toText(const EvaluationReport& report) {
       if (v.channel == p.channel) text += verdictLine(v);
   }
   for (const BearingEvaluation& b : report.bearings) text += bearingText(b, report.requirements);
+  if (!report.phases.empty()) text += "phases (seed Table 1, by the true range):\n";
+  for (const PhaseResult& phase : report.phases) {
+    text += fmt::format("{}  ({}; {:.1f}-{:.1f} s)\n", phase.span.phase.name,
+                        phaseRange(phase.span.phase), toSeconds(phase.span.start - report.start),
+                        toSeconds(phase.span.end - report.start));
+    if (phase.verdicts.empty()) text += "  no product made a valid estimate\n";
+    std::string channel;
+    for (const RequirementVerdict& v : phase.verdicts) {
+      if (v.channel != channel) text += fmt::format("  {}\n", channel = v.channel);
+      text += "  " + verdictLine(v);
+    }
+  }
   return text;
 }
 
@@ -267,10 +307,24 @@ std::string productHtml(const PoseEvaluation& p) {
 }
 
 // One product's plots: errors over time and over range, NEES.
-std::string productPlotsHtml(const PoseEvaluation& p) {
+/// The time origin of a report's plots (its first truth sample) and its phases' starts.
+struct TimeAxis {
+  Timestamp t0 = 0;
+  std::vector<PlotMarker> markers;
+  static constexpr const char* kLabel = "time since the run's start [s]";
+};
+
+TimeAxis timeAxis(const EvaluationReport& report) {
+  TimeAxis axis{report.start, {}};
+  for (const PhaseResult& phase : report.phases)
+    axis.markers.push_back({toSeconds(phase.span.start - report.start), phase.span.phase.name});
+  return axis;
+}
+
+std::string productPlotsHtml(const PoseEvaluation& p, const TimeAxis& axis) {
   std::string html;
   PlotSeries position, angle, percent_by_range, nees;
-  const Timestamp t0 = p.errors.empty() ? 0 : p.errors.front().stamp;
+  const Timestamp t0 = axis.t0;
   for (const MatchedError& e : p.errors) {
     const double t = toSeconds(e.stamp - t0);
     position.x.push_back(t);
@@ -294,16 +348,16 @@ std::string productPlotsHtml(const PoseEvaluation& p) {
     return a == b ? a : NAN;
   };
   html += "<div>";
-  html += svgPlot("Position error over time", "time since first estimate [s]", "position error [m]",
-                  position, oneThreshold("position_error_m"));
-  html += svgPlot("Angle error over time", "time since first estimate [s]", "angle error [deg]",
-                  angle, oneThreshold("angle_error_deg"));
+  html += svgPlot("Position error over time", TimeAxis::kLabel, "position error [m]", position,
+                  oneThreshold("position_error_m"), true, axis.markers);
+  html += svgPlot("Angle error over time", TimeAxis::kLabel, "angle error [deg]", angle,
+                  oneThreshold("angle_error_deg"), true, axis.markers);
   html += svgPlot("Position error over range", "true range [m]", "position error [% of range]",
                   percent_by_range, NAN, false);
   if (!nees.x.empty())
-    html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
-                    "time since first estimate [s]", "NEES (6 dof)", nees,
-                    CovarianceConsistency::kChiSquare6Dof95);
+    html +=
+        svgPlot("Normalised error (NEES) over time, 95 % bound dashed", TimeAxis::kLabel,
+                "NEES (6 dof)", nees, CovarianceConsistency::kChiSquare6Dof95, true, axis.markers);
   html += "</div>\n";
   return html;
 }
@@ -315,7 +369,7 @@ double bearingThreshold(RequirementSpec::Quantity quantity) {
 }
 
 // One bearing product: its summary and its plots (error over time and over range, NEES, range).
-std::string bearingHtml(const BearingEvaluation& b) {
+std::string bearingHtml(const BearingEvaluation& b, const TimeAxis& axis) {
   std::string html = fmt::format(
       "<h2>{} (bearing)</h2><p>Truth: <code>{}</code>, the direction to the target's centre of "
       "mass in <code>{}</code>; focal length {} px{}. {} frames, {} valid, {} matched with "
@@ -341,7 +395,7 @@ std::string bearingHtml(const BearingEvaluation& b) {
 
   const bool in_px = b.pixels.count > 0;
   PlotSeries over_time, over_range, nees, range;
-  const Timestamp t0 = b.errors.empty() ? 0 : b.errors.front().stamp;
+  const Timestamp t0 = axis.t0;
   for (const BearingError& e : b.errors) {
     const double t = toSeconds(e.stamp - t0), value = in_px ? e.pixels : e.angle_urad;
     over_time.x.push_back(t);
@@ -360,18 +414,54 @@ std::string bearingHtml(const BearingEvaluation& b) {
   const char* unit = in_px ? "bearing error [px]" : "bearing error [µrad]";
   const double threshold = in_px ? bearingThreshold(RequirementSpec::Quantity::kBearingError) : NAN;
   html += "<div>";
-  html += svgPlot("Bearing error over time", "time since first estimate [s]", unit, over_time,
-                  threshold);
+  html += svgPlot("Bearing error over time", TimeAxis::kLabel, unit, over_time, threshold, true,
+                  axis.markers);
   html += svgPlot("Bearing error over range", "true range [m]", unit, over_range, threshold, false);
   if (!nees.x.empty())
-    html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed",
-                    "time since first estimate [s]", "NEES (2 dof)", nees,
-                    BearingConsistency::kChiSquare2Dof95);
+    html += svgPlot("Normalised error (NEES) over time, 95 % bound dashed", TimeAxis::kLabel,
+                    "NEES (2 dof)", nees, BearingConsistency::kChiSquare2Dof95, true, axis.markers);
   if (!range.x.empty())
-    html += svgPlot("Range error over time", "time since first estimate [s]",
-                    "|range error| [% of range]", range,
-                    bearingThreshold(RequirementSpec::Quantity::kRangeError));
+    html += svgPlot("Range error over time", TimeAxis::kLabel, "|range error| [% of range]", range,
+                    bearingThreshold(RequirementSpec::Quantity::kRangeError), true, axis.markers);
   html += "</div>\n";
+  return html;
+}
+
+}  // namespace
+
+namespace {
+
+std::string verdictRowHtml(const RequirementVerdict& v) {
+  return fmt::format(
+      "<tr class='{}'><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} {:g}</td><td>{}</td>"
+      "<td>{}</td><td>{}</td></tr>\n",
+      toString(v.verdict), escapeHtml(v.id), escapeHtml(v.channel), escapeHtml(v.quantity),
+      v.verdict == Verdict::kNotApplicable ? "—"
+                                           : fmt::format("{} {:.4g}", v.statistic, v.measured),
+      v.comparison, v.threshold, v.frames, toString(v.verdict), escapeHtml(v.note));
+}
+
+// Each phase's span and the verdicts of the products that served it.
+std::string phasesHtml(const EvaluationReport& report) {
+  if (report.phases.empty()) return "";
+  std::string html =
+      "<h2>Phases (seed Table 1, by the true range)</h2><p>Each product's verdicts over the "
+      "estimates it made during the phase; the plots mark each phase's start.</p>\n";
+  for (const PhaseResult& phase : report.phases) {
+    html += fmt::format("<h3>{} ({}; {:.1f}-{:.1f} s)</h3>\n", escapeHtml(phase.span.phase.name),
+                        escapeHtml(phaseRange(phase.span.phase)),
+                        toSeconds(phase.span.start - report.start),
+                        toSeconds(phase.span.end - report.start));
+    if (phase.verdicts.empty()) {
+      html += "<p>No product made a valid estimate.</p>\n";
+      continue;
+    }
+    html +=
+        "<table><tr><th>id</th><th>channel</th><th>quantity</th><th>measured</th><th>threshold"
+        "</th><th>frames</th><th>verdict</th><th>note</th></tr>\n";
+    for (const RequirementVerdict& v : phase.verdicts) html += verdictRowHtml(v);
+    html += "</table>\n";
+  }
   return html;
 }
 
@@ -387,21 +477,16 @@ std::string toHtml(const EvaluationReport& report) {
       "<h2>Requirements (seed §7.1, §2.2.2)</h2><table><tr><th>id</th><th>channel</th><th>quantity"
       "</th><th>measured</th><th>threshold</th><th>frames</th><th>verdict</th><th>note</th>"
       "</tr>\n";
-  for (const RequirementVerdict& v : report.requirements)
-    html += fmt::format(
-        "<tr class='{}'><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} {:g}</td><td>{}</td>"
-        "<td>{}</td><td>{}</td></tr>\n",
-        toString(v.verdict), escapeHtml(v.id), escapeHtml(v.channel), escapeHtml(v.quantity),
-        v.verdict == Verdict::kNotApplicable ? "—"
-                                             : fmt::format("{} {:.4g}", v.statistic, v.measured),
-        v.comparison, v.threshold, v.frames, toString(v.verdict), escapeHtml(v.note));
+  for (const RequirementVerdict& v : report.requirements) html += verdictRowHtml(v);
   html += "</table>\n";
+  html += phasesHtml(report);
+  const TimeAxis axis = timeAxis(report);
 
   for (const PoseEvaluation& p : report.products) {
     html += productHtml(p);
-    html += productPlotsHtml(p);
+    html += productPlotsHtml(p, axis);
   }
-  for (const BearingEvaluation& b : report.bearings) html += bearingHtml(b);
+  for (const BearingEvaluation& b : report.bearings) html += bearingHtml(b, axis);
   html += "</body></html>\n";
   return html;
 }

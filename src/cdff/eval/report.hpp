@@ -8,10 +8,18 @@
 #include <nlohmann/json.hpp>
 
 #include "cdff/eval/bearing_evaluation.hpp"
+#include "cdff/eval/phases.hpp"
 #include "cdff/eval/pose_evaluation.hpp"
 #include "cdff/eval/requirements.hpp"
 
 namespace cdff::eval {
+
+/// One phase of the run (phases.hpp) and the verdicts of every product that made valid estimates
+/// during it, over those estimates alone (the update rate counts the phase's start and end).
+struct PhaseResult {
+  PhaseSpan span;
+  std::vector<RequirementVerdict> verdicts;  // the applicable ones
+};
 
 struct EvaluationReport {
   std::string input;              // what was evaluated (file names)
@@ -19,6 +27,10 @@ struct EvaluationReport {
   std::vector<PoseEvaluation> products;
   std::vector<BearingEvaluation> bearings;  // far-range tracking's bearing products
   std::vector<RequirementVerdict> requirements;
+  /// The rendezvous's phases the run went through, by the truth of the target's pose
+  /// (/truth/target_pose); empty when the recording has no such truth.
+  std::vector<PhaseResult> phases;
+  Timestamp start = 0;  // the first truth sample: the time origin of the plots and phases
 
   /// True when no verdict is a fail (not-applicable ones do not count).
   bool allPass() const;
