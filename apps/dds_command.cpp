@@ -1,5 +1,6 @@
-// cdff bridge RECORDING... [--domain N] [--speed X] [--wait-for CHANNEL]
+// cdff bridge RECORDING... [--domain N] [--speed X] [--wait-for CHANNEL] [--encoding E]
 // cdff node GRAPH... [--domain N] [--set ...] [--map ...] [--run-while ...] [--timing]
+//                    [--encoding E]
 // cdff record -o OUT.mcap [--domain N] [--duration S] [CHANNEL|PATTERN...]
 //
 // The CDFF on DDS (docs/dds.md): a recording played onto ROS 2-compatible topics, DFPC graphs
@@ -66,6 +67,7 @@ struct BridgeArguments {
   std::vector<std::string> wait_for;
   double wait_timeout_s = 30;
   bool quiet = false;
+  std::string encoding = "ros2";
 };
 
 // Every channel's writer before the first message, so that readers can match first; a pose
@@ -135,12 +137,14 @@ int runBridge(const BridgeArguments& args) {
         invalidParameter("--speed {}: expected a number >= 0 (0: as fast as the readers "
                          "keep up)",
                          args.speed));
+  Result<dds::Encoding> encoding = dds::parseEncoding(args.encoding);
+  if (!encoding) return ddsFail(encoding.status().withContext("--encoding"));
   StopSignals signals;
   dfpc::McapInputStream input;
   if (Status s = input.open(args.recordings); !s) return ddsFail(s);
   Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
   if (!participant) return ddsFail(participant.status());
-  dds::Publisher publisher(**participant);
+  dds::Publisher publisher(**participant, {}, *encoding);
   if (Status s = prepareWriters(args, input, publisher); !s) return ddsFail(s);
   if (Status s = waitForReaders(args, publisher); !s) return ddsFail(s);
   const auto start = Clock::now();
@@ -168,6 +172,7 @@ struct NodeArguments {
   std::vector<std::string> settings;
   bool timing = false;
   int history = 100;
+  std::string encoding = "ros2";
 };
 
 Result<dfpc::ReplayOptions> nodeOptions(const NodeArguments& args) {
@@ -206,14 +211,19 @@ int runNode(const NodeArguments& args) {
   if (!options) return ddsFail(options.status());
   Result<std::vector<dfpc::ChannelInfo>> inputs = dfpc::externalInputs(*options);
   if (!inputs) return ddsFail(inputs.status());
+  Result<dds::Encoding> encoding = dds::parseEncoding(args.encoding);
+  if (!encoding) return ddsFail(encoding.status().withContext("--encoding"));
   StopSignals signals;
   Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
   if (!participant) return ddsFail(participant.status());
-  dds::Subscriber subscriber(**participant);
+  dds::Subscriber subscriber(**participant, *encoding);
   for (const dfpc::ChannelInfo& in : *inputs)
     if (Status s = subscriber.subscribe(in.channel, in.type); !s) return ddsFail(s);
   // Products stay available to readers that join late (a recorder started after the node).
-  dds::Publisher publisher(**participant, {dds::Durability::kTransientLocal, args.history});
+  dds::WriterQos qos;
+  qos.durability = dds::Durability::kTransientLocal;
+  qos.depth = args.history;
+  dds::Publisher publisher(**participant, qos, *encoding);
   dds::DdsSink sink(publisher, args.timing);
   dds::DdsInputStream input(subscriber, &stop_requested, [&sink](const dds::Rejection& r) {
     fmt::print(stderr, "rejected: {}\n", r.status.message());
@@ -306,6 +316,9 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
                 "Wait until this channel has a reader before playing (repeatable)");
   b->add_option("--wait-timeout", bridge->wait_timeout_s, "Seconds --wait-for waits at most")
       ->capture_default_str();
+  b->add_option("--encoding", bridge->encoding,
+                "ros2, or asn1-uper: the types with an ESROCOS ASN.1 type as uPER Records")
+      ->capture_default_str();
   b->add_flag("-q,--quiet", bridge->quiet, "No summary");
   b->callback([bridge, &exit_code] { exit_code = runBridge(*bridge); });
 
@@ -320,6 +333,9 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
   n->add_option("--set", node->settings, "Set an instance's parameter: [DFPC/]NODE.PARAM=VALUE");
   n->add_flag("--timing", node->timing, "Publish a timing record per DFN call");
   n->add_option("--history", node->history, "Products kept per channel for readers that join late")
+      ->capture_default_str();
+  n->add_option("--encoding", node->encoding,
+                "ros2, or asn1-uper: the types with an ESROCOS ASN.1 type as uPER Records")
       ->capture_default_str();
   n->callback([node, &exit_code] { exit_code = runNode(*node); });
 

@@ -25,7 +25,8 @@ struct Subscriber::Taken {
   Timestamp header_stamp = 0;
 };
 
-Subscriber::Subscriber(Participant& participant) : participant_(participant) {
+Subscriber::Subscriber(Participant& participant, Encoding encoding)
+    : participant_(participant), encoding_(encoding) {
   waitset_ = dds_create_waitset(participant_.handle());
 }
 
@@ -64,7 +65,7 @@ Status Subscriber::subscribe(const std::string& channel, TypeId type) {
   if (!type) return invalidParameter("channel '{}': no type; expected a CDFF type", channel);
   if (channel_types_.count(channel))
     return invalidParameter("channel '{}' is subscribed already", channel);
-  const WireType wire = wireTypeOf(type);
+  const WireType wire = wireTypeOf(type, encoding_);
   CDFF_RETURN_IF_ERROR(addReader(channel, wire, wire == WireType::kRecord ? type : TypeId(), true,
                                  Durability::kVolatile));
   if (wire == WireType::kImage)

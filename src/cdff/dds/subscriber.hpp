@@ -35,7 +35,9 @@ struct Rejection {
 
 class Subscriber {
  public:
-  explicit Subscriber(Participant& participant);
+  /// `encoding`: how the channels subscribed with subscribe() travel (wire.hpp); a Record is
+  /// decoded by its own encoding field.
+  explicit Subscriber(Participant& participant, Encoding encoding = Encoding::kRos2);
   ~Subscriber();
   Subscriber(const Subscriber&) = delete;
   Subscriber& operator=(const Subscriber&) = delete;
@@ -75,6 +77,7 @@ class Subscriber {
                std::vector<Rejection>& rejections);
 
   Participant& participant_;
+  Encoding encoding_;
   dds_entity_t waitset_ = 0;
   dds_entity_t discovery_ = 0;  // the DCPSPublication reader (subscribeDiscovered)
   std::vector<std::string> patterns_;
