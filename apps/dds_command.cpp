@@ -2,12 +2,15 @@
 // cdff node GRAPH... [--domain N] [--set ...] [--map ...] [--run-while ...] [--timing]
 //                    [--encoding E]
 // cdff record -o OUT.mcap [--domain N] [--duration S] [CHANNEL|PATTERN...]
+// cdff api METHOD [ARGUMENT] [--domain N] [--timeout S]
 //
 // The CDFF on DDS (docs/dds.md): a recording played onto ROS 2-compatible topics, DFPC graphs
 // run as a DDS participant, and DDS topics recorded into MCAP. Each stops cleanly on SIGINT or
 // SIGTERM: the node processes and publishes what its readers had received, the recorder writes
-// what it had received and closes its file.
+// what it had received and closes its file. The node serves the external API (seed §7.3) on DDS
+// (dds/api_service.hpp); `cdff api` is its client.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <atomic>
 #include <chrono>
@@ -15,7 +18,9 @@
 #include <memory>
 #include <thread>
 
+#include "cdff/dds/api_service.hpp"
 #include "cdff/dds/streams.hpp"
+#include "cdff/dfpc/api.hpp"
 #include "cdff/dfpc/recording_streams.hpp"
 #include "cdff/dfpc/replay.hpp"
 #include "commands.hpp"
@@ -25,6 +30,9 @@ namespace cdff::app {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// How long a stopping node waits for its DFPCs to process what its readers held.
+constexpr double kDrainTimeout_s = 60;
 
 std::atomic<bool> stop_requested{false};
 extern "C" void onStopSignal(int) {
@@ -195,15 +203,41 @@ Result<dfpc::ReplayOptions> nodeOptions(const NodeArguments& args) {
   return options;
 }
 
-void printNodeSummary(const dfpc::ReplayResult& result, const dds::DdsInputStream& input) {
-  const dfpc::RunSummary& s = result.summary;
-  fmt::print("{} messages received ({} rejected), {} products, {} events ({} faults)\n",
-             input.received(), input.rejected(), s.products, s.events, s.faults);
-  for (const dfpc::DfpcStatus& d : result.dfpcs)
-    fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d.name, toString(d.state),
-               d.track_state ? fmt::format(" (track {})", toString(*d.track_state)) : "",
-               d.messages, d.products, d.faults,
-               d.last_fault.empty() ? "" : fmt::format(", last fault: {}", d.last_fault));
+void printNodeSummary(const api::Cdff& cdff, const std::vector<dfpc::GraphSpec>& graphs,
+                      const dds::DdsSink& sink, const dds::DdsInputStream& input,
+                      std::uint64_t requests) {
+  fmt::print("{} messages received ({} rejected), {} products, {} events, {} API requests\n",
+             input.received(), input.rejected(), sink.products(), sink.events(), requests);
+  for (const dfpc::GraphSpec& g : graphs) {
+    Result<dfpc::DfpcStatus> d = cdff.getDFPCStatus(g.name);
+    if (!d) continue;
+    fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d->name, toString(d->state),
+               d->track_state ? fmt::format(" (track {})", toString(*d->track_state)) : "",
+               d->messages, d->products, d->faults,
+               d->last_fault.empty() ? "" : fmt::format(", last fault: {}", d->last_fault));
+  }
+}
+
+// Serves the external API until a stop signal, then lets the input drain (what the readers
+// hold), stops the DFPCs and waits until the readers acknowledged the products.
+int serveNode(api::Cdff& cdff, dds::Participant& participant, dds::DdsSink& sink,
+              const dds::DdsInputStream& input, const std::vector<dfpc::GraphSpec>& graphs) {
+  if (Status s = cdff.setCDFFState(api::StateRequest::kInitialize); !s) return ddsFail(s);
+  Result<std::unique_ptr<dds::ApiServer>> server = dds::ApiServer::create(participant, cdff);
+  if (!server) return ddsFail(server.status());
+  fmt::print("external API on {} / {}\n", dds::kApiRequestTopic, dds::kApiReplyTopic);
+  std::fflush(stdout);
+  while (!stop_requested.load())
+    if (Status s = (*server)->serve(0.05); !s) return ddsFail(s);
+  // Idle or stopped (by the API), the CDFF does not consume its input: nothing to drain.
+  if (cdff.getCDFFState() == api::CdffState::kRunning)
+    if (Status s = cdff.flush(kDrainTimeout_s); !s) return ddsFail(s);
+  const api::CdffState state = cdff.getCDFFState();
+  if (state == api::CdffState::kRunning || state == api::CdffState::kIdle)
+    if (Status s = cdff.setCDFFState(api::StateRequest::kStop); !s) return ddsFail(s);
+  if (Status s = sink.flush(); !s) return ddsFail(s);
+  printNodeSummary(cdff, graphs, sink, input, (*server)->served());
+  return 0;
 }
 
 int runNode(const NodeArguments& args) {
@@ -211,6 +245,8 @@ int runNode(const NodeArguments& args) {
   if (!options) return ddsFail(options.status());
   Result<std::vector<dfpc::ChannelInfo>> inputs = dfpc::externalInputs(*options);
   if (!inputs) return ddsFail(inputs.status());
+  Result<std::vector<dfpc::GraphSpec>> graphs = dfpc::loadGraphs(*options);
+  if (!graphs) return ddsFail(graphs.status());
   Result<dds::Encoding> encoding = dds::parseEncoding(args.encoding);
   if (!encoding) return ddsFail(encoding.status().withContext("--encoding"));
   StopSignals signals;
@@ -225,20 +261,52 @@ int runNode(const NodeArguments& args) {
   qos.depth = args.history;
   dds::Publisher publisher(**participant, qos, *encoding);
   dds::DdsSink sink(publisher, args.timing);
-  dds::DdsInputStream input(subscriber, &stop_requested, [&sink](const dds::Rejection& r) {
-    fmt::print(stderr, "rejected: {}\n", r.status.message());
-    dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
-                      r.status.message()};
-    if (Status s = sink.writeEvent(event); !s)
-      fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
-  });
-  fmt::print("cdff node on DDS domain {}: reading", args.domain);
+  auto input = std::make_shared<dds::DdsInputStream>(
+      subscriber, &stop_requested, [&sink](const dds::Rejection& r) {
+        fmt::print(stderr, "rejected: {}\n", r.status.message());
+        dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
+                          r.status.message()};
+        if (Status s = sink.writeEvent(event); !s)
+          fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
+      });
+  api::Config config;
+  config.graphs = *graphs;
+  config.input = input;
+  config.sink = &sink;
+  config.record_timing = args.timing;
+  config.run_while = options->run_while;
+  Result<std::unique_ptr<api::Cdff>> cdff = api::Cdff::create(std::move(config));
+  if (!cdff) return ddsFail(cdff.status());
+  fmt::print("cdff node on DDS domain {} ({}): reading", args.domain, args.encoding);
   for (const dfpc::ChannelInfo& in : *inputs) fmt::print(" {} ({})", in.channel, in.type.name());
   fmt::print("\n");
-  std::fflush(stdout);
-  Result<dfpc::ReplayResult> result = dfpc::replay(input, sink, *options);
-  if (!result) return ddsFail(result.status());
-  printNodeSummary(*result, input);
+  const int rc = serveNode(**cdff, **participant, sink, *input, *graphs);
+  // The input thread reads DDS until a stop: it must end before the CDFF is destroyed.
+  stop_requested.store(true);
+  return rc;
+}
+
+// ---- cdff api -------------------------------------------------------------------------------
+
+struct ApiArguments {
+  std::string method;
+  std::string argument;
+  int domain = 0;
+  double timeout_s = 10;
+};
+
+int runApi(const ApiArguments& args) {
+  Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
+  if (!participant) return ddsFail(participant.status());
+  Result<std::unique_ptr<dds::ApiClient>> client = dds::ApiClient::create(**participant);
+  if (!client) return ddsFail(client.status());
+  Result<dds::ApiReply> reply = (*client)->call(args.method, args.argument, args.timeout_s);
+  if (!reply) return ddsFail(reply.status());
+  if (!reply->ok) {
+    fmt::print(stderr, "error: {}\n", reply->error);
+    return 1;
+  }
+  fmt::print("{}\n", reply->result.dump(2));
   return 0;
 }
 
@@ -338,6 +406,21 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
                 "ros2, or asn1-uper: the types with an ESROCOS ASN.1 type as uPER Records")
       ->capture_default_str();
   n->callback([node, &exit_code] { exit_code = runNode(*node); });
+
+  auto call = std::make_shared<ApiArguments>();
+  CLI::App* a = root.add_subcommand(
+      "api",
+      "Call the external API (seed 7.3) of a `cdff node` over DDS; prints the answer (JSON)");
+  a->add_option("METHOD", call->method,
+                fmt::format("One of {}", fmt::join(dds::apiMethods(), ", ")))
+      ->required();
+  a->add_option("ARGUMENT", call->argument,
+                "A DFPC (getDFPCStatus, initDFPC, stopDFPC), a state (setCDFFState: initialize, "
+                "idle, reset, stop) or a frame (getTargetRelative*: default the product's)");
+  a->add_option("--domain", call->domain, "DDS domain id")->capture_default_str();
+  a->add_option("--timeout", call->timeout_s, "Seconds to wait for the node's reply")
+      ->capture_default_str();
+  a->callback([call, &exit_code] { exit_code = runApi(*call); });
 
   auto record = std::make_shared<RecordArguments>();
   CLI::App* r = root.add_subcommand("record", "Record DDS topics (ROS 2 and CDFF types) to MCAP");

@@ -54,22 +54,38 @@ DdsSink::DdsSink(Publisher& publisher, bool publish_timing, std::string event_ch
       event_channel_(std::move(event_channel)) {}
 
 Status DdsSink::writeMessage(const dfpc::Message& message) {
+  std::lock_guard lock(mutex_);
+  ++products_;
   return publisher_.publish(message);
 }
 
 Status DdsSink::writeEvent(const dfpc::Event& event) {
+  std::lock_guard lock(mutex_);
+  ++events_;
   return publisher_.publish(
       dfpc::Message::of<nlohmann::json>(event_channel_, event.stamp, dfpc::eventRecord(event)));
 }
 
 Status DdsSink::writeTiming(const dfpc::TimingRecord& timing) {
   if (!publish_timing_) return Status::ok();
+  std::lock_guard lock(mutex_);
   return publisher_.publish(dfpc::Message::of<nlohmann::json>(
       dfpc::timingChannel(timing.dfpc), timing.stamp, dfpc::timingRecord(timing)));
 }
 
 Status DdsSink::flush() {
+  std::lock_guard lock(mutex_);
   return publisher_.waitForAcknowledgements(kAcknowledgementTimeout_s);
+}
+
+std::uint64_t DdsSink::products() const {
+  std::lock_guard lock(mutex_);
+  return products_;
+}
+
+std::uint64_t DdsSink::events() const {
+  std::lock_guard lock(mutex_);
+  return events_;
 }
 
 }  // namespace cdff::dds

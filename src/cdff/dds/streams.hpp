@@ -13,6 +13,7 @@
 #include <atomic>
 #include <deque>
 #include <functional>
+#include <mutex>
 
 #include "cdff/dds/publisher.hpp"
 #include "cdff/dds/subscriber.hpp"
@@ -48,7 +49,8 @@ class DdsInputStream final : public dfpc::InputStream {
 
 /// Publishes a run's products on their channels, its events as JSON records on /cdff/events
 /// (the same records as in an MCAP run, docs/recording.md) and, when asked, one timing record
-/// per DFN call on /cdff/<dfpc>/timing.
+/// per DFN call on /cdff/<dfpc>/timing. Thread-safe: the input thread (products, rejections)
+/// and the external API's thread (life-cycle events) write through it.
 class DdsSink final : public dfpc::Sink {
  public:
   explicit DdsSink(Publisher& publisher, bool publish_timing = false,
@@ -60,7 +62,12 @@ class DdsSink final : public dfpc::Sink {
   /// Waits until every reader acknowledged what was published (up to 10 s).
   Status flush() override;
 
+  std::uint64_t products() const;
+  std::uint64_t events() const;
+
  private:
+  mutable std::mutex mutex_;
+  std::uint64_t products_ = 0, events_ = 0;
   Publisher& publisher_;
   bool publish_timing_;
   std::string event_channel_;

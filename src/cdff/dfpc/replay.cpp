@@ -79,9 +79,6 @@ Status checkSettingsApplied(const std::vector<ParameterSetting>& settings,
 
 }  // namespace
 
-namespace {
-
-// The graphs of a run with their --set settings and remaps applied.
 Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
   if (options.graph_files.empty()) return invalidParameter("no DFPC graph to run");
   std::vector<ParameterSetting> settings;
@@ -104,8 +101,6 @@ Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
   CDFF_RETURN_IF_ERROR(applyRemaps(graphs, options.remaps));
   return graphs;
 }
-
-}  // namespace
 
 Result<std::vector<ChannelInfo>> externalInputs(const ReplayOptions& options) {
   Result<std::vector<GraphSpec>> graphs = loadGraphs(options);
