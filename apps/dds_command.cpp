@@ -240,6 +240,30 @@ int serveNode(api::Cdff& cdff, dds::Participant& participant, dds::DdsSink& sink
   return 0;
 }
 
+// The node's input: what its readers receive; a rejected sample and a publisher that left are
+// events (input_rejected, input_lost) that say which channel and why.
+std::shared_ptr<dds::DdsInputStream> nodeInput(dds::Subscriber& subscriber, dds::DdsSink& sink) {
+  return std::make_shared<dds::DdsInputStream>(
+      subscriber, &stop_requested,
+      [&sink](const dds::Rejection& r) {
+        fmt::print(stderr, "rejected: {}\n", r.status.message());
+        dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
+                          r.status.message()};
+        if (Status s = sink.writeEvent(event); !s)
+          fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
+      },
+      [&sink](const dds::LostPublisher& lost, Timestamp stamp) {
+        const std::string why = fmt::format(
+            "channel '{}': {} publisher(s) left, {} remain; {}", lost.channel, lost.left,
+            lost.remaining,
+            lost.remaining > 0 ? "the others go on" : "nothing more comes until one joins");
+        fmt::print(stderr, "input lost: {}\n", why);
+        dfpc::Event event{stamp, dfpc::EventType::kInputLost, "cdff node", "", why};
+        if (Status s = sink.writeEvent(event); !s)
+          fmt::print(stderr, "error: publishing the input loss: {}\n", s.message());
+      });
+}
+
 int runNode(const NodeArguments& args) {
   Result<dfpc::ReplayOptions> options = nodeOptions(args);
   if (!options) return ddsFail(options.status());
@@ -261,14 +285,7 @@ int runNode(const NodeArguments& args) {
   qos.depth = args.history;
   dds::Publisher publisher(**participant, qos, *encoding);
   dds::DdsSink sink(publisher, args.timing);
-  auto input = std::make_shared<dds::DdsInputStream>(
-      subscriber, &stop_requested, [&sink](const dds::Rejection& r) {
-        fmt::print(stderr, "rejected: {}\n", r.status.message());
-        dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
-                          r.status.message()};
-        if (Status s = sink.writeEvent(event); !s)
-          fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
-      });
+  std::shared_ptr<dds::DdsInputStream> input = nodeInput(subscriber, sink);
   api::Config config;
   config.graphs = *graphs;
   config.input = input;

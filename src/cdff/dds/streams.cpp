@@ -10,8 +10,12 @@ constexpr double kAcknowledgementTimeout_s = 10.0;
 }  // namespace
 
 DdsInputStream::DdsInputStream(Subscriber& subscriber, const std::atomic<bool>* stop,
-                               std::function<void(const Rejection&)> on_rejected)
-    : subscriber_(subscriber), stop_(stop), on_rejected_(std::move(on_rejected)) {}
+                               std::function<void(const Rejection&)> on_rejected,
+                               std::function<void(const LostPublisher&, Timestamp)> on_lost)
+    : subscriber_(subscriber),
+      stop_(stop),
+      on_rejected_(std::move(on_rejected)),
+      on_lost_(std::move(on_lost)) {}
 
 Status DdsInputStream::fill(double timeout_s) {
   std::vector<dfpc::Message> messages;
@@ -23,6 +27,10 @@ Status DdsInputStream::fill(double timeout_s) {
   }
   received_ += messages.size();
   for (dfpc::Message& m : messages) queue_.push_back(std::move(m));
+  // A departure after the messages it sent: reported at the stamp of the last of them.
+  if (!queue_.empty()) last_stamp_ = queue_.back().stamp;
+  if (on_lost_)
+    for (const LostPublisher& lost : subscriber_.takeLostPublishers()) on_lost_(lost, last_stamp_);
   return Status::ok();
 }
 

@@ -24,9 +24,11 @@ namespace cdff::dds {
 class DdsInputStream final : public dfpc::InputStream {
  public:
   /// `on_rejected` is called, in the thread that calls next(), for every sample that does not
-  /// convert.
+  /// convert; `on_lost` when a channel's publishers left, with the stamp of the latest message
+  /// delivered (the stream time then).
   DdsInputStream(Subscriber& subscriber, const std::atomic<bool>* stop,
-                 std::function<void(const Rejection&)> on_rejected = {});
+                 std::function<void(const Rejection&)> on_rejected = {},
+                 std::function<void(const LostPublisher&, Timestamp)> on_lost = {});
 
   /// Blocks until a message arrives or `stop` is set (then std::nullopt once drained).
   Result<std::optional<dfpc::Message>> next() override;
@@ -42,6 +44,8 @@ class DdsInputStream final : public dfpc::InputStream {
   Subscriber& subscriber_;
   const std::atomic<bool>* stop_;
   std::function<void(const Rejection&)> on_rejected_;
+  std::function<void(const LostPublisher&, Timestamp)> on_lost_;
+  Timestamp last_stamp_ = 0;
   std::deque<dfpc::Message> queue_;
   bool drained_ = false;
   std::uint64_t received_ = 0, rejected_ = 0;

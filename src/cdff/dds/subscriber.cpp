@@ -217,6 +217,20 @@ std::vector<dfpc::ChannelInfo> Subscriber::channels() const {
   return channels;
 }
 
+std::vector<LostPublisher> Subscriber::takeLostPublishers() {
+  std::vector<LostPublisher> lost;
+  for (const auto& r : readers_) {
+    if (!r->emit) continue;
+    dds_subscription_matched_status_t status{};
+    // Reading the status resets its change count: each departure is reported once.
+    if (dds_get_subscription_matched_status(r->reader, &status) < 0) continue;
+    if (status.current_count_change < 0)
+      lost.push_back(
+          {r->channel, -status.current_count_change, static_cast<int>(status.current_count)});
+  }
+  return lost;
+}
+
 std::vector<std::string> Subscriber::takeNewChannels() {
   return std::exchange(new_channels_, {});
 }
