@@ -1,12 +1,16 @@
-// cdff bridge RECORDING... [--domain N] [--speed X] [--wait-for CHANNEL]
+// cdff bridge RECORDING... [--domain N] [--speed X] [--wait-for CHANNEL] [--encoding E]
 // cdff node GRAPH... [--domain N] [--set ...] [--map ...] [--run-while ...] [--timing]
+//                    [--encoding E]
 // cdff record -o OUT.mcap [--domain N] [--duration S] [CHANNEL|PATTERN...]
+// cdff api METHOD [ARGUMENT] [--domain N] [--timeout S]
 //
 // The CDFF on DDS (docs/dds.md): a recording played onto ROS 2-compatible topics, DFPC graphs
 // run as a DDS participant, and DDS topics recorded into MCAP. Each stops cleanly on SIGINT or
 // SIGTERM: the node processes and publishes what its readers had received, the recorder writes
-// what it had received and closes its file.
+// what it had received and closes its file. The node serves the external API (seed §7.3) on DDS
+// (dds/api_service.hpp); `cdff api` is its client.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <atomic>
 #include <chrono>
@@ -14,7 +18,9 @@
 #include <memory>
 #include <thread>
 
+#include "cdff/dds/api_service.hpp"
 #include "cdff/dds/streams.hpp"
+#include "cdff/dfpc/api.hpp"
 #include "cdff/dfpc/recording_streams.hpp"
 #include "cdff/dfpc/replay.hpp"
 #include "commands.hpp"
@@ -24,6 +30,9 @@ namespace cdff::app {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// How long a stopping node waits for its DFPCs to process what its readers held.
+constexpr double kDrainTimeout_s = 60;
 
 std::atomic<bool> stop_requested{false};
 extern "C" void onStopSignal(int) {
@@ -66,6 +75,7 @@ struct BridgeArguments {
   std::vector<std::string> wait_for;
   double wait_timeout_s = 30;
   bool quiet = false;
+  std::string encoding = "ros2";
 };
 
 // Every channel's writer before the first message, so that readers can match first; a pose
@@ -135,12 +145,14 @@ int runBridge(const BridgeArguments& args) {
         invalidParameter("--speed {}: expected a number >= 0 (0: as fast as the readers "
                          "keep up)",
                          args.speed));
+  Result<dds::Encoding> encoding = dds::parseEncoding(args.encoding);
+  if (!encoding) return ddsFail(encoding.status().withContext("--encoding"));
   StopSignals signals;
   dfpc::McapInputStream input;
   if (Status s = input.open(args.recordings); !s) return ddsFail(s);
   Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
   if (!participant) return ddsFail(participant.status());
-  dds::Publisher publisher(**participant);
+  dds::Publisher publisher(**participant, {}, *encoding);
   if (Status s = prepareWriters(args, input, publisher); !s) return ddsFail(s);
   if (Status s = waitForReaders(args, publisher); !s) return ddsFail(s);
   const auto start = Clock::now();
@@ -168,6 +180,7 @@ struct NodeArguments {
   std::vector<std::string> settings;
   bool timing = false;
   int history = 100;
+  std::string encoding = "ros2";
 };
 
 Result<dfpc::ReplayOptions> nodeOptions(const NodeArguments& args) {
@@ -190,45 +203,130 @@ Result<dfpc::ReplayOptions> nodeOptions(const NodeArguments& args) {
   return options;
 }
 
-void printNodeSummary(const dfpc::ReplayResult& result, const dds::DdsInputStream& input) {
-  const dfpc::RunSummary& s = result.summary;
-  fmt::print("{} messages received ({} rejected), {} products, {} events ({} faults)\n",
-             input.received(), input.rejected(), s.products, s.events, s.faults);
-  for (const dfpc::DfpcStatus& d : result.dfpcs)
-    fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d.name, toString(d.state),
-               d.track_state ? fmt::format(" (track {})", toString(*d.track_state)) : "",
-               d.messages, d.products, d.faults,
-               d.last_fault.empty() ? "" : fmt::format(", last fault: {}", d.last_fault));
+void printNodeSummary(const api::Cdff& cdff, const std::vector<dfpc::GraphSpec>& graphs,
+                      const dds::DdsSink& sink, const dds::DdsInputStream& input,
+                      std::uint64_t requests) {
+  fmt::print("{} messages received ({} rejected), {} products, {} events, {} API requests\n",
+             input.received(), input.rejected(), sink.products(), sink.events(), requests);
+  for (const dfpc::GraphSpec& g : graphs) {
+    Result<dfpc::DfpcStatus> d = cdff.getDFPCStatus(g.name);
+    if (!d) continue;
+    fmt::print("  {}: {}{}, {} messages, {} products, {} faults{}\n", d->name, toString(d->state),
+               d->track_state ? fmt::format(" (track {})", toString(*d->track_state)) : "",
+               d->messages, d->products, d->faults,
+               d->last_fault.empty() ? "" : fmt::format(", last fault: {}", d->last_fault));
+  }
+}
+
+// Serves the external API until a stop signal, then lets the input drain (what the readers
+// hold), stops the DFPCs and waits until the readers acknowledged the products.
+int serveNode(api::Cdff& cdff, dds::Participant& participant, dds::DdsSink& sink,
+              const dds::DdsInputStream& input, const std::vector<dfpc::GraphSpec>& graphs) {
+  if (Status s = cdff.setCDFFState(api::StateRequest::kInitialize); !s) return ddsFail(s);
+  Result<std::unique_ptr<dds::ApiServer>> server = dds::ApiServer::create(participant, cdff);
+  if (!server) return ddsFail(server.status());
+  fmt::print("external API on {} / {}\n", dds::kApiRequestTopic, dds::kApiReplyTopic);
+  std::fflush(stdout);
+  while (!stop_requested.load())
+    if (Status s = (*server)->serve(0.05); !s) return ddsFail(s);
+  // Idle or stopped (by the API), the CDFF does not consume its input: nothing to drain.
+  if (cdff.getCDFFState() == api::CdffState::kRunning)
+    if (Status s = cdff.flush(kDrainTimeout_s); !s) return ddsFail(s);
+  const api::CdffState state = cdff.getCDFFState();
+  if (state == api::CdffState::kRunning || state == api::CdffState::kIdle)
+    if (Status s = cdff.setCDFFState(api::StateRequest::kStop); !s) return ddsFail(s);
+  if (Status s = sink.flush(); !s) return ddsFail(s);
+  printNodeSummary(cdff, graphs, sink, input, (*server)->served());
+  return 0;
+}
+
+// The node's input: what its readers receive; a rejected sample and a publisher that left are
+// events (input_rejected, input_lost) that say which channel and why.
+std::shared_ptr<dds::DdsInputStream> nodeInput(dds::Subscriber& subscriber, dds::DdsSink& sink) {
+  return std::make_shared<dds::DdsInputStream>(
+      subscriber, &stop_requested,
+      [&sink](const dds::Rejection& r) {
+        fmt::print(stderr, "rejected: {}\n", r.status.message());
+        dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
+                          r.status.message()};
+        if (Status s = sink.writeEvent(event); !s)
+          fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
+      },
+      [&sink](const dds::LostPublisher& lost, Timestamp stamp) {
+        const std::string why = fmt::format(
+            "channel '{}': {} publisher(s) left, {} remain; {}", lost.channel, lost.left,
+            lost.remaining,
+            lost.remaining > 0 ? "the others go on" : "nothing more comes until one joins");
+        fmt::print(stderr, "input lost: {}\n", why);
+        dfpc::Event event{stamp, dfpc::EventType::kInputLost, "cdff node", "", why};
+        if (Status s = sink.writeEvent(event); !s)
+          fmt::print(stderr, "error: publishing the input loss: {}\n", s.message());
+      });
 }
 
 int runNode(const NodeArguments& args) {
-  Result<dfpc::ReplayOptions> options = nodeOptions(args);
+  Result<dfpc::ReplayOptions> given = nodeOptions(args);
+  if (!given) return ddsFail(given.status());
+  // A run set's graphs, maps, settings and rules, as `cdff run` takes them.
+  Result<dfpc::ReplayOptions> options = dfpc::expandRunSets(*given);
   if (!options) return ddsFail(options.status());
   Result<std::vector<dfpc::ChannelInfo>> inputs = dfpc::externalInputs(*options);
   if (!inputs) return ddsFail(inputs.status());
+  Result<std::vector<dfpc::GraphSpec>> graphs = dfpc::loadGraphs(*options);
+  if (!graphs) return ddsFail(graphs.status());
+  Result<dds::Encoding> encoding = dds::parseEncoding(args.encoding);
+  if (!encoding) return ddsFail(encoding.status().withContext("--encoding"));
   StopSignals signals;
   Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
   if (!participant) return ddsFail(participant.status());
-  dds::Subscriber subscriber(**participant);
+  dds::Subscriber subscriber(**participant, *encoding);
   for (const dfpc::ChannelInfo& in : *inputs)
     if (Status s = subscriber.subscribe(in.channel, in.type); !s) return ddsFail(s);
   // Products stay available to readers that join late (a recorder started after the node).
-  dds::Publisher publisher(**participant, {dds::Durability::kTransientLocal, args.history});
+  dds::WriterQos qos;
+  qos.durability = dds::Durability::kTransientLocal;
+  qos.depth = args.history;
+  dds::Publisher publisher(**participant, qos, *encoding);
   dds::DdsSink sink(publisher, args.timing);
-  dds::DdsInputStream input(subscriber, &stop_requested, [&sink](const dds::Rejection& r) {
-    fmt::print(stderr, "rejected: {}\n", r.status.message());
-    dfpc::Event event{r.stamp, dfpc::EventType::kInputRejected, "cdff node", "",
-                      r.status.message()};
-    if (Status s = sink.writeEvent(event); !s)
-      fmt::print(stderr, "error: publishing the rejection: {}\n", s.message());
-  });
-  fmt::print("cdff node on DDS domain {}: reading", args.domain);
+  std::shared_ptr<dds::DdsInputStream> input = nodeInput(subscriber, sink);
+  api::Config config;
+  config.graphs = *graphs;
+  config.input = input;
+  config.sink = &sink;
+  config.record_timing = args.timing;
+  config.run_while = options->run_while;
+  Result<std::unique_ptr<api::Cdff>> cdff = api::Cdff::create(std::move(config));
+  if (!cdff) return ddsFail(cdff.status());
+  fmt::print("cdff node on DDS domain {} ({}): reading", args.domain, args.encoding);
   for (const dfpc::ChannelInfo& in : *inputs) fmt::print(" {} ({})", in.channel, in.type.name());
   fmt::print("\n");
-  std::fflush(stdout);
-  Result<dfpc::ReplayResult> result = dfpc::replay(input, sink, *options);
-  if (!result) return ddsFail(result.status());
-  printNodeSummary(*result, input);
+  const int rc = serveNode(**cdff, **participant, sink, *input, *graphs);
+  // The input thread reads DDS until a stop: it must end before the CDFF is destroyed.
+  stop_requested.store(true);
+  return rc;
+}
+
+// ---- cdff api -------------------------------------------------------------------------------
+
+struct ApiArguments {
+  std::string method;
+  std::string argument;
+  int domain = 0;
+  double timeout_s = 10;
+};
+
+int runApi(const ApiArguments& args) {
+  Result<std::unique_ptr<dds::Participant>> participant = dds::Participant::create(args.domain);
+  if (!participant) return ddsFail(participant.status());
+  Result<std::unique_ptr<dds::ApiClient>> client = dds::ApiClient::create(**participant);
+  if (!client) return ddsFail(client.status());
+  Result<dds::ApiReply> reply = (*client)->call(args.method, args.argument, args.timeout_s);
+  if (!reply) return ddsFail(reply.status());
+  if (!reply->ok) {
+    fmt::print(stderr, "error: {}\n", reply->error);
+    return 1;
+  }
+  fmt::print("{}\n", reply->result.dump(2));
   return 0;
 }
 
@@ -306,6 +404,9 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
                 "Wait until this channel has a reader before playing (repeatable)");
   b->add_option("--wait-timeout", bridge->wait_timeout_s, "Seconds --wait-for waits at most")
       ->capture_default_str();
+  b->add_option("--encoding", bridge->encoding,
+                "ros2, or asn1-uper: the types with an ESROCOS ASN.1 type as uPER Records")
+      ->capture_default_str();
   b->add_flag("-q,--quiet", bridge->quiet, "No summary");
   b->callback([bridge, &exit_code] { exit_code = runBridge(*bridge); });
 
@@ -321,7 +422,25 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
   n->add_flag("--timing", node->timing, "Publish a timing record per DFN call");
   n->add_option("--history", node->history, "Products kept per channel for readers that join late")
       ->capture_default_str();
+  n->add_option("--encoding", node->encoding,
+                "ros2, or asn1-uper: the types with an ESROCOS ASN.1 type as uPER Records")
+      ->capture_default_str();
   n->callback([node, &exit_code] { exit_code = runNode(*node); });
+
+  auto call = std::make_shared<ApiArguments>();
+  CLI::App* a = root.add_subcommand(
+      "api",
+      "Call the external API (seed 7.3) of a `cdff node` over DDS; prints the answer (JSON)");
+  a->add_option("METHOD", call->method,
+                fmt::format("One of {}", fmt::join(dds::apiMethods(), ", ")))
+      ->required();
+  a->add_option("ARGUMENT", call->argument,
+                "A DFPC (getDFPCStatus, initDFPC, stopDFPC), a state (setCDFFState: initialize, "
+                "idle, reset, stop) or a frame (getTargetRelative*: default the product's)");
+  a->add_option("--domain", call->domain, "DDS domain id")->capture_default_str();
+  a->add_option("--timeout", call->timeout_s, "Seconds to wait for the node's reply")
+      ->capture_default_str();
+  a->callback([call, &exit_code] { exit_code = runApi(*call); });
 
   auto record = std::make_shared<RecordArguments>();
   CLI::App* r = root.add_subcommand("record", "Record DDS topics (ROS 2 and CDFF types) to MCAP");

@@ -116,6 +116,36 @@ TEST(Asn1Uper, APaddedImageComesBackPackedWithItsPixelsAndCamera) {
   EXPECT_EQ(messageOf(Value::of(*out.camera)), messageOf(Value::of(*in.camera)));
 }
 
+// A length that is a multiple of 16K items is fragmented to its end (X.691 §11.9.3.8): the
+// last fragment is followed by a zero length, which asn1c 0.9.28's encoders omitted
+// (src/cdff/asn1/fix_fragments.cmake). Images of 128x128, 256x256 and 512x256 mono8 pixels and
+// 16K and 80K-point clouds (5 fragments: 4 in one length, then 1) round-trip; the lengths
+// beside them too.
+TEST(Asn1Uper, LengthsThatAreMultiplesOf16KRoundTrip) {
+  for (auto [width, height] : {std::pair{128, 128}, {256, 256}, {512, 256}, {257, 256}}) {
+    SCOPED_TRACE(fmt::format("{}x{}", width, height));
+    std::vector<std::uint8_t> pixels(static_cast<std::size_t>(width * height));
+    for (std::size_t i = 0; i < pixels.size(); ++i) pixels[i] = static_cast<std::uint8_t>(i * 7);
+    Result<Image> image = Image::fromBytes(std::move(pixels), width, height, PixelFormat::kGray8);
+    ASSERT_TRUE(image.isOk());
+    image->stamp = kStamp;
+    image->frame_id = "camera";
+    const Value back = roundTrip(Value::of(*image));
+    ASSERT_TRUE(back);
+    EXPECT_EQ(messageOf(back), messageOf(Value::of(*image)));
+  }
+  for (std::size_t n : {16384u, 16385u, 81920u}) {
+    SCOPED_TRACE(n);
+    std::vector<Eigen::Vector3f> xyz(n);
+    for (std::size_t i = 0; i < n; ++i) xyz[i] = {0.001f * i, 1.0f, -2.0f};
+    PointCloud cloud = PointCloud::fromXyz(xyz, "lidar", kStamp);
+    cloud.intensity = Buffer<float>::fromVector(std::vector<float>(n, 0.5f));
+    const Value back = roundTrip(Value::of(cloud));
+    ASSERT_TRUE(back);
+    EXPECT_EQ(messageOf(back), messageOf(Value::of(cloud)));
+  }
+}
+
 TEST(Asn1Uper, PointsAndPosesRoundTrip) {
   const Eigen::Vector3d p(1.5, -2.25e-7, 3e12);
   std::vector<std::uint8_t> bytes;

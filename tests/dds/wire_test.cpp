@@ -207,5 +207,79 @@ TEST(DdsWire, ARecordOfAnotherOrAnUnknownTypeIsRejected) {
   EXPECT_FALSE(errorOf(WireType::kRecord, &msg).empty());
 }
 
+// --encoding asn1-uper: the types with an ESROCOS ASN.1 type travel as Records of their uPER
+// bytes, named by the ASN.1 type; each comes back as it left (an image's rows packed, its camera
+// inside it, a pose's child frame inside it); the others travel as before.
+TEST(DdsWire, Asn1UperRecordsCarryTheTypesWithAnAsn1TypeWithoutLoss) {
+  const testing::IoSamples s = testing::makeIoSamples(2, kStamp);
+  const std::vector<std::pair<Value, std::string>> values = {
+      {Value::of(s.image_bgr), "Image8UC3"},      {Value::of(s.image_float), "Image32FC1"},
+      {Value::of(s.camera), "CalibrationMatrix"}, {Value::of(s.cloud), "PointCloud"},
+      {Value::of(s.transform), "Transform"},      {Value::of(s.pose), "TransformWithCovariance"},
+      {Value::of(s.state), "RigidBodyState"}};
+  for (const auto& [v, asn1_name] : values) {
+    SCOPED_TRACE(asn1_name);
+    EXPECT_EQ(wireTypeOf(v.type(), Encoding::kAsn1Uper), WireType::kRecord);
+    OutgoingSample sample;
+    ASSERT_TRUE(encodeSample(v, kStamp, sample, Encoding::kAsn1Uper).isOk());
+    const auto& record = *static_cast<const cdff_msgs_msg_dds__Record_*>(sample.data());
+    EXPECT_STREQ(record.type_name, asn1_name.c_str());
+    EXPECT_STREQ(record.encoding, "asn1-uper");
+    Result<std::vector<Decoded>> decoded =
+        decodeSample(WireType::kRecord, sample.data(), {"/test", "", v.type()});
+    ASSERT_TRUE(decoded.isOk()) << decoded.status().message();
+    ASSERT_EQ(decoded->size(), 1u);
+    EXPECT_EQ(decoded->front().stamp, kStamp);
+    EXPECT_EQ(messageOf(decoded->front().value), messageOf(v));
+  }
+  // No ASN.1 type: as with ROS 2 messages.
+  EXPECT_EQ(wireTypeOf(TypeId::of<ImuSample>(), Encoding::kAsn1Uper), WireType::kImu);
+  EXPECT_EQ(wireTypeOf(TypeId::of<int>(), Encoding::kAsn1Uper), WireType::kRecord);
+  OutgoingSample sample;
+  ASSERT_TRUE(encodeSample(Value::of(2), kStamp, sample, Encoding::kAsn1Uper).isOk());
+  EXPECT_STREQ(static_cast<const cdff_msgs_msg_dds__Record_*>(sample.data())->encoding, "json");
+  EXPECT_TRUE(parseEncoding("asn1-uper").isOk());
+  EXPECT_NE(parseEncoding("uper").status().message().find(
+                "encoding 'uper': expected ros2 (ROS 2 messages, else the recording codec's "
+                "bytes) or asn1-uper"),
+            std::string::npos);
+}
+
+// A uPER Record that is truncated, names an unknown ASN.1 type or another type than the
+// channel's is rejected with what, which value and what was expected; a Gray16 image cannot be
+// published in uPER.
+TEST(DdsWire, AMalformedAsn1UperRecordIsRejected) {
+  const testing::IoSamples s = testing::makeIoSamples(2, kStamp);
+  OutgoingSample sample;
+  ASSERT_TRUE(encodeSample(Value::of(s.pose), kStamp, sample, Encoding::kAsn1Uper).isOk());
+  auto msg = *static_cast<const cdff_msgs_msg_dds__Record_*>(sample.data());
+  const std::uint32_t size = msg.data._length;
+  EXPECT_NE(errorOf(WireType::kRecord, &msg, TypeId::of<Transform>())
+                .find("record of ASN.1 type 'TransformWithCovariance' (a PoseWithCovariance) on "
+                      "a channel of Transform; expected a Transform"),
+            std::string::npos);
+  for (std::uint32_t cut : {0u, 1u, size / 2, size - 1}) {
+    msg.data._length = cut;
+    EXPECT_NE(errorOf(WireType::kRecord, &msg)
+                  .find(fmt::format("record of ASN.1 type 'TransformWithCovariance' (asn1-uper): "
+                                    "uPER TransformWithCovariance of {} bytes:",
+                                    cut)),
+              std::string::npos)
+        << cut;
+  }
+  msg.data._length = size;
+  msg.type_name = const_cast<char*>("Image16UC1");
+  EXPECT_NE(errorOf(WireType::kRecord, &msg)
+                .find("record of ASN.1 type 'Image16UC1' (asn1-uper): expected one of Time, "),
+            std::string::npos)
+      << errorOf(WireType::kRecord, &msg);
+  const Status gray16 =
+      encodeSample(Value::of(s.depth_mm.image), kStamp, sample, Encoding::kAsn1Uper);
+  EXPECT_NE(gray16.message().find("has no ASN.1 type; expected mono8 (Image8UC1), bgr8 "
+                                  "(Image8UC3) or 32FC1 (Image32FC1)"),
+            std::string::npos)
+      << gray16.message();
+}
+
 }  // namespace
 }  // namespace cdff::dds

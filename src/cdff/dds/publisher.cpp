@@ -4,8 +4,8 @@
 
 namespace cdff::dds {
 
-Publisher::Publisher(Participant& participant, WriterQos qos)
-    : participant_(participant), qos_(std::move(qos)) {}
+Publisher::Publisher(Participant& participant, WriterQos qos, Encoding encoding)
+    : participant_(participant), qos_(std::move(qos)), encoding_(encoding) {}
 
 Publisher::~Publisher() {
   for (auto& [channel, w] : writers_) {
@@ -21,7 +21,7 @@ Status Publisher::prepare(const std::string& channel, TypeId type, const std::st
                           found->second.type.name());
     return Status::ok();
   }
-  const WireType wire = wireTypeOf(type);
+  const WireType wire = wireTypeOf(type, encoding_);
   Writer w;
   w.type = type;
   w.child_frame = child_frame;
@@ -52,7 +52,8 @@ Result<Publisher::Writer*> Publisher::writerFor(const dfpc::Message& message) {
   const std::string child_frame = pose ? pose->pose.child_frame : "";
   CDFF_RETURN_IF_ERROR(prepare(message.channel, message.type(), child_frame));
   Writer& w = writers_.at(message.channel);
-  if (pose && w.child_frame != child_frame)
+  if (pose && wireTypeOf(w.type, encoding_) == WireType::kPoseWithCovarianceStamped &&
+      w.child_frame != child_frame)
     return invalidInput(
         "channel '{}': a pose of child frame '{}' after poses of '{}'; expected one child frame "
         "per channel (a PoseWithCovarianceStamped carries it in its writer's user data)",
@@ -72,9 +73,9 @@ Status Publisher::write(dds_entity_t writer, const void* sample, const std::stri
 Status Publisher::publish(const dfpc::Message& message) {
   Result<Writer*> w = writerFor(message);
   if (!w) return w.status();
-  Status encoded = encodeSample(message.value, message.stamp, sample_);
+  Status encoded = encodeSample(message.value, message.stamp, sample_, encoding_);
   if (!encoded) return encoded.withContext(fmt::format("channel '{}'", message.channel));
-  if (const Image* image = message.as<Image>(); image && image->camera) {
+  if (const Image* image = message.as<Image>(); image && image->camera && (*w)->camera_info) {
     const std::string info_channel = cameraInfoChannel(message.channel);
     Status info = encodeCameraInfo(*image->camera, image->stamp, image->frame_id, camera_sample_);
     if (!info) return info.withContext(fmt::format("channel '{}'", info_channel));

@@ -8,7 +8,9 @@
 // An image with a camera model also publishes the model on <dir>/camera_info (ROS 2's
 // convention, same stamp and frame), written before the image. A pose's child frame travels in
 // its writer's user data ("cdff.child_frame=<frame>;"), set from the channel's first pose: a
-// later pose with another child frame is an error.
+// later pose with another child frame is an error. With Encoding::kAsn1Uper the types that have
+// an ASN.1 type travel as uPER Records (wire.hpp): an image carries its camera model, a pose its
+// child frame.
 
 #include <map>
 #include <string>
@@ -25,7 +27,8 @@ inline constexpr std::string_view kChildFrameKey = "cdff.child_frame";
 
 class Publisher {
  public:
-  explicit Publisher(Participant& participant, WriterQos qos = {});
+  explicit Publisher(Participant& participant, WriterQos qos = {},
+                     Encoding encoding = Encoding::kRos2);
   ~Publisher();
   Publisher(const Publisher&) = delete;
   Publisher& operator=(const Publisher&) = delete;
@@ -56,6 +59,7 @@ class Publisher {
 
   Participant& participant_;
   WriterQos qos_;
+  Encoding encoding_;
   std::map<std::string, Writer> writers_;
   OutgoingSample sample_;
   OutgoingSample camera_sample_;

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <deque>
 #include <functional>
+#include <mutex>
 
 #include "cdff/dds/publisher.hpp"
 #include "cdff/dds/subscriber.hpp"
@@ -23,9 +24,11 @@ namespace cdff::dds {
 class DdsInputStream final : public dfpc::InputStream {
  public:
   /// `on_rejected` is called, in the thread that calls next(), for every sample that does not
-  /// convert.
+  /// convert; `on_lost` when a channel's publishers left, with the stamp of the latest message
+  /// delivered (the stream time then).
   DdsInputStream(Subscriber& subscriber, const std::atomic<bool>* stop,
-                 std::function<void(const Rejection&)> on_rejected = {});
+                 std::function<void(const Rejection&)> on_rejected = {},
+                 std::function<void(const LostPublisher&, Timestamp)> on_lost = {});
 
   /// Blocks until a message arrives or `stop` is set (then std::nullopt once drained).
   Result<std::optional<dfpc::Message>> next() override;
@@ -41,6 +44,8 @@ class DdsInputStream final : public dfpc::InputStream {
   Subscriber& subscriber_;
   const std::atomic<bool>* stop_;
   std::function<void(const Rejection&)> on_rejected_;
+  std::function<void(const LostPublisher&, Timestamp)> on_lost_;
+  Timestamp last_stamp_ = 0;
   std::deque<dfpc::Message> queue_;
   bool drained_ = false;
   std::uint64_t received_ = 0, rejected_ = 0;
@@ -48,7 +53,8 @@ class DdsInputStream final : public dfpc::InputStream {
 
 /// Publishes a run's products on their channels, its events as JSON records on /cdff/events
 /// (the same records as in an MCAP run, docs/recording.md) and, when asked, one timing record
-/// per DFN call on /cdff/<dfpc>/timing.
+/// per DFN call on /cdff/<dfpc>/timing. Thread-safe: the input thread (products, rejections)
+/// and the external API's thread (life-cycle events) write through it.
 class DdsSink final : public dfpc::Sink {
  public:
   explicit DdsSink(Publisher& publisher, bool publish_timing = false,
@@ -60,7 +66,12 @@ class DdsSink final : public dfpc::Sink {
   /// Waits until every reader acknowledged what was published (up to 10 s).
   Status flush() override;
 
+  std::uint64_t products() const;
+  std::uint64_t events() const;
+
  private:
+  mutable std::mutex mutex_;
+  std::uint64_t products_ = 0, events_ = 0;
   Publisher& publisher_;
   bool publish_timing_;
   std::string event_channel_;

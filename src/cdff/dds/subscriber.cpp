@@ -25,7 +25,8 @@ struct Subscriber::Taken {
   Timestamp header_stamp = 0;
 };
 
-Subscriber::Subscriber(Participant& participant) : participant_(participant) {
+Subscriber::Subscriber(Participant& participant, Encoding encoding)
+    : participant_(participant), encoding_(encoding) {
   waitset_ = dds_create_waitset(participant_.handle());
 }
 
@@ -64,7 +65,7 @@ Status Subscriber::subscribe(const std::string& channel, TypeId type) {
   if (!type) return invalidParameter("channel '{}': no type; expected a CDFF type", channel);
   if (channel_types_.count(channel))
     return invalidParameter("channel '{}' is subscribed already", channel);
-  const WireType wire = wireTypeOf(type);
+  const WireType wire = wireTypeOf(type, encoding_);
   CDFF_RETURN_IF_ERROR(addReader(channel, wire, wire == WireType::kRecord ? type : TypeId(), true,
                                  Durability::kVolatile));
   if (wire == WireType::kImage)
@@ -214,6 +215,20 @@ std::vector<dfpc::ChannelInfo> Subscriber::channels() const {
   for (const auto& [channel, type] : channel_types_)
     if (type) channels.push_back({channel, type, 0});
   return channels;
+}
+
+std::vector<LostPublisher> Subscriber::takeLostPublishers() {
+  std::vector<LostPublisher> lost;
+  for (const auto& r : readers_) {
+    if (!r->emit) continue;
+    dds_subscription_matched_status_t status{};
+    // Reading the status resets its change count: each departure is reported once.
+    if (dds_get_subscription_matched_status(r->reader, &status) < 0) continue;
+    if (status.current_count_change < 0)
+      lost.push_back(
+          {r->channel, -status.current_count_change, static_cast<int>(status.current_count)});
+  }
+  return lost;
 }
 
 std::vector<std::string> Subscriber::takeNewChannels() {

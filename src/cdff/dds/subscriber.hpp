@@ -27,6 +27,13 @@
 
 namespace cdff::dds {
 
+/// A subscribed channel whose publishers left (stopped, or killed: their lease expired).
+struct LostPublisher {
+  std::string channel;
+  int left = 0;       // publishers that left since the last look
+  int remaining = 0;  // publishers still matched
+};
+
 struct Rejection {
   std::string channel;
   Timestamp stamp = 0;  // the sample's header stamp, when it has one
@@ -35,7 +42,9 @@ struct Rejection {
 
 class Subscriber {
  public:
-  explicit Subscriber(Participant& participant);
+  /// `encoding`: how the channels subscribed with subscribe() travel (wire.hpp); a Record is
+  /// decoded by its own encoding field.
+  explicit Subscriber(Participant& participant, Encoding encoding = Encoding::kRos2);
   ~Subscriber();
   Subscriber(const Subscriber&) = delete;
   Subscriber& operator=(const Subscriber&) = delete;
@@ -53,6 +62,8 @@ class Subscriber {
 
   /// The channels read so far, with their types (Record channels: the first sample's type).
   std::vector<dfpc::ChannelInfo> channels() const;
+  /// The subscribed channels whose publishers left since the last call (camera infos aside).
+  std::vector<LostPublisher> takeLostPublishers();
   /// The channels subscribed since the last call (for a recorder's log).
   std::vector<std::string> takeNewChannels();
 
@@ -75,6 +86,7 @@ class Subscriber {
                std::vector<Rejection>& rejections);
 
   Participant& participant_;
+  Encoding encoding_;
   dds_entity_t waitset_ = 0;
   dds_entity_t discovery_ = 0;  // the DCPSPublication reader (subscribeDiscovered)
   std::vector<std::string> patterns_;

@@ -14,6 +14,13 @@
 //                        travels in the writer's user data (a ROS 2 writer has none)
 //   every other type     cdff_msgs::msg::dds_::Record_                      none (codec bytes)
 //
+// With Encoding::kAsn1Uper (`--encoding asn1-uper`), every type that has an ESROCOS ASN.1 type
+// (asn1/uper.hpp: Image, CameraModel, PointCloud, Transform, PoseWithCovariance, RigidBodyState,
+// Bearing) travels as a Record whose encoding is "asn1-uper", whose type_name is the ASN.1
+// type's ("Image8UC1", "TransformWithCovariance"...) and whose data are the uPER bytes; the
+// other types travel as above. A received Record is decoded by its encoding field, whatever the
+// reader's encoding.
+//
 // Times: CDFF's microseconds become builtin_interfaces/Time exactly; nanoseconds that are not
 // whole microseconds (a ROS 2 publisher's) are truncated to the microsecond on the way in.
 // A sample that does not convert (a size that does not match, an unknown encoding, a NaN in a
@@ -33,6 +40,18 @@
 
 namespace cdff::dds {
 
+/// How the values that have an ASN.1 type travel (the others always travel as in the table).
+enum class Encoding {
+  kRos2,      // ROS 2 messages where there is one, else a Record of the recording codec's bytes
+  kAsn1Uper,  // a Record of the value's uPER bytes, encoding "asn1-uper"
+};
+/// "ros2" or "asn1-uper".
+std::string_view toString(Encoding encoding);
+/// The encoding named `name`; an error that lists the names otherwise.
+Result<Encoding> parseEncoding(std::string_view name);
+/// The Record encoding field of uPER bytes.
+inline constexpr std::string_view kAsn1UperEncoding = "asn1-uper";
+
 enum class WireType {
   kImage,
   kCameraInfo,
@@ -50,8 +69,8 @@ struct WireInfo {
 };
 
 const WireInfo& wireInfo(WireType wire);
-/// The wire type that carries values of `type`.
-WireType wireTypeOf(TypeId type);
+/// The wire type that carries values of `type` in `encoding`.
+WireType wireTypeOf(TypeId type, Encoding encoding = Encoding::kRos2);
 /// The wire type registered under a DDS type name; none for a type the CDFF does not read.
 std::optional<WireType> wireTypeNamed(std::string_view dds_type_name);
 /// The CDFF type a ROS 2 wire type converts to (not valid for kRecord: each sample names it).
@@ -116,9 +135,10 @@ class OutgoingSample {
   std::vector<geometry_msgs_msg_dds__TransformStamped_> transforms_;
 };
 
-/// Fills `out` with the wire sample of `value` (of wireTypeOf(value.type())); `stamp` is the
-/// message's stamp (the header's, for the types without a stamp of their own).
-Status encodeSample(const Value& value, Timestamp stamp, OutgoingSample& out);
+/// Fills `out` with the wire sample of `value` (of wireTypeOf(value.type(), encoding)); `stamp`
+/// is the message's stamp (the header's, for the types without a stamp of their own).
+Status encodeSample(const Value& value, Timestamp stamp, OutgoingSample& out,
+                    Encoding encoding = Encoding::kRos2);
 /// The CameraInfo sample of an image's camera model, stamped and framed like the image.
 Status encodeCameraInfo(const CameraModel& camera, Timestamp stamp, const std::string& frame_id,
                         OutgoingSample& out);
@@ -150,6 +170,8 @@ Status encodePointCloud(const PointCloud& cloud, OutgoingSample& out);
 Status encodeTransform(const Transform& transform, OutgoingSample& out);
 Status encodePose(const PoseWithCovariance& pose, OutgoingSample& out);
 Status encodeRecord(const Value& value, Timestamp stamp, OutgoingSample& out);
+/// A Record of the value's uPER bytes (an error for a value without an ASN.1 type).
+Status encodeAsn1Record(const Value& value, Timestamp stamp, OutgoingSample& out);
 
 Result<Image> decodeImage(const sensor_msgs_msg_dds__Image_& msg);
 Result<CameraModel> decodeCameraInfo(const sensor_msgs_msg_dds__CameraInfo_& msg);
@@ -158,6 +180,8 @@ Result<PointCloud> decodePointCloud(const sensor_msgs_msg_dds__PointCloud2_& msg
 Result<std::vector<Transform>> decodeTfMessage(const tf2_msgs_msg_dds__TFMessage_& msg);
 Result<PoseWithCovariance> decodePose(const geometry_msgs_msg_dds__PoseWithCovarianceStamped_& msg,
                                       const std::string& child_frame);
+/// A Record's value, decoded by its encoding field: the type's recording codec ("protobuf",
+/// "json") or uPER ("asn1-uper", type_name the ASN.1 type's).
 Result<Value> decodeRecord(const cdff_msgs_msg_dds__Record_& msg, TypeId expected);
 
 }  // namespace cdff::dds

@@ -1,7 +1,11 @@
 // The wire-type table, topic names, times, transforms, poses and CDFF records, and the dispatch
 // from a value or a received sample to the typed conversions.
-#include <cstring>
+#include <fmt/ranges.h>
 
+#include <cstring>
+#include <span>
+
+#include "cdff/asn1/uper.hpp"
 #include "cdff/dds/wire.hpp"
 #include "cdff/types/codec/codec.hpp"
 
@@ -39,7 +43,21 @@ const WireInfo& wireInfo(WireType wire) {
   return kWireTypes[static_cast<int>(wire)];
 }
 
-WireType wireTypeOf(TypeId type) {
+std::string_view toString(Encoding encoding) {
+  return encoding == Encoding::kAsn1Uper ? kAsn1UperEncoding : "ros2";
+}
+
+Result<Encoding> parseEncoding(std::string_view name) {
+  if (name == "ros2") return Encoding::kRos2;
+  if (name == kAsn1UperEncoding) return Encoding::kAsn1Uper;
+  return invalidParameter(
+      "encoding '{}': expected ros2 (ROS 2 messages, else the recording codec's bytes) or "
+      "asn1-uper (the ESROCOS ASN.1 types in uPER)",
+      name);
+}
+
+WireType wireTypeOf(TypeId type, Encoding encoding) {
+  if (encoding == Encoding::kAsn1Uper && asn1::hasAsn1Type(type)) return WireType::kRecord;
   if (type == TypeId::of<Image>()) return WireType::kImage;
   if (type == TypeId::of<CameraModel>()) return WireType::kCameraInfo;
   if (type == TypeId::of<ImuSample>()) return WireType::kImu;
@@ -199,17 +217,60 @@ Status encodeRecord(const Value& value, Timestamp stamp, OutgoingSample& out) {
   return Status::ok();
 }
 
+Status encodeAsn1Record(const Value& value, Timestamp stamp, OutgoingSample& out) {
+  Result<asn1::Asn1Type> type = asn1::asn1TypeOf(value);
+  if (!type) return type.status();
+  auto& msg = out.start<cdff_msgs_msg_dds__Record_>(WireType::kRecord, Value());
+  msg.header.stamp = toRosTime(stamp);
+  msg.header.frame_id = out.keep("");
+  msg.type_name = out.keep(std::string(asn1::asn1Name(*type)));
+  msg.encoding = out.keep(std::string(kAsn1UperEncoding));
+  CDFF_RETURN_IF_ERROR(asn1::encode(value, out.bytes()));
+  msg.data._buffer = out.bytes().data();
+  msg.data._length = msg.data._maximum = static_cast<std::uint32_t>(out.bytes().size());
+  msg.data._release = false;
+  return Status::ok();
+}
+
+namespace {
+
+// A Record of uPER bytes: its type_name is the ASN.1 type's.
+Result<Value> decodeAsn1Record(const cdff_msgs_msg_dds__Record_& msg, TypeId expected) {
+  const std::string name = text(msg.type_name);
+  const std::optional<asn1::Asn1Type> type = asn1::asn1TypeNamed(name);
+  if (!type || !asn1::cdffTypeOf(*type)) {
+    std::vector<std::string> names;
+    for (asn1::Asn1Type t : asn1::allAsn1Types())
+      if (asn1::cdffTypeOf(t)) names.emplace_back(asn1::asn1Name(t));
+    return invalidInput("record of ASN.1 type '{}' ({}): expected one of {}", name,
+                        kAsn1UperEncoding, fmt::join(names, ", "));
+  }
+  const TypeId cdff_type = asn1::cdffTypeOf(*type);
+  if (expected && cdff_type != expected)
+    return invalidInput("record of ASN.1 type '{}' (a {}) on a channel of {}; expected a {}", name,
+                        cdff_type.name(), expected.name(), expected.name());
+  Result<Value> value =
+      asn1::decode(*type, std::span<const std::uint8_t>(msg.data._buffer, msg.data._length));
+  if (!value)
+    return value.status().withContext(
+        fmt::format("record of ASN.1 type '{}' ({})", name, kAsn1UperEncoding));
+  return value;
+}
+
+}  // namespace
+
 Result<Value> decodeRecord(const cdff_msgs_msg_dds__Record_& msg, TypeId expected) {
+  const std::string encoding = text(msg.encoding);
+  if (encoding == kAsn1UperEncoding) return decodeAsn1Record(msg, expected);
   const std::string name = text(msg.type_name);
   const TypeId type = findType(name);
   if (!type) return invalidInput("record of type '{}': expected one of {}", name, typeNames());
   if (expected && type != expected)
     return invalidInput("record of type '{}' on a channel of {}; expected a {}", name,
                         expected.name(), expected.name());
-  const std::string encoding = text(msg.encoding);
   if (encoding != type.info().messageEncoding())
-    return invalidInput("record of type '{}' is encoded as '{}'; expected '{}'", name, encoding,
-                        type.info().messageEncoding());
+    return invalidInput("record of type '{}' is encoded as '{}'; expected '{}' or '{}'", name,
+                        encoding, type.info().messageEncoding(), kAsn1UperEncoding);
   auto bytes = std::make_shared<std::vector<std::uint8_t>>(msg.data._buffer,
                                                            msg.data._buffer + msg.data._length);
   Result<Value> value = type.info().decode(Bytes(*bytes), bytes);
@@ -224,8 +285,10 @@ Status encodeCameraInfo(const CameraModel& camera, Timestamp stamp, const std::s
   return encodeCameraModel(camera, stamp, frame_id, out);
 }
 
-Status encodeSample(const Value& value, Timestamp stamp, OutgoingSample& out) {
+Status encodeSample(const Value& value, Timestamp stamp, OutgoingSample& out, Encoding encoding) {
   if (!value) return invalidInput("an empty value; expected a value to publish");
+  if (encoding == Encoding::kAsn1Uper && asn1::hasAsn1Type(value.type()))
+    return encodeAsn1Record(value, stamp, out);
   switch (wireTypeOf(value.type())) {
     case WireType::kImage:
       return encodeImage(*value.get<Image>(), out, value);

@@ -291,6 +291,7 @@ Result<std::unique_ptr<Cdff>> Cdff::create(Config config) noexcept {
     d->simulated = dynamic_cast<dfpc::SimulatedClock*>(d->clock.get());
     dfpc::OrchestratorOptions options;
     options.sink = d->config.sink;
+    options.record_timing = d->config.record_timing;
     d->orchestrator = std::make_unique<dfpc::Orchestrator>(options);
     for (const std::string& path : d->config.graph_files)
       CDFF_RETURN_IF_ERROR(d->orchestrator->addGraphFile(path));
@@ -301,6 +302,8 @@ Result<std::unique_ptr<Cdff>> Cdff::create(Config config) noexcept {
     }
     if (d->orchestrator->dfpcNames().empty())
       return invalidInput("no DFPC to run; expected graph files or graphs in the Config");
+    for (const dfpc::ActivationRule& rule : d->config.run_while)
+      CDFF_RETURN_IF_ERROR(d->orchestrator->runWhile(rule));
     for (const Transform& t : d->config.static_transforms) CDFF_RETURN_IF_ERROR(t.validate());
     if (d->config.input) {
       d->input = d->config.input;

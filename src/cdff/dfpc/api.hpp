@@ -30,6 +30,7 @@
 #include "cdff/dfpc/data_product_manager.hpp"
 #include "cdff/dfpc/dfpc.hpp"
 #include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/orchestrator.hpp"
 #include "cdff/dfpc/stream.hpp"
 #include "cdff/types/types.hpp"
 
@@ -51,6 +52,10 @@ struct Config {
   /// SimulatedClock in manual mode makes them exact in tests.
   std::shared_ptr<dfpc::Clock> clock;
   dfpc::Sink* sink = nullptr;  // products, events, timings (e.g. a recording); may be null
+  bool record_timing = true;   // one timing record per DFN call to the sink
+  /// DFPCs that run only while another's track state is in given states (detection while a
+  /// tracker is UNINITIALISED or LOST; Orchestrator::runWhile).
+  std::vector<dfpc::ActivationRule> run_while;
   /// Fixed transforms a_T_b (e.g. servicer_T_camera) with which poses and velocities are
   /// re-expressed in a requested frame.
   std::vector<Transform> static_transforms;

@@ -80,9 +80,6 @@ Status checkSettingsApplied(const std::vector<ParameterSetting>& settings,
 
 }  // namespace
 
-namespace {
-
-// The graphs of a run with their --set settings and remaps applied.
 Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
   if (options.graph_files.empty()) return invalidParameter("no DFPC graph to run");
   std::vector<ParameterSetting> settings;
@@ -105,8 +102,6 @@ Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options) {
   CDFF_RETURN_IF_ERROR(applyRemaps(graphs, options.remaps));
   return graphs;
 }
-
-}  // namespace
 
 namespace {
 

@@ -79,6 +79,10 @@ Status checkRun(const ReplayOptions& options);
 /// write, a run-while rule that names a DFPC not loaded, an image without its mounting (pairs).
 Result<ReplayResult> replay(InputStream& input, Sink& sink, const ReplayOptions& options);
 
+/// The graphs of `options` loaded, with their parameter settings and remaps applied (what
+/// replay() runs; `cdff node` hands them to the external API). Errors: as replay()'s.
+Result<std::vector<GraphSpec>> loadGraphs(const ReplayOptions& options);
+
 /// The channels that the graphs of `options` (with their settings and remaps) read from outside
 /// the run, with their types: every DFPC input whose channel no loaded DFPC's output produces.
 /// What a live input must provide (`cdff node` subscribes to them). Errors: as replay()'s.

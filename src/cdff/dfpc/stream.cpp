@@ -208,6 +208,8 @@ const char* toString(EventType type) {
       return "dfn_warning";
     case EventType::kInputRejected:
       return "input_rejected";
+    case EventType::kInputLost:
+      return "input_lost";
   }
   return "?";
 }
@@ -237,6 +239,7 @@ EventKind kindOf(EventType type) {
     case EventType::kSyncDropped:
     case EventType::kDfnWarning:
     case EventType::kInputRejected:
+    case EventType::kInputLost:
       return EventKind::kWarning;
   }
   return EventKind::kWarning;

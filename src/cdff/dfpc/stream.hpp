@@ -155,6 +155,7 @@ enum class EventType {
   kSyncDropped,    // a synchronised input dropped a message (queue full, or no partner in time)
   kDfnWarning,     // a DFN recorded a warning during a call
   kInputRejected,  // a message did not fit the DFPC input it was routed to
+  kInputLost,      // a live input's publisher left (`cdff node`: nothing more comes from it)
 };
 
 const char* toString(EventKind kind);
