@@ -72,6 +72,32 @@ TEST(TruthAt, InterpolatesBetweenSamplesAndRefusesGaps) {
   EXPECT_TRUE(truthAt(truth, fromSeconds(2.0), options));  // an exact sample needs no bracket
 }
 
+// A state moving at 1 m/s along x, reported every 0.1 s with a 1 cm position sigma: the steps
+// predicted with its twist are nothing; a 5 cm jump at 1.0 s is 5 sigma; steps across an invalid
+// estimate are not counted; a product without twists (measurements) has no steps.
+TEST(Continuity, StepsUnderTheFirstEstimatesCovarianceFollowTheTwist) {
+  std::vector<EstimateSample> estimates;
+  for (int k = 0; k <= 20; ++k) {
+    EstimateSample e;
+    e.pose = Transform::identity("servicer", "target", fromSeconds(0.1 * k));
+    e.pose.translation = {0.1 * k + (k >= 10 ? 0.05 : 0.0), 0, 10};
+    if (k >= 15) e.pose.translation.x() += 1.0;  // after the invalid one: a fresh start
+    e.covariance = Matrix6d::Identity() * 1e-4;
+    e.twist = Twist{{1.0, 0, 0}, {0, 0, 0}};
+    e.valid = k != 14;
+    estimates.push_back(e);
+  }
+  const Continuity c = continuityOf(estimates);
+  EXPECT_EQ(c.steps.size(), 18u);  // 20 pairs, less the two that touch the invalid estimate
+  EXPECT_EQ(c.jumps, 1u);
+  EXPECT_NEAR(c.max_sigma, 5.0, 1e-6);
+  EXPECT_EQ(c.worst_stamp, fromSeconds(1.0));
+  EXPECT_NEAR(c.maxWithin(fromSeconds(1.1), fromSeconds(2.0)), 0.0, 1e-6);
+  EXPECT_TRUE(std::isnan(c.maxWithin(fromSeconds(5), fromSeconds(6))));
+  for (EstimateSample& e : estimates) e.twist.reset();
+  EXPECT_TRUE(continuityOf(estimates).steps.empty());
+}
+
 TEST(EvaluatePoses, RecoversConstructedErrorsRateAndTrackedFraction) {
   const std::vector<Transform> truth = truthSeries();
   std::vector<EstimateSample> estimates;

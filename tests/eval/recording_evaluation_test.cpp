@@ -60,6 +60,10 @@ void writeRun(const fs::path& path) {
   for (int k = 0; k <= 300; ++k) {
     const double t = 0.1 * k;
     const Timestamp stamp = fromSeconds(t);
+    if (k == 200)  // another DFPC started by a rule (a hand-over)
+      ASSERT_OK_STATUS(rec.writeJson(
+          "/cdff/events", stamp,
+          {{"level", "info"}, {"type", "activated"}, {"dfpc", "other"}, {"instance", ""}}));
     if (k == 100 || k == 121)
       ASSERT_OK_STATUS(
           rec.writeJson("/cdff/events", stamp,
@@ -166,8 +170,19 @@ TEST(RecordingEvaluation, GivesEachPhaseItsOwnVerdicts) {
   ASSERT_NE(verdict(close, "SR_DFPC_0100", "angle_error_deg"), nullptr);
   EXPECT_EQ(verdict(close, "SR_DFPC_0100", "angle_error_deg")->frames, 60u);  // 24.1-30 s
 
+  // The hand-over at 20 s, and the product's steps after it: it moves 5 cm between estimates
+  // while its twist says it stands still, 5 sigma of its 1 cm position sigma.
+  ASSERT_EQ(report->handovers.size(), 1u);
+  EXPECT_EQ(report->handovers[0].stamp, fromSeconds(20));
+  EXPECT_EQ(report->handovers[0].dfpc, "other");
+  ASSERT_EQ(report->handovers[0].max_step_sigma.size(), 1u);
+  EXPECT_EQ(report->handovers[0].max_step_sigma[0].first, "/cdff/trk/pose");
+  EXPECT_NEAR(report->handovers[0].max_step_sigma[0].second, 5.0, 0.01);
+  EXPECT_EQ(report->products[0].continuity.jumps, report->products[0].continuity.steps.size());
+
   const nlohmann::json json = toJson(*report);
   ASSERT_EQ(json.at("phases").size(), 2u);
+  EXPECT_EQ(json.at("handovers").size(), 1u);
   EXPECT_EQ(json["phases"][1]["name"], "close range");
   EXPECT_NEAR(json["phases"][1]["start_s"].get<double>(), 24.1, 1e-9);
   EXPECT_NE(toText(*report).find("close range  (0-5 m; 24.1-30.0 s)"), std::string::npos)

@@ -204,6 +204,7 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
   result.angle_error_deg = ErrorStatistics::of(std::move(angle));
   result.latency_s = ErrorStatistics::of(std::move(latency));
   result.covariance = consistencyOf(result.errors, rejected_covariances);
+  result.continuity = continuityOf(estimates);
 
   result.rate_hz = rates.meanHz();
   result.min_rate_hz = rates.worstHz();
@@ -215,6 +216,45 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
     result.max_range_m = hi->range_m;
   }
   return result;
+}
+
+double Continuity::maxWithin(Timestamp from, Timestamp to) const {
+  double worst = std::numeric_limits<double>::quiet_NaN();
+  for (const Step& s : steps)
+    if (s.stamp >= from && s.stamp <= to && !(s.sigma <= worst)) worst = s.sigma;
+  return worst;
+}
+
+Continuity continuityOf(const std::vector<EstimateSample>& estimates) {
+  Continuity c;
+  const EstimateSample* previous = nullptr;
+  for (const EstimateSample& e : estimates) {
+    if (!e.valid) {
+      previous = nullptr;
+      continue;
+    }
+    if (!e.twist) return {};
+    if (previous && previous->covariance) {
+      Transform moved = previous->pose;
+      if (previous->twist) {
+        const double dt = toSeconds(e.pose.stamp - previous->pose.stamp);
+        moved.translation += previous->twist->linear * dt;
+        moved.rotation = (expSO3(previous->twist->angular * dt) * moved.rotation).normalized();
+      }
+      const double nees = poseNees(moved, e.pose, *previous->covariance);
+      if (std::isfinite(nees)) {
+        const double sigma = std::sqrt(nees);
+        c.steps.push_back({e.pose.stamp, sigma});
+        if (sigma > Continuity::kJumpSigma) ++c.jumps;
+        if (!(sigma <= c.max_sigma)) {
+          c.max_sigma = sigma;
+          c.worst_stamp = e.pose.stamp;
+        }
+      }
+    }
+    previous = &e;
+  }
+  return c;
 }
 
 std::vector<MatchedError> inRange(const std::vector<MatchedError>& errors, double min_range_m,

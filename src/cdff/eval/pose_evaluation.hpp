@@ -34,6 +34,9 @@ struct EstimateSample {
   /// The pose's covariance, [dt, dtheta] in the parent frame (docs/conventions.md), when the
   /// product carries one.
   std::optional<Matrix6d> covariance;
+  /// The twist (velocity of the child relative to the parent, in the parent frame) when the
+  /// product is a state: continuity moves the estimate with it to the next one's stamp.
+  std::optional<Twist> twist;
 };
 
 /// RMSE, 95th percentile and maximum of a set of non-negative errors; all NaN when empty.
@@ -100,6 +103,32 @@ struct PoseEvaluationOptions {
   double nearest_truth_tolerance_s = 1e-3;
 };
 
+/// How a state product (a filter's estimate, with a twist: RigidBodyState) moves from one valid
+/// estimate to the next against its own covariance (issue 18: a target state never jumps by
+/// more than 3 sigma, at a hand-over or elsewhere; a measurement product's samples are
+/// independent draws, for which steps mean nothing, and get none): each step from
+/// a valid estimate to the next valid one, the first moved to the second's stamp with its twist
+/// when it has one, as the Mahalanobis distance of the change under the first's covariance (in
+/// sigma, 6 dof). Steps across an invalid estimate, or from one without a positive-definite
+/// covariance, are not counted (a track lost and found again starts afresh).
+struct Continuity {
+  static constexpr double kJumpSigma = 3.0;
+  struct Step {
+    Timestamp stamp = 0;  // the second estimate's
+    double sigma = 0;
+  };
+  std::vector<Step> steps;  // in time order
+  std::size_t jumps = 0;    // steps beyond kJumpSigma
+  double max_sigma = std::numeric_limits<double>::quiet_NaN();
+  Timestamp worst_stamp = 0;
+
+  /// The largest step in [from, to]; NaN when there is none.
+  double maxWithin(Timestamp from, Timestamp to) const;
+};
+
+/// The continuity of `estimates` (sorted by stamp); no steps when they have no twist.
+Continuity continuityOf(const std::vector<EstimateSample>& estimates);
+
 /// Everything `cdff eval` says about one product channel.
 struct PoseEvaluation {
   std::string channel;
@@ -117,6 +146,7 @@ struct PoseEvaluation {
   ErrorStatistics angle_error_deg;
   ErrorStatistics latency_s;  // count 0 when the DFPC recorded no latency
   CovarianceConsistency covariance;
+  Continuity continuity;
 
   /// Valid estimates per second over the span from the first to the last one.
   double rate_hz = 0;

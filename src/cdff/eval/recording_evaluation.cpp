@@ -24,6 +24,7 @@ bool isPoseType(TypeId type) {
 struct DecodedPose {
   Transform pose;
   std::optional<Matrix6d> covariance;  // none for a Transform or an all-zero covariance (truth)
+  std::optional<Twist> twist;          // a RigidBodyState's
 };
 
 std::optional<Matrix6d> covarianceOf(const Matrix6d& c) {
@@ -44,7 +45,7 @@ Result<DecodedPose> decodePose(const io::ReplayMessage& m) {
   }
   Result<std::shared_ptr<const RigidBodyState>> s = m.decode<RigidBodyState>();
   if (!s) return s.status();
-  return DecodedPose{(*s)->pose, covarianceOf((*s)->covariance.topLeftCorner<6, 6>())};
+  return DecodedPose{(*s)->pose, covarianceOf((*s)->covariance.topLeftCorner<6, 6>()), (*s)->twist};
 }
 
 bool isFinite(const Transform& t) {
@@ -69,6 +70,7 @@ struct BearingSeries {
 struct PoseSeries {
   std::vector<Transform> poses;
   std::vector<std::optional<Matrix6d>> covariances;
+  std::vector<std::optional<Twist>> twists;
   // For products: how many track-state changes of their DFPC the recording held before each pose.
   std::vector<std::size_t> changes_before;
   std::string type;
@@ -108,6 +110,7 @@ struct RecordingContents {
   // state, so that the initial state of an UNINITIALISED track is not a tracked estimate.
   std::map<std::string, std::vector<std::optional<TrackState>>> track_states;
   std::map<std::string, std::map<Timestamp, double>> step_wall_s;  // dfpc -> stamp -> s
+  std::vector<Handover> handovers;  // the DFPCs' activations, without their products' steps
 };
 
 // A "track_state_changed" event ("BEFORE -> AFTER") of /cdff/events, into track_states.
@@ -137,6 +140,9 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
       Result<std::shared_ptr<const nlohmann::json>> e = m.decode<nlohmann::json>();
       if (!e) return e.status();
       addTrackStateChange(**e, out.track_states);
+      const std::string type = (*e)->value("type", "");
+      if ((type == "activated" || type == "deactivated") && (*e)->value("instance", "").empty())
+        out.handovers.push_back({m.logTime(), (*e)->value("dfpc", ""), type, {}});
     } else if (!dfpc.empty() && channel == fmt::format("/cdff/{}/timing", dfpc)) {
       Result<std::shared_ptr<const nlohmann::json>> t = m.decode<nlohmann::json>();
       if (!t) return t.status();
@@ -161,6 +167,7 @@ Status readRecording(io::Replay& replay, RecordingContents& out) {
       s.type = std::string(m.type().name());
       s.poses.push_back(decoded->pose);
       s.covariances.push_back(decoded->covariance);
+      s.twists.push_back(decoded->twist);
       if (!is_truth) {
         const auto states = out.track_states.find(dfpc);
         s.changes_before.push_back(states == out.track_states.end() ? 0
@@ -252,6 +259,7 @@ std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
     EstimateSample e;
     e.pose = pose;
     e.covariance = product.covariances[i];
+    e.twist = product.twists[i];
     e.valid = isFinite(pose) && trackedAfter(states, product.changes_before[i]);
     e.latency_s = latencyAt(walls, pose.stamp);
     estimates.push_back(e);
@@ -425,7 +433,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
   CDFF_RETURN_IF_ERROR(replay.open(paths));
   RecordingContents contents;
   CDFF_RETURN_IF_ERROR(readRecording(replay, contents));
-  auto& [products, truths, bearings, focal_px, track_states, step_wall_s] = contents;
+  auto& [products, truths, bearings, focal_px, track_states, step_wall_s, handovers] = contents;
   const std::set<std::string> wanted(options.products.begin(), options.products.end());
   // A damaged recording is evaluated up to the damage, and says so.
   if (Status s = replay.status(); !s.isOk())
@@ -483,6 +491,13 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
         options.statistic, report.phases);
   }
   CDFF_RETURN_IF_ERROR(evaluateBearingProducts(contents, options, notes, report));
+  report.handovers = handovers;
+  for (Handover& h : report.handovers)
+    for (const PoseEvaluation& p : report.products) {
+      const double sigma =
+          p.continuity.maxWithin(h.stamp, h.stamp + fromSeconds(Handover::kWindowS));
+      if (std::isfinite(sigma)) h.max_step_sigma.emplace_back(p.channel, sigma);
+    }
   if (report.products.empty() && report.bearings.empty())
     return notFound(
         "no pose product has a truth channel of the same transform; products: {}; bearing "

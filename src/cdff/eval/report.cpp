@@ -174,6 +174,40 @@ nlohmann::json verdictJson(const RequirementVerdict& v) {
   };
 }
 
+nlohmann::json handoversJson(const EvaluationReport& report) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Handover& h : report.handovers) {
+    nlohmann::json steps = nlohmann::json::object();
+    for (const auto& [channel, sigma] : h.max_step_sigma) steps[channel] = number(sigma);
+    out.push_back({{"t_s", toSeconds(h.stamp - report.start)},
+                   {"dfpc", h.dfpc},
+                   {"type", h.type},
+                   {"max_step_sigma", steps}});
+  }
+  return out;
+}
+
+std::string continuityText(const Continuity& c, Timestamp start) {
+  if (c.steps.empty()) return "";
+  return fmt::format("continuity: {} steps, largest {:.2f} sigma at {:.1f} s, {} beyond {:g} sigma",
+                     c.steps.size(), c.max_sigma, toSeconds(c.worst_stamp - start), c.jumps,
+                     Continuity::kJumpSigma);
+}
+
+std::string handoversText(const EvaluationReport& report) {
+  if (report.handovers.empty()) return "";
+  std::string text = fmt::format(
+      "hand-overs (the DFPCs' rules; each pose product's largest step in the next {:g} s):\n",
+      Handover::kWindowS);
+  for (const Handover& h : report.handovers) {
+    text += fmt::format("  {:7.1f} s  {} {}", toSeconds(h.stamp - report.start), h.dfpc, h.type);
+    for (const auto& [channel, sigma] : h.max_step_sigma)
+      text += fmt::format("; {} {:.2f} sigma", channel, sigma);
+    text += "\n";
+  }
+  return text;
+}
+
 std::string phaseRange(const PhaseSpec& phase) {
   return std::isfinite(phase.max_range_m)
              ? fmt::format("{:g}-{:g} m", phase.min_range_m, phase.max_range_m)
@@ -198,6 +232,13 @@ nlohmann::json toJson(const EvaluationReport& report) {
         {"angle_error_deg", statisticsJson(p.angle_error_deg)},
         {"latency_ms", statisticsJson(p.latency_s, 1e3)},
         {"covariance_consistency", consistencyJson(p.covariance)},
+        {"continuity",
+         {{"steps", p.continuity.steps.size()},
+          {"max_step_sigma", number(p.continuity.max_sigma)},
+          {"worst_s", p.continuity.steps.empty()
+                          ? nlohmann::json(nullptr)
+                          : nlohmann::json(toSeconds(p.continuity.worst_stamp - report.start))},
+          {"steps_beyond_3_sigma", p.continuity.jumps}}},
         {"rate_hz", number(p.rate_hz)},
         {"min_rate_hz", number(p.min_rate_hz)},
         {"range_m", {{"min", number(p.min_range_m)}, {"max", number(p.max_range_m)}}},
@@ -225,7 +266,8 @@ nlohmann::json toJson(const EvaluationReport& report) {
           {"products", products},
           {"bearings", bearings},
           {"requirements", requirements},
-          {"phases", phases}};
+          {"phases", phases},
+          {"handovers", handoversJson(report)}};
 }
 
 std::string toText(const EvaluationReport& report) {
@@ -249,11 +291,14 @@ std::string toText(const EvaluationReport& report) {
     row("angle [deg]", p.angle_error_deg, 1.0);
     if (p.latency_s.count) row("latency [ms]", p.latency_s, 1e3);
     if (const std::string c = consistencyText(p.covariance); !c.empty()) text += "  " + c + "\n";
+    if (const std::string c = continuityText(p.continuity, report.start); !c.empty())
+      text += "  " + c + "\n";
     // Each product's verdicts right under its statistics.
     for (const RequirementVerdict& v : report.requirements)
       if (v.channel == p.channel) text += verdictLine(v);
   }
   for (const BearingEvaluation& b : report.bearings) text += bearingText(b, report.requirements);
+  text += handoversText(report);
   if (!report.phases.empty()) text += "phases (seed Table 1, by the true range):\n";
   for (const PhaseResult& phase : report.phases) {
     text += fmt::format("{}  ({}; {:.1f}-{:.1f} s)\n", phase.span.phase.name,
@@ -281,7 +326,7 @@ std::string htmlHead() {
 }
 
 // One product's summary: its truth and rates, its error statistics.
-std::string productHtml(const PoseEvaluation& p) {
+std::string productHtml(const PoseEvaluation& p, Timestamp start) {
   std::string html;
   html += fmt::format(
       "<h2>{}</h2><p>Truth: <code>{}</code> ({}_T_{}). {} frames, {} valid, "
@@ -303,6 +348,11 @@ std::string productHtml(const PoseEvaluation& p) {
   html += "</table>\n";
   if (const std::string c = consistencyText(p.covariance); !c.empty())
     html += fmt::format("<p>The product's {}.</p>\n", escapeHtml(c));
+  if (const std::string c = continuityText(p.continuity, start); !c.empty())
+    html += fmt::format(
+        "<p>Its {} (from one valid estimate to the next, under the first's "
+        "covariance).</p>\n",
+        escapeHtml(c));
   return html;
 }
 
@@ -479,11 +529,13 @@ std::string toHtml(const EvaluationReport& report) {
       "</tr>\n";
   for (const RequirementVerdict& v : report.requirements) html += verdictRowHtml(v);
   html += "</table>\n";
+  if (const std::string h = handoversText(report); !h.empty())
+    html += "<h2>Hand-overs</h2><pre>" + escapeHtml(h) + "</pre>\n";
   html += phasesHtml(report);
   const TimeAxis axis = timeAxis(report);
 
   for (const PoseEvaluation& p : report.products) {
-    html += productHtml(p);
+    html += productHtml(p, report.start);
     html += productPlotsHtml(p, axis);
   }
   for (const BearingEvaluation& b : report.bearings) html += bearingHtml(b, axis);

@@ -21,6 +21,17 @@ struct PhaseResult {
   std::vector<RequirementVerdict> verdicts;  // the applicable ones
 };
 
+/// A DFPC started or stopped by the Orchestrator's rules (an `activated` or `deactivated` event
+/// of the DFPC as a whole), with each pose product's largest step (Continuity) in the window
+/// after it: what the hand-over did to the products that carry on.
+struct Handover {
+  static constexpr double kWindowS = 2.0;
+  Timestamp stamp = 0;
+  std::string dfpc;
+  std::string type;                                            // "activated" or "deactivated"
+  std::vector<std::pair<std::string, double>> max_step_sigma;  // product channel, sigma
+};
+
 struct EvaluationReport {
   std::string input;              // what was evaluated (file names)
   std::string statistic = "p95";  // the statistic the verdicts use
@@ -30,6 +41,7 @@ struct EvaluationReport {
   /// The rendezvous's phases the run went through, by the truth of the target's pose
   /// (/truth/target_pose); empty when the recording has no such truth.
   std::vector<PhaseResult> phases;
+  std::vector<Handover> handovers;  // in time order
   Timestamp start = 0;  // the first truth sample: the time origin of the plots and phases
 
   /// True when no verdict is a fail (not-applicable ones do not count).
