@@ -94,6 +94,11 @@ TEST(Continuity, StepsUnderTheFirstEstimatesCovarianceFollowTheTwist) {
   EXPECT_EQ(c.worst_stamp, fromSeconds(1.0));
   EXPECT_NEAR(c.maxWithin(fromSeconds(1.1), fromSeconds(2.0)), 0.0, 1e-6);
   EXPECT_TRUE(std::isnan(c.maxWithin(fromSeconds(5), fromSeconds(6))));
+  // An estimate after its DFPC was started again: no step into it.
+  estimates[10].restarted = true;
+  const Continuity restarted = continuityOf(estimates);
+  EXPECT_EQ(restarted.steps.size(), 17u);
+  EXPECT_EQ(restarted.jumps, 0u);
   for (EstimateSample& e : estimates) e.twist.reset();
   EXPECT_TRUE(continuityOf(estimates).steps.empty());
 }

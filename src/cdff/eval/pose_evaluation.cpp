@@ -234,6 +234,7 @@ Continuity continuityOf(const std::vector<EstimateSample>& estimates) {
       continue;
     }
     if (!e.twist) return {};
+    if (e.restarted) previous = nullptr;
     if (previous && previous->covariance) {
       Transform moved = previous->pose;
       if (previous->twist) {

@@ -37,6 +37,9 @@ struct EstimateSample {
   /// The twist (velocity of the child relative to the parent, in the parent frame) when the
   /// product is a state: continuity moves the estimate with it to the next one's stamp.
   std::optional<Twist> twist;
+  /// The first estimate after its DFPC was started again (a rule's activation): continuity does
+  /// not step into it from the estimates before the stop.
+  bool restarted = false;
 };
 
 /// RMSE, 95th percentile and maximum of a set of non-negative errors; all NaN when empty.
@@ -109,8 +112,9 @@ struct PoseEvaluationOptions {
 /// independent draws, for which steps mean nothing, and get none): each step from
 /// a valid estimate to the next valid one, the first moved to the second's stamp with its twist
 /// when it has one, as the Mahalanobis distance of the change under the first's covariance (in
-/// sigma, 6 dof). Steps across an invalid estimate, or from one without a positive-definite
-/// covariance, are not counted (a track lost and found again starts afresh).
+/// sigma, 6 dof). Steps across an invalid estimate, into a restarted one, or from one without a
+/// positive-definite covariance, are not counted (a track lost and found again, or a DFPC
+/// stopped and started again, starts afresh).
 struct Continuity {
   static constexpr double kJumpSigma = 3.0;
   struct Step {

@@ -248,10 +248,12 @@ std::vector<Transform> sortedTruth(const std::map<std::string, PoseSeries>& trut
 }
 
 // The product's poses as estimates, in stamp order: not valid where not finite or while its
-// DFPC's track was not tracking (`states`); with the latency of the step that made them.
+// DFPC's track was not tracking (`states`); with the latency of the step that made them; marked
+// restarted when its DFPC was activated (`activations`, sorted) since the estimate before.
 std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
                                         const std::vector<std::optional<TrackState>>& states,
-                                        const std::map<Timestamp, double>& walls) {
+                                        const std::map<Timestamp, double>& walls,
+                                        const std::vector<Timestamp>& activations) {
   std::vector<EstimateSample> estimates;
   estimates.reserve(product.poses.size());
   for (std::size_t i = 0; i < product.poses.size(); ++i) {
@@ -266,7 +268,22 @@ std::vector<EstimateSample> estimatesOf(const PoseSeries& product,
   }
   std::stable_sort(estimates.begin(), estimates.end(),
                    [](const auto& a, const auto& b) { return a.pose.stamp < b.pose.stamp; });
+  for (std::size_t i = 1; i < estimates.size(); ++i) {
+    const auto next =
+        std::upper_bound(activations.begin(), activations.end(), estimates[i - 1].pose.stamp);
+    estimates[i].restarted = next != activations.end() && *next <= estimates[i].pose.stamp;
+  }
   return estimates;
+}
+
+// The stamps at which a DFPC was activated by a rule, sorted.
+std::vector<Timestamp> activationsOf(const std::vector<Handover>& handovers,
+                                     const std::string& dfpc) {
+  std::vector<Timestamp> stamps;
+  for (const Handover& h : handovers)
+    if (h.dfpc == dfpc && h.type == "activated") stamps.push_back(h.stamp);
+  std::sort(stamps.begin(), stamps.end());
+  return stamps;
 }
 
 // The truth channel for a bearing product (on `channel`, directions in `frame`): the one --pair
@@ -471,7 +488,7 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     if (truth_channel->empty()) continue;
     const std::string dfpc = dfpcOf(channel);
     const std::vector<EstimateSample> estimates =
-        estimatesOf(product, track_states[dfpc], step_wall_s[dfpc]);
+        estimatesOf(product, track_states[dfpc], step_wall_s[dfpc], activationsOf(handovers, dfpc));
     Result<PoseEvaluation> evaluation =
         evaluatePoses(estimates, sortedTruth(truths, *truth_channel), options.pose);
     if (!evaluation)
