@@ -31,9 +31,9 @@ build: configure
 test: build
 	@cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 600
 
-# The LIDAR tracking chain on the simulated mid-range approach, visual tracking on the close-range
-# approach, and detection then tracking with no ground truth (scripts/demo.sh: the detection's
-# templates first, once); the foundation DFNs' demo stays available as `cdff demo --out DIR`.
+# The rendezvous from 2 km to capture, the LIDAR tracking chain on the simulated mid-range
+# approach, visual tracking on the close-range approach, and detection then tracking with no
+# ground truth (scripts/demo.sh: the detection's templates first, once); the foundation DFNs' demo stays available as `cdff demo --out DIR`.
 demo: build stereo-templates
 	@bash scripts/demo.sh $(BUILD_DIR) out/demo
 
