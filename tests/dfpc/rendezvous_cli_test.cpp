@@ -1,0 +1,114 @@
+// The rendezvous from 2 km to capture through the command line, as `make demo` runs it: `cdff sim
+// rendezvous` (the sensors the run set reads; the left camera at 2 Hz), `cdff run
+// dfpcs/rendezvous.yaml` (far-range, LIDAR and visual tracking handing the target over by range
+// and track state; no ground truth, no initial state) and `cdff eval` per phase. One draw (seed
+// 1): a regression guard of the chain and its hand-overs, with bounds near today's figures where
+// the goals are not met yet (docs/rendezvous.md).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <regex>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "support/command.hpp"
+#include "support/eval_report.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using cdff::testing::CommandResult;
+using cdff::testing::readReport;
+using cdff::testing::runCdff;
+using cdff::testing::scratchDirectory;
+
+// The verdict of `id`/`quantity` for `channel` in the phase named `phase` (null when absent).
+const nlohmann::json* phaseVerdict(const nlohmann::json& report, const std::string& phase,
+                                   const std::string& channel, const std::string& id,
+                                   const std::string& quantity) {
+  for (const nlohmann::json& p : report.at("phases"))
+    if (p.at("name") == phase)
+      for (const nlohmann::json& v : p.at("verdicts"))
+        if (v.at("channel") == channel && v.at("id") == id && v.at("quantity") == quantity)
+          return &v;
+  return nullptr;
+}
+
+TEST(RendezvousCommandLine, HandsTheTargetOverFromFarRangeToCapture) {
+  const fs::path dir = scratchDirectory("cdff_rendezvous");
+  fs::current_path(CDFF_SOURCE_DIR);  // the graphs' model files are relative to the repository
+  const std::string sim = (dir / "sim.mcap").string(), out = (dir / "out.mcap").string(),
+                    json = (dir / "report.json").string();
+  CommandResult r =
+      runCdff(fmt::format("sim rendezvous -o {} -q --set sensors.camera_right.enabled=false "
+                          "--set sensors.tof.enabled=false --set sensors.camera_left.rate=2",
+                          sim));
+  ASSERT_EQ(r.status, 0) << r.output;
+  r = runCdff(fmt::format("run dfpcs/rendezvous.yaml -i {} -o {} -q", sim, out));
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s\n", r.output.c_str());
+  r = runCdff(fmt::format(
+      "eval {} --camera /chaser/camera/far/calibration --product /cdff/far_range_tracking/bearing "
+      "--product /cdff/target_state/state --json {}",
+      out, json));
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::printf("%s\n", r.output.c_str());
+  const nlohmann::json report = readReport(json);
+
+  // The hand-overs happened by the rules: the far range stopped when the LIDAR tracker found
+  // the target (today 427 s, 12 m), the visual tracker started inside 5 m (today 455 s).
+  double far_stop = -1, visual_start = -1;
+  for (const nlohmann::json& h : report.at("handovers")) {
+    const double t = h.at("t_s").get<double>();
+    if (h.at("dfpc") == "far_range_tracking" && h.at("type") == "deactivated" && t > 0)
+      far_stop = far_stop < 0 ? t : far_stop;
+    if (h.at("dfpc") == "visual_tracking" && h.at("type") == "activated")
+      visual_start = visual_start < 0 ? t : visual_start;
+    // The target state never steps beyond 3 sigma within 2 s of a hand-over (the goal;
+    // today 2.3 sigma at the visual tracker's start).
+    if (h.at("max_step_sigma").contains("/cdff/target_state/state") && t > 440)
+      EXPECT_LE(h["max_step_sigma"]["/cdff/target_state/state"].get<double>(), 3.0) << h.dump();
+  }
+  EXPECT_GT(far_stop, 400.0);
+  EXPECT_LT(far_stop, 440.0);
+  EXPECT_GT(visual_start, far_stop);
+  EXPECT_LT(visual_start, 470.0);
+
+  // Close range: the target state meets SR_DFPC_0101 (today p95 5.0 mm and 0.22 deg; bounds
+  // twice that) and its update rate.
+  const std::string state = "/cdff/target_state/state";
+  const nlohmann::json* close_position =
+      phaseVerdict(report, "close range", state, "SR_DFPC_0101", "position_error_m");
+  const nlohmann::json* close_angle =
+      phaseVerdict(report, "close range", state, "SR_DFPC_0101", "angle_error_deg");
+  const nlohmann::json* close_rate =
+      phaseVerdict(report, "close range", state, "SR_DFPC_0102", "update_rate_hz");
+  ASSERT_NE(close_position, nullptr) << report.at("phases").dump(2);
+  ASSERT_NE(close_angle, nullptr);
+  ASSERT_NE(close_rate, nullptr);
+  EXPECT_EQ(close_position->at("verdict"), "pass");
+  EXPECT_LE(close_position->at("measured").get<double>(), 0.010);
+  EXPECT_LE(close_angle->at("measured").get<double>(), 0.5);
+  EXPECT_EQ(close_rate->at("verdict"), "pass");
+  // Mid range: the position meets SR_DFPC_0100 (today p95 5 cm; bound 10 cm); the attitude does
+  // not yet (the LIDAR tracker holds the near-symmetric twin from 12 m for a while).
+  const nlohmann::json* mid_position =
+      phaseVerdict(report, "mid range", state, "SR_DFPC_0100", "position_error_m");
+  ASSERT_NE(mid_position, nullptr);
+  EXPECT_LE(mid_position->at("measured").get<double>(), 0.10);
+  // Far range: the bearing of the centre of mass, today p95 2.8 px (the goal: 0.3 px
+  // RMS); bound 4 px; the radar range within 1.5 % (today 1.07 %).
+  const std::string bearing = "/cdff/far_range_tracking/bearing";
+  const nlohmann::json* far_bearing =
+      phaseVerdict(report, "far range", bearing, "UC1_BEARING", "bearing_error_px");
+  const nlohmann::json* far_range =
+      phaseVerdict(report, "far range", bearing, "UC1_RANGE", "range_error_pct");
+  ASSERT_NE(far_bearing, nullptr);
+  ASSERT_NE(far_range, nullptr);
+  EXPECT_LE(far_bearing->at("measured").get<double>(), 4.0);
+  EXPECT_LE(far_range->at("measured").get<double>(), 1.5);
+  if (!HasFailure()) fs::remove_all(dir);  // else kept for a look (cdff log, cdff eval)
+}
+
+}  // namespace
