@@ -188,8 +188,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       fusion.accepted = true;
       return Status::ok();
     }
-    if (attitudeSigma(*next) > params_.attitude_takeover_sigma)
-      return takeOverAttitude(z, *noise, *next, fusion);
+    if (attitudeUnobserved(*next)) return takeOverAttitude(z, *noise, *next, fusion);
     Estimate corrected = *next;
     Vector6d residual;
     residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
@@ -285,11 +284,15 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     return Status::ok();
   }
 
-  /// The attitude's standard deviation: the root of its covariance block's largest eigenvalue.
-  static double attitudeSigma(const Estimate& e) {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(e.covariance.block<3, 3>(kRot, kRot),
-                                                             Eigen::EigenvaluesOnly);
-    return std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
+  /// Whether the attitude's standard deviation (the root of its covariance block's largest
+  /// eigenvalue) exceeds attitude_takeover_sigma; the trace bounds it, which spares the
+  /// eigenvalues in the usual case.
+  bool attitudeUnobserved(const Estimate& e) const {
+    const Eigen::Matrix3d p = e.covariance.block<3, 3>(kRot, kRot);
+    const double bound = params_.attitude_takeover_sigma * params_.attitude_takeover_sigma;
+    if (p.trace() <= bound) return false;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(p, Eigen::EigenvaluesOnly);
+    return eig.eigenvalues().maxCoeff() > bound;
   }
 
   // An attitude measurement of the chaser (an AHRS sample) in an initialised filter: it adds the
