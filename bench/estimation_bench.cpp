@@ -1,7 +1,10 @@
 // EstimationFilter (ExtendedKalman): the cost of one prediction and of one prediction +
-// correction, i.e. what a DFPC pays per sensor frame for the 12-state SE(3) filter.
+// correction, i.e. what a DFPC pays per sensor frame for the 12-state SE(3) filter; and
+// BearingToPosition (RangeAndDirection), a far-range bearing turned into the filter's position
+// measurement.
 #include <benchmark/benchmark.h>
 
+#include "BearingToPosition.gen.hpp"
 #include "EstimationFilter.gen.hpp"
 #include "bench_support.hpp"
 
@@ -42,6 +45,37 @@ void BM_EstimationFilter_predictAndCorrect(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_EstimationFilter_predictAndCorrect);
+
+void BM_EstimationFilter_predictAndCorrectPosition(benchmark::State& state) {
+  auto ekf = initialisedFilter();
+  cdff::PoseWithCovariance z;
+  z.pose = cdff::Transform::identity("servicer", "target", 0);
+  z.pose.translation = {0.5, -0.2, 10.0};
+  z.covariance.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 0.25;
+  for (auto _ : state) {
+    z.pose.stamp += 100'000;
+    ekf->in.position_measurement.set(z);
+    if (!ekf->process()) state.SkipWithError("position correction failed");
+  }
+}
+BENCHMARK(BM_EstimationFilter_predictAndCorrectPosition);
+
+void BM_BearingToPosition(benchmark::State& state) {
+  auto node = cdff::bench::createConfigured<cdff::dfn::BearingToPosition>("BearingToPosition",
+                                                                          "RangeAndDirection");
+  cdff::Bearing b;
+  b.frame_id = "servicer";
+  b.direction = Eigen::Vector3d(1.0, 0.02, -0.01).normalized();
+  b.covariance = 4e-8 * (Eigen::Matrix3d::Identity() - b.direction * b.direction.transpose());
+  b.range = 1500.0;
+  b.range_variance = 1.0;
+  for (auto _ : state) {
+    b.stamp += 1'000'000;
+    node->in.bearing.set(b);
+    if (!node->process()) state.SkipWithError("BearingToPosition failed");
+  }
+}
+BENCHMARK(BM_BearingToPosition);
 
 }  // namespace
 

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -5,8 +6,10 @@
 
 #include <fmt/ranges.h>
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "EstimationFilter.gen.hpp"
+#include "cdff/types/statistics.hpp"
 
 namespace cdff::dfn {
 
@@ -53,28 +56,82 @@ struct Estimate {
   }
 };
 
+/// What one call's measurements did: the last one's normalised innovation squared, and whether
+/// any changed the estimate.
+struct Fusion {
+  double nis = std::numeric_limits<double>::quiet_NaN();
+  bool accepted = false;
+};
+
 }  // namespace
 
 class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalmanBase {
  protected:
   Status onConfigure() override {
     estimate_.reset();  // new parameters start a new estimate
+    // The 3-dof gate at the probability that innovation_gate has for 6 dof.
+    position_gate_ = params_.innovation_gate == 0.0
+                         ? 0.0
+                         : chiSquareQuantile(chiSquareCdf(params_.innovation_gate, 6), 3);
+    if (!std::isfinite(position_gate_))  // innovation_gate beyond double precision: accept all
+      position_gate_ = 0.0;
     return Status::ok();
   }
 
   Status onProcess() override {
     const bool has_initial = in.initial_state.isFresh();
     const bool has_time = in.time.isFresh();
+    const bool has_position = in.position_measurement.isFresh();
     const bool has_measurement = in.pose_measurement.isFresh();
     const bool has_attitude = in.attitude_measurement.isFresh();
-    if (!has_initial && !has_time && !has_measurement && !has_attitude)
+    if (!has_initial && !has_time && !has_position && !has_measurement && !has_attitude)
       return invalidInput(
-          "no fresh input; expected a new 'time' (predict), 'pose_measurement' or "
-          "'attitude_measurement' (correct) or 'initial_state' (reset)");
+          "no fresh input; expected a new 'time' (predict), 'position_measurement', "
+          "'pose_measurement' or 'attitude_measurement' (correct) or 'initial_state' (reset)");
 
     // Work on a copy so that a failed call leaves the filter as it was.
     std::optional<Estimate> next = estimate_;
-    if (has_initial) {
+    CDFF_RETURN_IF_ERROR(resetAndPredict(next));
+    Fusion fusion;
+    // A measurement made in the same call as a reset was made from the estimate the reset
+    // replaces (a DFPC that re-initialises its filter from a check of the scan the measurement
+    // came from): while acquiring it would be taken as the new pose and undo the reset.
+    if (has_position && has_initial)
+      warn(fmt::format(
+          "position measurement at t = {} us not used: it came with an 'initial_state', which "
+          "replaces the estimate it was made from",
+          in.position_measurement->pose.stamp));
+    else if (has_position)
+      CDFF_RETURN_IF_ERROR(fusePosition(*in.position_measurement, next, fusion));
+    if (has_measurement && has_initial)
+      warn(fmt::format(
+          "pose measurement at t = {} us not used: it came with an 'initial_state', which "
+          "replaces the estimate it was made from",
+          in.pose_measurement->pose.stamp));
+    else if (has_measurement)
+      CDFF_RETURN_IF_ERROR(fusePose(*in.pose_measurement, next, fusion));
+    if (has_attitude) {
+      const PoseWithCovariance& z = *in.attitude_measurement;
+      CDFF_RETURN_IF_ERROR(z.validate().withContext("input 'attitude_measurement'"));
+      if (!next) {
+        // An AHRS runs before the first pose fix; its samples cannot be used yet.
+        warn(fmt::format(
+            "attitude measurement at t = {} us ignored: the filter is not initialised (expected "
+            "a 'pose_measurement', a 'position_measurement' or an 'initial_state' first)",
+            z.pose.stamp));
+        return Status::ok();
+      }
+      CDFF_RETURN_IF_ERROR(fuseAttitude(z, *next, fusion));
+    }
+    estimate_ = next;
+    publish(fusion);
+    return Status::ok();
+  }
+
+ private:
+  /// The reset by a fresh 'initial_state', then the prediction to a fresh 'time'.
+  Status resetAndPredict(std::optional<Estimate>& next) const {
+    if (in.initial_state.isFresh()) {
       const RigidBodyState& initial = *in.initial_state;
       CDFF_RETURN_IF_ERROR(initial.validate());
       if (!isPositiveDefinite(initial.covariance))
@@ -84,97 +141,163 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       next = Estimate::from(initial);
       next->acquiring = true;
     }
-    if (has_time) {
+    if (in.time.isFresh()) {
       if (!next)
         return invalidInput(
-            "cannot predict to t = {} us: the filter is not initialised; "
-            "expected an 'initial_state' or a 'pose_measurement' first",
+            "cannot predict to t = {} us: the filter is not initialised; expected an "
+            "'initial_state', a 'pose_measurement' or a 'position_measurement' first",
             *in.time);
       CDFF_RETURN_IF_ERROR(predict(*next, *in.time, "time"));
     }
-    double nis = std::numeric_limits<double>::quiet_NaN();
-    bool accepted = false;
-    // A pose measured in the same call as a reset was made from the estimate the reset replaces
-    // (a DFPC that re-initialises its filter from a check of the scan the measurement came
-    // from): while acquiring it would be taken as the new pose and undo the reset.
-    if (has_measurement && has_initial)
-      warn(fmt::format(
-          "pose measurement at t = {} us not used: it came with an 'initial_state', which "
-          "replaces the estimate it was made from",
-          in.pose_measurement->pose.stamp));
-    else if (has_measurement)
-      CDFF_RETURN_IF_ERROR(fusePose(*in.pose_measurement, next, nis, accepted));
-    if (has_attitude) {
-      const PoseWithCovariance& z = *in.attitude_measurement;
-      CDFF_RETURN_IF_ERROR(z.validate().withContext("input 'attitude_measurement'"));
-      if (!next) {
-        // An AHRS runs before the first pose fix; its samples cannot be used yet.
-        warn(fmt::format(
-            "attitude measurement at t = {} us ignored: the filter is not initialised (expected "
-            "a 'pose_measurement' or an 'initial_state' first)",
-            z.pose.stamp));
-        return Status::ok();
-      }
-      CDFF_RETURN_IF_ERROR(fuseAttitude(z, *next, nis, accepted));
-    }
-    estimate_ = next;
+    return Status::ok();
+  }
+
+  void publish(const Fusion& fusion) {
     out.state.set(estimate_->output());
     out.pose.set(estimate_->state.pose);
-    out.measurement_accepted.set(accepted);
-    out.innovation_nis.set(nis);
+    out.measurement_accepted.set(fusion.accepted);
+    out.innovation_nis.set(fusion.nis);
     out.track_state.set(estimate_->acquiring
                             ? (unconfirmed(*estimate_) ? TrackState::kLost : TrackState::kAcquiring)
                         : lost(*estimate_) ? TrackState::kLost
                                            : TrackState::kTracking);
-    return Status::ok();
   }
 
- private:
-  // A pose measurement: initialises the filter, reacquires, or is fused unless gated out
-  // (`nis`: its normalised innovation squared; `accepted`: whether it changed the estimate).
-  Status fusePose(const PoseWithCovariance& z, std::optional<Estimate>& next, double& nis,
-                  bool& accepted) {
+  /// Marks `e` as confirmed by a measurement fused at `stamp` (the track state's fix).
+  static void fixed(Estimate& e, Timestamp stamp) {
+    e.acquiring = false;
+    e.last_fix = stamp;
+    e.rejections = 0;
+  }
+
+  // A pose measurement: initialises the filter, reacquires, takes the attitude over, or is fused
+  // unless gated out.
+  Status fusePose(const PoseWithCovariance& z, std::optional<Estimate>& next, Fusion& fusion) {
     CDFF_RETURN_IF_ERROR(z.validate());
     Result<Matrix6d> noise = measurementNoise(z);
     if (!noise) return noise.status();
     if (!next) {
       next = initialiseFrom(z, *noise);
-      accepted = true;
-    } else {
-      CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose));
-      CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
+      fusion.accepted = true;
+      return Status::ok();
     }
-    if (!accepted && params_.reacquire && (next->acquiring || lost(*next))) {
+    CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose, "pose_measurement"));
+    CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "pose_measurement"));
+    if (params_.reacquire && (next->acquiring || lost(*next))) {
       reacquire(*next, z, *noise);
-      accepted = true;
-    } else if (!accepted) {
-      Estimate corrected = *next;
-      Vector6d residual;
-      residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
-      residual.tail<3>() = logSO3(z.pose.rotation * corrected.state.pose.rotation.conjugate());
-      Eigen::Matrix<double, 6, kN> h = Eigen::Matrix<double, 6, kN>::Zero();
-      h.leftCols<6>().setIdentity();
-      Result<double> fused = correct<6>(corrected, h, residual, *noise);
-      if (!fused) return fused.status();
-      nis = *fused;
-      accepted = params_.innovation_gate == 0.0 || nis <= params_.innovation_gate;
-      if (accepted) {
-        next = corrected;
-        next->acquiring = false;
-        next->last_fix = z.pose.stamp;
-        next->rejections = 0;
-      } else {  // gated out: the state is only predicted to the measurement's time
-        ++next->rejections;
-        warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
-                         nis, params_.innovation_gate));
-      }
+      fusion.accepted = true;
+      return Status::ok();
+    }
+    if (attitudeUnobserved(*next)) return takeOverAttitude(z, *noise, *next, fusion);
+    Estimate corrected = *next;
+    Vector6d residual;
+    residual.head<3>() = z.pose.translation - corrected.state.pose.translation;
+    residual.tail<3>() = logSO3(z.pose.rotation * corrected.state.pose.rotation.conjugate());
+    Eigen::Matrix<double, 6, kN> h = Eigen::Matrix<double, 6, kN>::Zero();
+    h.leftCols<6>().setIdentity();
+    Result<double> fused = correct<6>(corrected, h, residual, *noise);
+    if (!fused) return fused.status();
+    fusion.nis = *fused;
+    if (params_.innovation_gate == 0.0 || *fused <= params_.innovation_gate) {
+      next = corrected;
+      fixed(*next, z.pose.stamp);
+      fusion.accepted = true;
+    } else {  // gated out: the state is only predicted to the measurement's time
+      ++next->rejections;
+      warn(fmt::format("measurement at t = {} us gated out: NIS {:.3g} > {:.3g}", z.pose.stamp,
+                       *fused, params_.innovation_gate));
     }
     return Status::ok();
   }
 
+  // A position measurement: initialises the filter (attitude not observed), reacquires the
+  // position, or is fused unless gated out.
+  Status fusePosition(const PoseWithCovariance& z, std::optional<Estimate>& next, Fusion& fusion) {
+    // Only the translation is used: the rotation (e.g. a placeholder) is not checked.
+    CDFF_RETURN_IF_ERROR(
+        checkFinite(z.pose.translation, "input 'position_measurement' translation"));
+    Result<Eigen::Matrix3d> noise = positionNoise(z);
+    if (!noise) return noise.status();
+    if (!next) {
+      next = initialiseFromPosition(z.pose, *noise);
+      fusion.accepted = true;
+      return Status::ok();
+    }
+    CDFF_RETURN_IF_ERROR(checkFrames(*next, z.pose, "position_measurement"));
+    CDFF_RETURN_IF_ERROR(predict(*next, z.pose.stamp, "position_measurement"));
+    if (params_.reacquire && (next->acquiring || lost(*next))) {
+      // The position from the measurement, uncorrelated; attitude and twist as predicted.
+      next->state.pose.translation = z.pose.translation;
+      next->covariance.middleRows<3>(kPos).setZero();
+      next->covariance.middleCols<3>(kPos).setZero();
+      next->covariance.block<3, 3>(kPos, kPos) = *noise;
+      fixed(*next, z.pose.stamp);
+      fusion.accepted = true;
+      return Status::ok();
+    }
+    return correctPosition(z.pose, *noise, *next, fusion);
+  }
+
+  /// The 3-dof position correction, gated at position_gate_.
+  Status correctPosition(const Transform& z, const Eigen::Matrix3d& noise, Estimate& next,
+                         Fusion& fusion) {
+    Estimate corrected = next;
+    const Eigen::Vector3d residual = z.translation - corrected.state.pose.translation;
+    Eigen::Matrix<double, 3, kN> h = Eigen::Matrix<double, 3, kN>::Zero();
+    h.block<3, 3>(0, kPos).setIdentity();
+    Result<double> fused = correct<3>(corrected, h, residual, noise);
+    if (!fused) return fused.status();
+    fusion.nis = *fused;
+    if (position_gate_ == 0.0 || *fused <= position_gate_) {
+      next = corrected;
+      fixed(next, z.stamp);
+      fusion.accepted = true;
+    } else {
+      ++next.rejections;
+      warn(fmt::format("position at t = {} us gated out: NIS {:.3g} > {:.3g} (3 dof)", z.stamp,
+                       *fused, position_gate_));
+    }
+    return Status::ok();
+  }
+
+  /// A pose measurement while the attitude is not observed (attitude_takeover_sigma): its
+  /// position is fused as a position measurement and, if accepted, the attitude is taken from it.
+  Status takeOverAttitude(const PoseWithCovariance& z, const Matrix6d& noise, Estimate& next,
+                          Fusion& fusion) {
+    CDFF_RETURN_IF_ERROR(correctPosition(z.pose, noise.topLeftCorner<3, 3>(), next, fusion));
+    if (!fusion.accepted) return Status::ok();
+    Estimate& e = next;
+    e.state.pose.rotation = z.pose.rotation;
+    e.state.twist.angular.setZero();
+    for (int block : {kRot, kAng}) {
+      e.covariance.middleRows<3>(block).setZero();
+      e.covariance.middleCols<3>(block).setZero();
+    }
+    e.covariance.block<3, 3>(kRot, kRot) = noise.bottomRightCorner<3, 3>();
+    const double sw = params_.initial_angular_velocity_sigma;
+    e.covariance.block<3, 3>(kAng, kAng) = Eigen::Matrix3d::Identity() * sw * sw;
+    if (e.has_inertial) {  // tied to the old attitude: added again at the next AHRS sample
+      e.has_inertial = false;
+      e.covariance.bottomRows<6>().setZero();
+      e.covariance.rightCols<6>().setZero();
+    }
+    return Status::ok();
+  }
+
+  /// Whether the attitude's standard deviation (the root of its covariance block's largest
+  /// eigenvalue) exceeds attitude_takeover_sigma; the trace bounds it, which spares the
+  /// eigenvalues in the usual case.
+  bool attitudeUnobserved(const Estimate& e) const {
+    const Eigen::Matrix3d p = e.covariance.block<3, 3>(kRot, kRot);
+    const double bound = params_.attitude_takeover_sigma * params_.attitude_takeover_sigma;
+    if (p.trace() <= bound) return false;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(p, Eigen::EigenvaluesOnly);
+    return eig.eigenvalues().maxCoeff() > bound;
+  }
+
   // An attitude measurement of the chaser (an AHRS sample) in an initialised filter: it adds the
   // target's inertial attitude to the state the first time, then is fused unless gated out.
-  Status fuseAttitude(const PoseWithCovariance& z, Estimate& next, double& nis, bool& accepted) {
+  Status fuseAttitude(const PoseWithCovariance& z, Estimate& next, Fusion& fusion) {
     Result<Eigen::Matrix3d> noise = attitudeNoise(z);
     if (!noise) return noise.status();
     CDFF_RETURN_IF_ERROR(checkAttitudeFrames(next, z.pose));
@@ -191,27 +314,26 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       h.block<3, 3>(0, kTargetRot).setIdentity();
       Result<double> fused = correct<3>(corrected, h, residual, *noise);
       if (!fused) return fused.status();
-      nis = *fused;
+      fusion.nis = *fused;
       const bool ok =
-          params_.attitude_innovation_gate == 0.0 || nis <= params_.attitude_innovation_gate;
+          params_.attitude_innovation_gate == 0.0 || *fused <= params_.attitude_innovation_gate;
       if (ok) {
         next = corrected;
-        accepted = true;
+        fusion.accepted = true;
       } else {
         warn(fmt::format("attitude measurement at t = {} us gated out: NIS {:.3g} > {:.3g}",
-                         z.pose.stamp, nis, params_.attitude_innovation_gate));
+                         z.pose.stamp, *fused, params_.attitude_innovation_gate));
       }
     }
     return Status::ok();
   }
 
-  Status checkFrames(const Estimate& e, const Transform& measured) const {
+  static Status checkFrames(const Estimate& e, const Transform& measured, const char* input) {
     const Transform& pose = e.state.pose;
     if (measured.parent_frame != pose.parent_frame || measured.child_frame != pose.child_frame)
       return invalidInput(
-          "input 'pose_measurement' is {}_T_{}; expected {}_T_{}, the frames the "
-          "filter was initialised with",
-          measured.parent_frame, measured.child_frame, pose.parent_frame, pose.child_frame);
+          "input '{}' is {}_T_{}; expected {}_T_{}, the frames the filter was initialised with",
+          input, measured.parent_frame, measured.child_frame, pose.parent_frame, pose.child_frame);
     return Status::ok();
   }
 
@@ -243,6 +365,27 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     r.diagonal() << Eigen::Vector3d::Constant(params_.position_sigma * params_.position_sigma),
         Eigen::Vector3d::Constant(params_.attitude_sigma * params_.attitude_sigma);
     return r;
+  }
+
+  /// The position block of a position measurement's covariance (its own, or position_sigma).
+  Result<Eigen::Matrix3d> positionNoise(const PoseWithCovariance& z) const {
+    const Eigen::Matrix3d block = z.covariance.topLeftCorner<3, 3>();
+    if (!block.allFinite())
+      return invalidInput(
+          "input 'position_measurement' position covariance is non-finite (diagonal {}); "
+          "expected a finite positive-definite 3x3 block [0:3, 0:3] or zeros",
+          fmt::join(block.diagonal(), ", "));
+    if (params_.use_measurement_covariance && !block.isZero(0.0)) {
+      if ((block - block.transpose()).cwiseAbs().maxCoeff() > 1e-9 * block.cwiseAbs().maxCoeff() ||
+          !isPositiveDefinite(block))
+        return invalidInput(
+            "input 'position_measurement' position covariance is not symmetric positive "
+            "definite (diagonal {}); expected a positive-definite 3x3 block [0:3, 0:3] or zeros",
+            fmt::join(block.diagonal(), ", "));
+      return Eigen::Matrix3d(block);
+    }
+    return Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.position_sigma *
+                           params_.position_sigma);
   }
 
   Result<Eigen::Matrix3d> attitudeNoise(const PoseWithCovariance& z) const {
@@ -297,6 +440,23 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
     s.covariance.block<3, 3>(kVel, kVel) = Eigen::Matrix3d::Identity() * sv * sv;
     s.covariance.block<3, 3>(kAng, kAng) = Eigen::Matrix3d::Identity() * sw * sw;
     return Estimate::from(s);  // last_fix = the measurement's stamp, not acquiring
+  }
+
+  /// The filter started from a position: the attitude is the identity placeholder with
+  /// unknown_attitude_sigma (not observed), the twist zero with its usual prior.
+  Estimate initialiseFromPosition(const Transform& z, const Eigen::Matrix3d& noise) const {
+    RigidBodyState s;
+    s.pose = z;
+    s.pose.rotation = Eigen::Quaterniond::Identity();
+    s.covariance.setZero();
+    s.covariance.topLeftCorner<3, 3>() = noise;
+    const double sa = params_.unknown_attitude_sigma;
+    const double sv = params_.initial_linear_velocity_sigma;
+    const double sw = params_.initial_angular_velocity_sigma;
+    s.covariance.block<3, 3>(kRot, kRot) = Eigen::Matrix3d::Identity() * sa * sa;
+    s.covariance.block<3, 3>(kVel, kVel) = Eigen::Matrix3d::Identity() * sv * sv;
+    s.covariance.block<3, 3>(kAng, kAng) = Eigen::Matrix3d::Identity() * sw * sw;
+    return Estimate::from(s);
   }
 
   /// Adds the target's inertial attitude and rate to the state from the chaser's attitude
@@ -419,6 +579,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
   }
 
   std::optional<Estimate> estimate_;  // none until initialised
+  double position_gate_ = 0.0;        // chi-square 3 dof; 0 accepts every position
 };
 
 CDFF_REGISTER_DFI(EstimationFilterExtendedKalman);
