@@ -17,29 +17,6 @@ using nlohmann::json;
 
 constexpr int kMeasurements = 20;
 
-// 20 measurements of a target 10 m ahead of the camera moving at 0.2 m/s along x, at 20 Hz.
-void publishMeasurements(int domain) {
-  auto participant = cdff::dds::Participant::create(domain);
-  ASSERT_TRUE(participant.isOk());
-  cdff::dds::Publisher publisher(**participant);
-  const std::string channel = "/chaser/target_pose_measurement";
-  ASSERT_TRUE(
-      publisher.prepare(channel, cdff::TypeId::of<cdff::PoseWithCovariance>(), "target").isOk());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (publisher.matchedReaders(channel) == 0 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  for (int i = 0; i < kMeasurements; ++i) {
-    cdff::PoseWithCovariance pose;
-    pose.pose.stamp = 50'000 * i;
-    pose.pose.parent_frame = "camera";
-    pose.pose.child_frame = "target";
-    pose.pose.translation = {0.01 * i, 0.0, 10.0};
-    pose.covariance = cdff::Matrix6d::Identity() * 1e-4;
-    ASSERT_TRUE(publisher.publish(cdff::dfpc::Message::of(channel, pose.pose.stamp, pose)).isOk());
-  }
-  ASSERT_TRUE(publisher.waitForAcknowledgements(10).isOk());
-}
-
 struct Call {
   int status;
   json result;        // the answer (stdout) when the call succeeded
@@ -62,7 +39,7 @@ TEST(DdsApi, ANodeAnswersTheExternalApiOverDds) {
       spawnCdff({"node", "dfpcs/pose_filtering.yaml", "--domain", std::to_string(domain)}, log);
   ASSERT_TRUE(waitForText(log, "external API on rq/cdff/apiRequest", 20)) << readFile(log);
   EXPECT_EQ(api(domain, "getCDFFState").result, json({{"state", "running"}}));
-  publishMeasurements(domain);
+  publishMeasurements(domain, 0, kMeasurements);
 
   // The DFPC's status: running, every measurement delivered (the node takes them in its time).
   json status;

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include "cdff/dds/participant.hpp"
+#include "cdff/dds/publisher.hpp"
 #include "cdff/io/replay.hpp"
 #include "support/command.hpp"
 
@@ -125,6 +126,31 @@ inline std::string waitForFarRangeInputs() {
   return "--wait-for /chaser/camera/far/image --wait-for /chaser/camera/far/calibration "
          "--wait-for /chaser/tf/camera_far_optical --wait-for /chaser/ahrs/attitude "
          "--wait-for /chaser/radar/measurement";
+}
+
+/// Publishes the measurements [first, first + n) of a target 10 m ahead of the camera moving at
+/// 0.2 m/s along x, at 20 Hz, on /chaser/target_pose_measurement (what dfpcs/pose_filtering.yaml
+/// reads), once a reader matched; waits until every reader acknowledged them.
+inline void publishMeasurements(int domain, int first, int n) {
+  auto participant = cdff::dds::Participant::create(domain);
+  ASSERT_TRUE(participant.isOk());
+  cdff::dds::Publisher publisher(**participant);
+  const std::string channel = "/chaser/target_pose_measurement";
+  ASSERT_TRUE(
+      publisher.prepare(channel, cdff::TypeId::of<cdff::PoseWithCovariance>(), "target").isOk());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (publisher.matchedReaders(channel) == 0 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = first; i < first + n; ++i) {
+    cdff::PoseWithCovariance pose;
+    pose.pose.stamp = 50'000 * i;
+    pose.pose.parent_frame = "camera";
+    pose.pose.child_frame = "target";
+    pose.pose.translation = {0.01 * i, 0.0, 10.0};
+    pose.covariance = cdff::Matrix6d::Identity() * 1e-4;
+    ASSERT_TRUE(publisher.publish(cdff::dfpc::Message::of(channel, pose.pose.stamp, pose)).isOk());
+  }
+  ASSERT_TRUE(publisher.waitForAcknowledgements(10).isOk());
 }
 
 }  // namespace cdff::testing

@@ -96,29 +96,6 @@ TEST(DdsFaults, ABridgeKilledMidStreamIsAnInputLostAndTheNodeFinishesCleanly) {
 
 constexpr const char* kState = "/cdff/pose_filtering/state";
 
-// Publishes measurements [first, first + n) of a target moving along x, 20 Hz, to a node.
-void publishMeasurements(int domain, int first, int n) {
-  auto participant = cdff::dds::Participant::create(domain);
-  ASSERT_TRUE(participant.isOk());
-  cdff::dds::Publisher publisher(**participant);
-  const std::string channel = "/chaser/target_pose_measurement";
-  ASSERT_TRUE(
-      publisher.prepare(channel, cdff::TypeId::of<cdff::PoseWithCovariance>(), "target").isOk());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (publisher.matchedReaders(channel) == 0 && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  for (int i = first; i < first + n; ++i) {
-    cdff::PoseWithCovariance pose;
-    pose.pose.stamp = 50'000 * i;
-    pose.pose.parent_frame = "camera";
-    pose.pose.child_frame = "target";
-    pose.pose.translation = {0.01 * i, 0.0, 10.0};
-    pose.covariance = cdff::Matrix6d::Identity() * 1e-4;
-    ASSERT_TRUE(publisher.publish(cdff::dfpc::Message::of(channel, pose.pose.stamp, pose)).isOk());
-  }
-  ASSERT_TRUE(publisher.waitForAcknowledgements(10).isOk());
-}
-
 // The node's product count, once it has processed `messages` measurements (by the API).
 int productsAfter(int domain, int messages) {
   json status;

@@ -162,8 +162,8 @@ GraphBuilder::GraphBuilder(std::string name, std::source_location where) {
 
 GraphBuilder& GraphBuilder::input(std::string name, std::string type, std::string channel,
                                   std::source_location where) {
-  spec_.inputs.push_back(
-      {std::move(name), std::move(type), std::move(channel), false, false, SourceLocation::of(where)});
+  spec_.inputs.push_back({std::move(name), std::move(type), std::move(channel), false, false,
+                          SourceLocation::of(where)});
   return *this;
 }
 
