@@ -1,11 +1,12 @@
 // EstimationFilter (ExtendedKalman): the cost of one prediction and of one prediction +
 // correction, i.e. what a DFPC pays per sensor frame for the 12-state SE(3) filter; and
 // BearingToPosition (RangeAndDirection), a far-range bearing turned into the filter's position
-// measurement.
+// measurement; StateInversion (Rigid), the far-range state turned into the target state.
 #include <benchmark/benchmark.h>
 
 #include "BearingToPosition.gen.hpp"
 #include "EstimationFilter.gen.hpp"
+#include "StateInversion.gen.hpp"
 #include "bench_support.hpp"
 
 namespace {
@@ -76,6 +77,22 @@ void BM_BearingToPosition(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_BearingToPosition);
+
+void BM_StateInversion(benchmark::State& state) {
+  auto node = cdff::bench::createConfigured<cdff::dfn::StateInversion>(
+      "StateInversion", "Rigid", "{child_frame: target, unobserved_attitude_sigma: 180}");
+  cdff::RigidBodyState s;
+  s.pose = cdff::Transform::identity("lvlh", "servicer", 0);
+  s.pose.translation = {0.5, -400.0, 2.0};
+  s.twist.linear = {0.0, 1.5, 0.0};
+  s.covariance = cdff::Matrix12d::Identity() * 1e-2;
+  for (auto _ : state) {
+    s.pose.stamp += 1'000'000;
+    node->in.state.set(s);
+    if (!node->process()) state.SkipWithError("StateInversion failed");
+  }
+}
+BENCHMARK(BM_StateInversion);
 
 }  // namespace
 

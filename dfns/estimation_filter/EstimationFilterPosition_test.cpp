@@ -332,6 +332,69 @@ TEST(EstimationFilterPosition, BadPositionMeasurementsAreReportedAndLeaveTheFilt
   EXPECT_EQ(ekf->out.state->pose.translation, reset.pose.translation);
 }
 
+// Another filter's estimates adopted as this one's (far range, then the LIDAR): each replaces
+// the estimate as a fix, nothing is fused twice; without them the filter coasts and is LOST after
+// lost_after; a pose measurement then reacquires the pose, attitude included.
+RigidBodyState referenceAt(const Truth& truth, double t) {
+  RigidBodyState s;
+  s.pose = Transform::identity("servicer", "target", fromSeconds(t));
+  s.pose.translation = truth.position(t);
+  s.twist.linear = truth.v;
+  s.covariance = Matrix12d::Identity() * 0.01;
+  s.covariance.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * M_PI * M_PI;  // unobserved
+  return s;
+}
+
+TEST(EstimationFilterPosition, AReferenceStateIsAdoptedNotFused) {
+  const Truth truth;
+  auto filter = make("{lost_after: 1.0, reacquire: true}");
+  for (int k = 0; k < 5; ++k) {
+    const RigidBodyState reference = referenceAt(truth, 1.0 * k);
+    filter->in.reference_state.set(reference);
+    ASSERT_OK(filter->process());
+    EXPECT_EQ(*filter->out.track_state, TrackState::kTracking);
+    // The estimate is the reference, its covariance too: five adoptions are not five fusions.
+    EXPECT_LT((filter->out.state->pose.translation - reference.pose.translation).norm(), 1e-12);
+    EXPECT_LT((filter->out.state->covariance - reference.covariance).norm(), 1e-12);
+  }
+  filter->in.time.set(fromSeconds(5.5));
+  ASSERT_OK(filter->process());
+  EXPECT_NEAR((filter->out.state->pose.translation - truth.position(5.5)).norm(), 0.0, 1e-9);
+  filter->in.time.set(fromSeconds(6.5));  // 2.5 s after the last reference
+  ASSERT_OK(filter->process());
+  EXPECT_EQ(*filter->out.track_state, TrackState::kLost);
+  std::mt19937 rng(5);
+  filter->in.pose_measurement.set(poseSample(truth, 7.0, rng));
+  ASSERT_OK(filter->process());
+  EXPECT_EQ(*filter->out.track_state, TrackState::kTracking);
+  EXPECT_LT(angularDistance(filter->out.state->pose.rotation, truth.attitude(7.0)),
+            5 * kPoseSigmaR * std::sqrt(3.0));
+}
+
+TEST(EstimationFilterPosition, BadReferenceStatesAreReportedAndLeaveTheFilterUnchanged) {
+  const Truth truth;
+  auto filter = make();
+  filter->in.reference_state.set(referenceAt(truth, 2.0));
+  ASSERT_OK(filter->process());
+  const RigidBodyState before = *filter->out.state;
+  filter->in.reference_state.set(referenceAt(truth, 1.0));  // older: not adopted, a warning
+  ASSERT_OK(filter->process());
+  EXPECT_EQ(filter->out.state->pose.stamp, before.pose.stamp);
+  ASSERT_FALSE(filter->diagnostics().warnings.empty());
+  EXPECT_NE(filter->diagnostics().warnings.back().find("not adopted"), std::string::npos);
+  RigidBodyState singular = referenceAt(truth, 3.0);
+  singular.covariance.block<3, 3>(9, 9).setZero();
+  filter->in.reference_state.set(singular);
+  testing::expectRejected(*filter, "not positive definite");
+  RigidBodyState other = referenceAt(truth, 3.0);
+  other.pose.child_frame = "marker";
+  filter->in.reference_state.set(other);
+  testing::expectRejected(*filter, "expected servicer_T_target");
+  filter->in.time.set(fromSeconds(2.0));
+  ASSERT_OK(filter->process());
+  EXPECT_LT((filter->out.state->pose.translation - before.pose.translation).norm(), 1e-12);
+}
+
 TEST(EstimationFilterPosition, BadAttitudeParametersAreRejected) {
   auto node = Registry::instance().create("EstimationFilter", "ExtendedKalman");
   ASSERT_TRUE(node.isOk());

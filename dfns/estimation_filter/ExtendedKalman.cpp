@@ -80,14 +80,17 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
 
   Status onProcess() override {
     const bool has_initial = in.initial_state.isFresh();
+    const bool has_reference = in.reference_state.isFresh();
     const bool has_time = in.time.isFresh();
     const bool has_position = in.position_measurement.isFresh();
     const bool has_measurement = in.pose_measurement.isFresh();
     const bool has_attitude = in.attitude_measurement.isFresh();
-    if (!has_initial && !has_time && !has_position && !has_measurement && !has_attitude)
+    if (!has_initial && !has_reference && !has_time && !has_position && !has_measurement &&
+        !has_attitude)
       return invalidInput(
           "no fresh input; expected a new 'time' (predict), 'position_measurement', "
-          "'pose_measurement' or 'attitude_measurement' (correct) or 'initial_state' (reset)");
+          "'pose_measurement' or 'attitude_measurement' (correct), 'initial_state' (reset) or "
+          "'reference_state' (adopt)");
 
     // Work on a copy so that a failed call leaves the filter as it was.
     std::optional<Estimate> next = estimate_;
@@ -130,7 +133,7 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
 
  private:
   /// The reset by a fresh 'initial_state', then the prediction to a fresh 'time'.
-  Status resetAndPredict(std::optional<Estimate>& next) const {
+  Status resetAndPredict(std::optional<Estimate>& next) {
     if (in.initial_state.isFresh()) {
       const RigidBodyState& initial = *in.initial_state;
       CDFF_RETURN_IF_ERROR(initial.validate());
@@ -141,6 +144,16 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
       next = Estimate::from(initial);
       next->acquiring = true;
     }
+    if (in.reference_state.isFresh()) {
+      const RigidBodyState& reference = *in.reference_state;
+      if (next && reference.pose.stamp < next->state.pose.stamp)
+        warn(fmt::format(
+            "reference state at t = {} us not adopted: the filter's time is already {} us (a "
+            "later one replaces it)",
+            reference.pose.stamp, next->state.pose.stamp));
+      else
+        CDFF_RETURN_IF_ERROR(adopt(reference, next));
+    }
     if (in.time.isFresh()) {
       if (!next)
         return invalidInput(
@@ -149,6 +162,19 @@ class EstimationFilterExtendedKalman final : public EstimationFilterExtendedKalm
             *in.time);
       CDFF_RETURN_IF_ERROR(predict(*next, *in.time, "time"));
     }
+    return Status::ok();
+  }
+
+  /// Another filter's estimate taken as this one's, as a fix (input 'reference_state').
+  static Status adopt(const RigidBodyState& reference, std::optional<Estimate>& next) {
+    CDFF_RETURN_IF_ERROR(reference.validate().withContext("input 'reference_state'"));
+    if (!isPositiveDefinite(reference.covariance))
+      return invalidInput(
+          "input 'reference_state' covariance is not positive definite; expected the "
+          "uncertainty of every one of the 12 state components (an unobserved one large)");
+    if (next) CDFF_RETURN_IF_ERROR(checkFrames(*next, reference.pose, "reference_state"));
+    next = Estimate::from(reference);
+    fixed(*next, reference.pose.stamp);
     return Status::ok();
   }
 

@@ -56,20 +56,26 @@ TEST(RendezvousCommandLine, HandsTheTargetOverFromFarRangeToCapture) {
   std::printf("%s\n", r.output.c_str());
   const nlohmann::json report = readReport(json);
 
-  // The hand-overs happened by the rules: the far range stopped when the LIDAR tracker found
+  // The hand-overs happened by the rules: far_to_target ran from the far range's first track,
+  // the far range stopped when the LIDAR tracker found
   // the target (today 427 s, 12 m), the visual tracker started inside 5 m (today 455 s).
-  double far_stop = -1, visual_start = -1;
+  double far_stop = -1, visual_start = -1, far_state_start = -1;
   for (const nlohmann::json& h : report.at("handovers")) {
     const double t = h.at("t_s").get<double>();
     if (h.at("dfpc") == "far_range_tracking" && h.at("type") == "deactivated" && t > 0)
       far_stop = far_stop < 0 ? t : far_stop;
+    if (h.at("dfpc") == "far_to_target" && h.at("type") == "activated")
+      far_state_start = far_state_start < 0 ? t : far_state_start;
     if (h.at("dfpc") == "visual_tracking" && h.at("type") == "activated")
       visual_start = visual_start < 0 ? t : visual_start;
     // The target state never steps beyond 3 sigma within 2 s of a hand-over (the goal;
-    // today 2.3 sigma at the visual tracker's start).
-    if (h.at("max_step_sigma").contains("/cdff/target_state/state") && t > 440)
+    // today at most 0.34 sigma in far range, 2.3 sigma at the visual tracker's start). The LIDAR's
+    // acquisition (427 s: 3.1 sigma) is not held to it yet.
+    if (h.at("max_step_sigma").contains("/cdff/target_state/state") && (t < 400 || t > 440))
       EXPECT_LE(h["max_step_sigma"]["/cdff/target_state/state"].get<double>(), 3.0) << h.dump();
   }
+  EXPECT_GE(far_state_start, 0.0);
+  EXPECT_LT(far_state_start, 10.0);  // today 2 s
   EXPECT_GT(far_stop, 400.0);
   EXPECT_LT(far_stop, 440.0);
   EXPECT_GT(visual_start, far_stop);
@@ -91,12 +97,24 @@ TEST(RendezvousCommandLine, HandsTheTargetOverFromFarRangeToCapture) {
   EXPECT_LE(close_position->at("measured").get<double>(), 0.010);
   EXPECT_LE(close_angle->at("measured").get<double>(), 0.5);
   EXPECT_EQ(close_rate->at("verdict"), "pass");
-  // Mid range: the position meets SR_DFPC_0100 (today p95 5 cm; bound 10 cm); the attitude does
-  // not yet (the LIDAR tracker holds the near-symmetric twin from 12 m for a while).
+  // Far and mid range: the target state is the far range's estimate down to 40 m (the attitude
+  // unobserved: no angle verdict in far range), the LIDAR's from 12 m; position p95 today 1.36 m
+  // in far range and 1.07 m in mid range (the far range's part, 100 m to 40 m); bounds 2 m and
+  // 1.5 m. The mid-range attitude fails today (the LIDAR tracker holds the near-symmetric twin
+  // from 12 m for a while), and nothing measures from 40 m to 12 m.
+  const nlohmann::json* far_position =
+      phaseVerdict(report, "far range", state, "SR_DFPC_0100", "position_error_m");
+  ASSERT_NE(far_position, nullptr);
+  EXPECT_LE(far_position->at("measured").get<double>(), 2.0);
+  EXPECT_EQ(phaseVerdict(report, "far range", state, "SR_DFPC_0100", "angle_error_deg"), nullptr);
   const nlohmann::json* mid_position =
       phaseVerdict(report, "mid range", state, "SR_DFPC_0100", "position_error_m");
   ASSERT_NE(mid_position, nullptr);
-  EXPECT_LE(mid_position->at("measured").get<double>(), 0.10);
+  EXPECT_LE(mid_position->at("measured").get<double>(), 1.5);
+  // Its position covariance is about honest over the run (today NEES 4.2 for 3).
+  const nlohmann::json* product = cdff::testing::reportProduct(report, state);
+  ASSERT_NE(product, nullptr);
+  EXPECT_LE(product->at("covariance_consistency").at("position_nees_mean").get<double>(), 6.0);
   // Far range: the bearing of the centre of mass, today p95 2.8 px (the goal: 0.3 px
   // RMS); bound 4 px; the radar range within 1.5 % (today 1.07 %).
   const std::string bearing = "/cdff/far_range_tracking/bearing";

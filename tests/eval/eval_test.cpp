@@ -103,6 +103,34 @@ TEST(Continuity, StepsUnderTheFirstEstimatesCovarianceFollowTheTwist) {
   EXPECT_TRUE(continuityOf(estimates).steps.empty());
 }
 
+// An estimate that states its attitude unobserved (a 180 deg sigma: far range's target state)
+// has no angle error and no attitude NEES; its position error and position NEES count.
+TEST(EvaluatePoses, AnUnobservedAttitudeIsNotEvaluated) {
+  std::vector<Transform> truth;
+  std::vector<EstimateSample> estimates;
+  for (int k = 0; k < 4; ++k) {
+    Transform t = Transform::identity("servicer", "target", fromSeconds(k));
+    t.translation = {0, 0, 500.0 - k};
+    truth.push_back(t);
+    EstimateSample e;
+    e.pose = t;
+    e.pose.translation.x() += 2.0;  // 2 m off, with a 2 m sigma: position NEES 1
+    e.pose.rotation = expSO3(Eigen::Vector3d(0, 2.0, 0));  // 115 deg off: a placeholder
+    Matrix6d c = Matrix6d::Identity() * 4.0;
+    c.bottomRightCorner<3, 3>() *= (k < 3 ? M_PI * M_PI : 1e-4) / 4.0;  // the last observed
+    e.covariance = c;
+    estimates.push_back(e);
+  }
+  Result<PoseEvaluation> r = evaluatePoses(estimates, truth);
+  ASSERT_TRUE(r.isOk()) << r.status().message();
+  EXPECT_EQ(r->position_error_m.count, 4u);
+  EXPECT_EQ(r->angle_error_deg.count, 1u);  // the observed one only
+  EXPECT_TRUE(std::isnan(r->errors[0].angle_error_deg));
+  EXPECT_NEAR(r->errors[3].angle_error_deg, 2.0 * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(r->covariance.position_nees_mean, 1.0, 1e-9);
+  EXPECT_EQ(r->covariance.count, 1u);  // 6-dof NEES for the observed one only
+}
+
 TEST(EvaluatePoses, RecoversConstructedErrorsRateAndTrackedFraction) {
   const std::vector<Transform> truth = truthSeries();
   std::vector<EstimateSample> estimates;

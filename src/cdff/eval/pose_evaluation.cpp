@@ -54,17 +54,25 @@ double normalisedSquare(const Eigen::Matrix<double, N, N>& c,
 
 // Fills the NEES fields of `m`; false when the covariance is not finite and positive definite.
 bool normalisedErrors(const Transform& estimate, const Transform& truth, const Matrix6d& covariance,
-                      MatchedError& m) {
+                      bool attitude_observed, MatchedError& m) {
   if (!covariance.allFinite()) return false;
   Vector6d error;
   error << truth.translation - estimate.translation,
       logSO3((truth.rotation * estimate.rotation.conjugate()).normalized());
   const Matrix6d c = 0.5 * (covariance + covariance.transpose());
+  m.position_nees = normalisedSquare<3>(c.topLeftCorner<3, 3>(), error.head<3>());
+  if (!attitude_observed) return std::isfinite(m.position_nees);
   m.nees = normalisedSquare<6>(c, error);
   if (!std::isfinite(m.nees)) return false;
-  m.position_nees = normalisedSquare<3>(c.topLeftCorner<3, 3>(), error.head<3>());
   m.attitude_nees = normalisedSquare<3>(c.bottomRightCorner<3, 3>(), error.tail<3>());
   return true;
+}
+
+/// Whether a covariance observes the attitude (kUnobservedAttitudeSigmaDeg).
+bool attitudeObserved(const std::optional<Matrix6d>& covariance) {
+  if (!covariance) return true;
+  const double bound = kUnobservedAttitudeSigmaDeg * M_PI / 180.0;
+  return covariance->bottomRightCorner<3, 3>().diagonal().maxCoeff() <= bound * bound;
 }
 
 CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std::size_t rejected) {
@@ -72,13 +80,19 @@ CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std
   c.rejected = rejected;
   std::vector<double> nees;
   double position = 0, attitude = 0;
+  std::size_t positions = 0;
   for (const MatchedError& e : errors) {
+    // An estimate with an unobserved attitude counts in the position's consistency only.
+    if (std::isfinite(e.position_nees)) {
+      position += e.position_nees;
+      ++positions;
+    }
     if (!std::isfinite(e.nees)) continue;
     nees.push_back(e.nees);
-    position += e.position_nees;
     attitude += e.attitude_nees;
   }
   c.count = nees.size();
+  if (positions > 0) c.position_nees_mean = position / static_cast<double>(positions);
   if (nees.empty()) return c;
   const double n = static_cast<double>(nees.size());
   double sum = 0, within = 0;
@@ -88,7 +102,6 @@ CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std
   }
   c.nees_mean = sum / n;
   c.within_95_fraction = within / n;
-  c.position_nees_mean = position / n;
   c.attitude_nees_mean = attitude / n;
   std::sort(nees.begin(), nees.end());
   c.nees_p95 = percentile(nees, 0.95);
@@ -99,7 +112,7 @@ CovarianceConsistency consistencyOf(const std::vector<MatchedError>& errors, std
 
 double poseNees(const Transform& estimate, const Transform& truth, const Matrix6d& covariance) {
   MatchedError m;
-  return normalisedErrors(estimate, truth, covariance, m)
+  return normalisedErrors(estimate, truth, covariance, true, m)
              ? m.nees
              : std::numeric_limits<double>::quiet_NaN();
 }
@@ -188,11 +201,14 @@ Result<PoseEvaluation> evaluatePoses(const std::vector<EstimateSample>& estimate
     m.stamp = e.pose.stamp;
     m.range_m = reference->translation.norm();
     m.position_error_m = (e.pose.translation - reference->translation).norm();
-    m.angle_error_deg = angularDistance(e.pose.rotation, reference->rotation) * kRadToDeg;
+    const bool attitude_observed = attitudeObserved(e.covariance);
+    m.angle_error_deg = attitude_observed
+                            ? angularDistance(e.pose.rotation, reference->rotation) * kRadToDeg
+                            : std::numeric_limits<double>::quiet_NaN();
     position.push_back(m.position_error_m);
-    angle.push_back(m.angle_error_deg);
+    if (attitude_observed) angle.push_back(m.angle_error_deg);
     if (m.range_m > 0) percent.push_back(100.0 * m.position_error_m / m.range_m);
-    if (e.covariance && !normalisedErrors(e.pose, *reference, *e.covariance, m))
+    if (e.covariance && !normalisedErrors(e.pose, *reference, *e.covariance, attitude_observed, m))
       ++rejected_covariances;
     result.errors.push_back(m);
   }

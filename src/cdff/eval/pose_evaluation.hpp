@@ -72,11 +72,16 @@ class UpdateRates {
 };
 
 /// The error of one matched estimate.
+/// An estimate whose attitude standard deviation exceeds this on some axis states that its
+/// attitude is not observed (a placeholder: far range's target state, whose attitude no sensor
+/// sees): its angle error and attitude NEES are not counted, its position is.
+constexpr double kUnobservedAttitudeSigmaDeg = 45.0;
+
 struct MatchedError {
   Timestamp stamp = 0;
   double range_m = 0;           // |translation| of the truth pose
   double position_error_m = 0;  // |t_est - t_true|
-  double angle_error_deg = 0;   // angle of R_est R_true^T
+  double angle_error_deg = 0;   // angle of R_est R_true^T; NaN when the attitude is unobserved
   /// e^T C^-1 e of the error e = [t_true - t_est, log(R_true R_est^T)] under the estimate's
   /// covariance C, in all 6 dof and in position and attitude alone; NaN when the estimate has
   /// no covariance or one that is not positive definite.

@@ -379,8 +379,10 @@ std::string productPlotsHtml(const PoseEvaluation& p, const TimeAxis& axis) {
     const double t = toSeconds(e.stamp - t0);
     position.x.push_back(t);
     position.y.push_back(e.position_error_m);
-    angle.x.push_back(t);
-    angle.y.push_back(e.angle_error_deg);
+    if (std::isfinite(e.angle_error_deg)) {
+      angle.x.push_back(t);
+      angle.y.push_back(e.angle_error_deg);
+    }
     if (std::isfinite(e.nees)) {
       nees.x.push_back(t);
       nees.y.push_back(e.nees);

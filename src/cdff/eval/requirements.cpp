@@ -176,8 +176,11 @@ std::vector<RequirementVerdict> checkRequirements(const PoseEvaluation& evaluati
     const std::vector<MatchedError> band =
         inRange(evaluation.errors, spec.min_range_m, spec.max_range_m);
     std::vector<double> errors;
-    for (const MatchedError& e : band)
-      errors.push_back(spec.quantity == Q::kPositionError ? e.position_error_m : e.angle_error_deg);
+    for (const MatchedError& e : band) {
+      const double error =
+          spec.quantity == Q::kPositionError ? e.position_error_m : e.angle_error_deg;
+      if (std::isfinite(error)) errors.push_back(error);  // NaN: an unobserved attitude
+    }
     const std::string band_text =
         fmt::format("true range in [{:g}, {:g}) m", spec.min_range_m, spec.max_range_m);
     verdicts.push_back(accuracyVerdict(
