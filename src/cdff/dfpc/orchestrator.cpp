@@ -315,7 +315,10 @@ const void* Orchestrator::ruleValue(RuleRef& ref, Timestamp stamp) const {
   const std::string& product = ref.entry->outputs[ref.output].product;
   Result<Product> latest = products_->latest(product);
   if (!latest) return nullptr;
-  if (ref.kind == RuleRef::Kind::kProduct) return latest->value.raw();
+  if (ref.kind == RuleRef::Kind::kProduct) {
+    ref.held = latest->value;  // keeps the value alive while the rule reads it
+    return ref.held.raw();
+  }
   const double timeout = dfpc.spec().outputs[ref.output].timeout_s;
   if (timeout > 0 && toSeconds(stamp - latest->stamp) > timeout) return nullptr;
   if (const auto bearing = latest->as<Bearing>()) {

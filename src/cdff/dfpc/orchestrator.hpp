@@ -193,6 +193,7 @@ class Orchestrator final : private DfpcObserver {
     TypeId type;             // the value's
     double range = 0;        // kRange: the value of the last evaluation
     TrackState track_state = TrackState::kUninitialised;  // kTrackState: the same
+    Value held;  // kProduct: the value of the last evaluation
   };
   struct RuleState {
     ActivationRule rule;
