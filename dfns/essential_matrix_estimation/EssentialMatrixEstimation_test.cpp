@@ -71,11 +71,11 @@ class Estimators : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Estimators, ThePoseAgreesWithTheTruthAndTheOutliersAreFound) {
   testing::TwoViewOptions options;
-  options.points = 200;
   options.sigma_px = 0.5;
   options.outlier_fraction = 0.2;
-  for (std::uint32_t seed = 1; seed <= 5; ++seed) {
-    options.seed = seed;
+  for (int seed = 1; seed <= 10; ++seed) {
+    options.seed = static_cast<std::uint32_t>(seed);
+    options.points = seed <= 5 ? 200 : 2000;
     const testing::TwoViewScene scene = testing::twoViewScene(options);
     auto dfn = make(GetParam(), "{threshold: 3.0, confidence: 0.9999}");
     dfn->in.correspondences.set(scene.observed);
@@ -86,16 +86,31 @@ TEST_P(Estimators, ThePoseAgreesWithTheTruthAndTheOutliersAreFound) {
     EXPECT_EQ(pose.child_frame, "second_optical");
     EXPECT_NEAR(pose.translation.norm(), 1.0, 1e-9);
     const int n = *dfn->out.inlier_count;
-    // Within 5 standard deviations of the Cramer-Rao bound of this geometry (the field of view
-    // is 40 x 28 deg and the depths 4-7 m: the rotation and the translation's direction are
-    // strongly correlated); the estimators are not maximum-likelihood, hence 5 and not 3.
+    // Within 4 standard deviations of the Cramer-Rao bound of this geometry (the points span
+    // 40 x 28 deg and 4-7 m of depth: the rotation and the translation's direction are strongly
+    // correlated, the bound is ~50 times sigma / f / sqrt(N)).
     const auto [rotation_sigma, direction_sigma] = poseBound(scene, options.sigma_px);
     const double rotation_error = angularDistance(pose.rotation, scene.first_T_second.rotation);
     const double direction_error =
         angleBetween(pose.translation, scene.first_T_second.translation.normalized());
-    EXPECT_LT(rotation_error, 5 * rotation_sigma)
+    // The refinement reaches the minimum: on the output inliers the estimate's Sampson cost is
+    // not above the true pose's (the true pose is one of the candidates it minimises over).
+    auto costOf = [&](const Transform& first_T_second) {
+      const Transform second_T_first = first_T_second.inverse();
+      const Eigen::Matrix3d k_inv = scene.camera.matrix().inverse();
+      const Eigen::Matrix3d f = k_inv.transpose() * skew(second_T_first.translation.normalized()) *
+                                second_T_first.rotation.matrix() * k_inv;
+      double cost = 0;
+      for (const auto& index : *dfn->out.inlier_indices) {
+        const auto i = index.get<std::size_t>();
+        cost += std::pow(sampson(f, scene.observed.first[i], scene.observed.second[i]), 2);
+      }
+      return cost;
+    };
+    EXPECT_LE(costOf(pose), costOf(scene.first_T_second) * (1 + 1e-9)) << "seed " << seed;
+    EXPECT_LT(rotation_error, 4 * rotation_sigma)
         << "seed " << seed << ": " << rotation_error << " rad, bound sigma " << rotation_sigma;
-    EXPECT_LT(direction_error, 5 * direction_sigma)
+    EXPECT_LT(direction_error, 4 * direction_sigma)
         << "seed " << seed << ": " << direction_error << " rad, bound sigma " << direction_sigma;
     // E = [t]x R of the recovered pose, unit t (singular values 1, 1, 0).
     Eigen::Matrix3d e;
@@ -106,14 +121,16 @@ TEST_P(Estimators, ThePoseAgreesWithTheTruthAndTheOutliersAreFound) {
         skew(second_T_first.translation) * second_T_first.rotation.matrix();
     EXPECT_LT(std::min((e - expected).norm(), (e + expected).norm()), 1e-6) << "seed " << seed;
     // Classification, as for F (threshold 3 px = 4 sigma of an inlier's epipolar distance): at
-    // most 1 % of the inliers lost, at most 3 outliers kept.
+    // most 1 % of the inliers lost, at most 3 + 1.5 % of the outliers kept (a random pixel is
+    // within 3 px of its epipolar line with probability about 0.6 %).
     int kept_inliers = 0, kept_outliers = 0, true_inliers = 0;
     for (bool in : scene.inlier) true_inliers += in;
+    const int outliers = options.points - true_inliers;
     for (const auto& index : *dfn->out.inlier_indices)
       (scene.inlier[index.get<std::size_t>()] ? kept_inliers : kept_outliers)++;
     EXPECT_EQ(kept_inliers + kept_outliers, n);
     EXPECT_GE(kept_inliers, 0.99 * true_inliers) << "seed " << seed;
-    EXPECT_LE(kept_outliers, 3) << "seed " << seed;
+    EXPECT_LE(kept_outliers, 3 + 0.015 * outliers) << "seed " << seed;
   }
 }
 

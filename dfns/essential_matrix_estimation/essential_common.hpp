@@ -265,8 +265,19 @@ inline Status estimate(const Correspondences2D& c, const CameraModel& first,
   cv::cv2eigen(r, second_R_first);
   cv::cv2eigen(t, second_t_first);
   second_t_first.normalize();
-  refinePose(a, b, mask, second_R_first, second_t_first);
-  count = classify(a, b, second_R_first, second_t_first, threshold, mask);
+  // The sampled pose's inliers are those of a pose some way off: refine on them, classify again
+  // under the refined pose, and repeat until the inliers no longer change (at most 5 rounds).
+  for (int round = 0; round < 5; ++round) {
+    refinePose(a, b, mask, second_R_first, second_t_first);
+    const std::vector<std::uint8_t> before = mask;
+    count = classify(a, b, second_R_first, second_t_first, threshold, mask);
+    if (mask == before || count < 5) break;
+  }
+  if (count < 5)
+    return numericalFailure(
+        "EssentialMatrixEstimation: {} of {} pairs agree with the refined "
+        "pose (threshold {} px); expected at least 5",
+        count, c.size(), s.threshold);
   // E of the refined pose, [t]x R with |t| = 1, so that the two outputs agree exactly.
   const Eigen::Matrix3d e_refined = skew(second_t_first) * second_R_first;
   nlohmann::json rows = nlohmann::json::array(), indices = nlohmann::json::array();
