@@ -25,14 +25,6 @@ double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
-// The signed Sampson distance (px) of a pair under F: first-order geometric distance of the pair
-// (x1, x2) to the epipolar constraint; with iid pixel noise sigma on both its variance is sigma^2.
-double sampson(const Eigen::Matrix3d& f, const Eigen::Vector2d& x1, const Eigen::Vector2d& x2) {
-  const Eigen::Vector3d a = x1.homogeneous(), b = x2.homogeneous();
-  const Eigen::Vector3d fa = f * a, fb = f.transpose() * b;
-  return b.dot(fa) / std::sqrt(fa.head<2>().squaredNorm() + fb.head<2>().squaredNorm());
-}
-
 // The Cramer-Rao bound of a relative pose from the inliers of `scene` with pixel noise sigma:
 // the Fisher information J^T J / sigma^2 of their Sampson distances with respect to the 5
 // degrees of freedom (a rotation dtheta of second_R_first, and the unit translation turned in
@@ -51,7 +43,8 @@ std::pair<double, double> poseBound(const testing::TwoViewScene& scene, double s
     const Eigen::Matrix3d f = k_inv.transpose() * skew(td) * r * k_inv;
     std::vector<double> out;
     for (std::size_t i = 0; i < scene.inlier.size(); ++i)
-      if (scene.inlier[i]) out.push_back(sampson(f, scene.truth.first[i], scene.truth.second[i]));
+      if (scene.inlier[i])
+        out.push_back(testing::sampsonDistance(f, scene.truth.first[i], scene.truth.second[i]));
     return out;
   };
   const std::size_t n = residuals(Eigen::Matrix<double, 5, 1>::Zero()).size();
@@ -103,7 +96,8 @@ TEST_P(Estimators, ThePoseAgreesWithTheTruthAndTheOutliersAreFound) {
       double cost = 0;
       for (const auto& index : *dfn->out.inlier_indices) {
         const auto i = index.get<std::size_t>();
-        cost += std::pow(sampson(f, scene.observed.first[i], scene.observed.second[i]), 2);
+        cost += std::pow(
+            testing::sampsonDistance(f, scene.observed.first[i], scene.observed.second[i]), 2);
       }
       return cost;
     };

@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "FundamentalMatrixEstimation.gen.hpp"
+#include "fundamental_refinement.hpp"
 
 namespace cdff::dfn::fundamental {
 
@@ -104,6 +105,31 @@ inline Result<int> homographyInliers(const std::vector<cv::Point2d>& a,
   return both;
 }
 
+/// The maximum-likelihood F: refined on the inliers, the inliers classified again under the
+/// refined F (within the threshold), repeated until they no longer change (at most 5 rounds).
+/// Returns the number of inliers.
+inline int refineInRounds(const std::vector<cv::Point2d>& a, const std::vector<cv::Point2d>& b,
+                          const Settings& s, cv::Mat& f, std::vector<std::uint8_t>& mask) {
+  Eigen::Matrix3d fe;
+  for (int i = 0; i < 9; ++i) fe(i / 3, i % 3) = f.at<double>(i / 3, i % 3);
+  int count = 0;
+  for (int round = 0; round < 5; ++round) {
+    refineF(a, b, mask, fe);
+    const std::vector<std::uint8_t> before = mask;
+    cv::Matx33d fm;
+    for (int i = 0; i < 9; ++i) fm.val[i] = fe(i / 3, i % 3);
+    count = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      mask[i] = epipolarError(fm, a[i], b[i]) <= s.threshold;
+      count += mask[i];
+    }
+    if (mask == before || count < 8) break;
+  }
+  f = cv::Mat(3, 3, CV_64F);
+  for (int i = 0; i < 9; ++i) f.at<double>(i / 3, i % 3) = fe(i / 3, i % 3);
+  return count;
+}
+
 /// F from the correspondences, its inliers, and the degeneracy test, into `out`.
 inline Status estimate(const Correspondences2D& c, const Settings& s,
                        FundamentalMatrixEstimation::Outputs& out) {
@@ -141,6 +167,12 @@ inline Status estimate(const Correspondences2D& c, const Settings& s,
           "several depths seen from two positions",
           h.value(), count, static_cast<double>(h.value()) / count, s.max_homography_fraction);
   }
+  count = refineInRounds(a, b, s, f, mask);
+  if (count < 8)
+    return numericalFailure(
+        "FundamentalMatrixEstimation: {} inliers of {} pairs agree with the "
+        "refined F (threshold {} px); expected at least 8",
+        count, c.size(), s.threshold);
   f /= cv::norm(f);
   if (f.at<double>(2, 2) < 0) f = -f;
   if (!cv::checkRange(f))

@@ -82,4 +82,11 @@ double epipolarDistance(const Eigen::Matrix3d& f, const Eigen::Vector2d& x1,
   return 0.5 * (std::abs(r) / l2.head<2>().norm() + std::abs(r) / l1.head<2>().norm());
 }
 
+double sampsonDistance(const Eigen::Matrix3d& f, const Eigen::Vector2d& x1,
+                       const Eigen::Vector2d& x2) {
+  const Eigen::Vector3d a = x1.homogeneous(), b = x2.homogeneous();
+  const Eigen::Vector3d fa = f * a, fb = f.transpose() * b;
+  return b.dot(fa) / std::sqrt(fa.head<2>().squaredNorm() + fb.head<2>().squaredNorm());
+}
+
 }  // namespace cdff::testing

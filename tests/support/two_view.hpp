@@ -42,4 +42,9 @@ Eigen::Matrix3d trueFundamental(const TwoViewScene& scene);
 double epipolarDistance(const Eigen::Matrix3d& f, const Eigen::Vector2d& x1,
                         const Eigen::Vector2d& x2);
 
+/// The signed Sampson distance (px) of the pair (x1, x2) to x2^T F x1 = 0: the first-order
+/// distance of the pair in the joint 4D space, of variance sigma^2 with iid pixel noise sigma.
+double sampsonDistance(const Eigen::Matrix3d& f, const Eigen::Vector2d& x1,
+                       const Eigen::Vector2d& x2);
+
 }  // namespace cdff::testing
