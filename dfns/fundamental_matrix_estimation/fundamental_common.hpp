@@ -77,16 +77,26 @@ inline Status refitToInliers(const std::vector<cv::Point2d>& a, const std::vecto
 /// noise passes a 2D test at sqrt(chi2_2(0.95) / chi2_1(0.95)) = 1.25 times the 1D threshold.
 constexpr double kHomographyThresholdFactor = 1.25;
 
-/// The number of F's inliers (`f_mask`) that one homography, fitted by RANSAC and refined by
-/// cv::findHomography, maps to their match within 1.25 times the threshold.
+/// The number of F's inliers (`f_mask`) that one homography, fitted by RANSAC to them and refined
+/// by cv::findHomography, maps to their match within 1.25 times the threshold. The test only has
+/// to find a homography that explains max_homography_fraction of them when there is one: a
+/// 4-pair sample is then all-inlier with probability fraction^4, so RANSAC needs
+/// log(1 - confidence) / log(1 - fraction^4) samples (7 at 0.9 and 0.999), not the thousands a
+/// general scene's few planar points would call for.
 inline Result<int> homographyInliers(const std::vector<cv::Point2d>& a,
                                      const std::vector<cv::Point2d>& b,
                                      const std::vector<std::uint8_t>& f_mask, const Settings& s) {
   const double threshold = kHomographyThresholdFactor * s.threshold;
+  std::vector<cv::Point2d> fa, fb;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (f_mask[i]) fa.push_back(a[i]), fb.push_back(b[i]);
+  const double all_inlier = std::pow(std::max(s.max_homography_fraction, 0.05), 4);
+  const int samples =
+      static_cast<int>(std::clamp(std::ceil(std::log(1 - s.confidence) / std::log(1 - all_inlier)),
+                                  10.0, static_cast<double>(s.max_iterations)));
   cv::Mat h;
   try {
-    h = cv::findHomography(a, b, cv::RANSAC, threshold, cv::noArray(), s.max_iterations,
-                           s.confidence);
+    h = cv::findHomography(fa, fb, cv::RANSAC, threshold, cv::noArray(), samples, s.confidence);
   } catch (const cv::Exception& e) {
     return numericalFailure(
         "FundamentalMatrixEstimation: the degeneracy test's homography "
@@ -96,11 +106,10 @@ inline Result<int> homographyInliers(const std::vector<cv::Point2d>& a,
   if (h.empty()) return 0;
   const cv::Matx33d hm(h);
   int both = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (!f_mask[i]) continue;
-    const cv::Vec3d p = hm * cv::Vec3d(a[i].x, a[i].y, 1);
+  for (std::size_t i = 0; i < fa.size(); ++i) {
+    const cv::Vec3d p = hm * cv::Vec3d(fa[i].x, fa[i].y, 1);
     both +=
-        std::abs(p[2]) > 0 && std::hypot(p[0] / p[2] - b[i].x, p[1] / p[2] - b[i].y) <= threshold;
+        std::abs(p[2]) > 0 && std::hypot(p[0] / p[2] - fb[i].x, p[1] / p[2] - fb[i].y) <= threshold;
   }
   return both;
 }

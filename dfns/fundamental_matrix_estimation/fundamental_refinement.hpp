@@ -28,6 +28,26 @@ inline Eigen::VectorXd sampsonResiduals(const std::vector<Eigen::Vector3d>& a,
   return out;
 }
 
+/// The Jacobians of the Sampson distances with respect to F's 9 entries (row-major), analytic:
+/// r = N / D with N = b^T F a and D^2 = (Fa)_0^2 + (Fa)_1^2 + (F^T b)_0^2 + (F^T b)_1^2.
+inline Eigen::Matrix<double, Eigen::Dynamic, 9> sampsonJacobian(
+    const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b,
+    const Eigen::Matrix3d& f) {
+  Eigen::Matrix<double, Eigen::Dynamic, 9> j(a.size(), 9);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const Eigen::Vector3d fa = f * a[i], fb = f.transpose() * b[i];
+    const double d2 = fa.head<2>().squaredNorm() + fb.head<2>().squaredNorm();
+    const double d = std::sqrt(d2), n = b[i].dot(fa);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) {
+        // dD/dF_rc = ((Fa)_r a_c [r < 2] + (F^T b)_c b_r [c < 2]) / D
+        const double dd = ((r < 2 ? fa(r) * a[i](c) : 0.0) + (c < 2 ? fb(c) * b[i](r) : 0.0)) / d;
+        j(static_cast<Eigen::Index>(i), 3 * r + c) = b[i](r) * a[i](c) / d - n * dd / d2;
+      }
+  }
+  return j;
+}
+
 /// Hartley's normalisation of a point set: the centroid to the origin, mean distance sqrt(2).
 inline Eigen::Matrix3d normalisation(const std::vector<Eigen::Vector3d>& p) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -92,8 +112,8 @@ struct FactoredF {
 };
 
 /// Levenberg-Marquardt from `f` on the Cauchy cost of the Sampson distances of the pairs of `mask`
-/// (iteratively reweighted; steps kept only when they lower the cost; numerical Jacobian by
-/// central differences). `f` becomes rank 2.
+/// (iteratively reweighted; steps kept only when they lower the cost; the Jacobian analytic in F,
+/// F's by central differences). `f` becomes rank 2.
 inline void refineF(const std::vector<cv::Point2d>& pa, const std::vector<cv::Point2d>& pb,
                     const std::vector<std::uint8_t>& mask, Eigen::Matrix3d& f) {
   std::vector<Eigen::Vector3d> a, b;
@@ -110,14 +130,16 @@ inline void refineF(const std::vector<cv::Point2d>& pa, const std::vector<cv::Po
   for (int iteration = 0; iteration < 200; ++iteration) {
     const Eigen::VectorXd r0 = sampsonResiduals(a, b, x.matrix());
     const Eigen::VectorXd w = (1.0 + (r0.array() / c).square()).inverse().matrix();
-    Eigen::MatrixXd j(a.size(), 7);
+    // J = dr/dF (analytic) dF/dd (central differences of the 3x3 matrix: cheap).
+    Eigen::Matrix<double, 9, 7> df;
     for (int k = 0; k < 7; ++k) {
       constexpr double kStep = 1e-7;
       const Vector7d d = Vector7d::Unit(k) * kStep;
-      j.col(k) = (sampsonResiduals(a, b, x.perturbed(d).matrix()) -
-                  sampsonResiduals(a, b, x.perturbed(-d).matrix())) /
-                 (2 * kStep);
+      const Eigen::Matrix3d diff =
+          (x.perturbed(d).matrix() - x.perturbed(-d).matrix()) / (2 * kStep);
+      for (int e = 0; e < 9; ++e) df(e, k) = diff(e / 3, e % 3);
     }
+    const Eigen::MatrixXd j = sampsonJacobian(a, b, x.matrix()) * df;
     const Eigen::Matrix<double, 7, 7> h = j.transpose() * w.asDiagonal() * j;
     const Vector7d g = -j.transpose() * w.cwiseProduct(r0);
     double new_cost = cost;
@@ -133,7 +155,10 @@ inline void refineF(const std::vector<cv::Point2d>& pa, const std::vector<cv::Po
     if (!(new_cost < cost)) break;
     lambda = std::max(lambda / 100, 1e-9);
     x = next;
-    const bool converged = new_cost > (1 - 1e-9) * cost;
+    // Converged when a step gains less than 1e-4 of one residual's variance (sigma = c / 2.385):
+    // statistically nothing.
+    const double sigma = c / 2.385;
+    const bool converged = cost - new_cost < 1e-4 * 0.5 * sigma * sigma;
     cost = new_cost;
     if (converged) break;
   }
