@@ -8,8 +8,10 @@
 #include <limits>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
 
 #include "Triangulation.gen.hpp"
+#include "cdff/types/opencv.hpp"
 #include "support/dfn_testing.hpp"
 #include "support/synthetic.hpp"
 #include "support/two_view.hpp"
@@ -135,6 +137,63 @@ TEST_P(Triangulators, BadInputIsReported) {
   bad.fy = -1;
   dfn->in.second_camera.set(bad);
   testing::expectRejected(*dfn, "input 'second_camera': camera model focal lengths");
+}
+
+// `points` (in a camera's frame) through a camera model with distortion, by OpenCV's projection.
+std::vector<Eigen::Vector2d> distortedPixels(const CameraModel& camera,
+                                             const std::vector<Eigen::Vector3d>& points) {
+  std::vector<cv::Point3d> in;
+  for (const auto& p : points) in.emplace_back(p.x(), p.y(), p.z());
+  std::vector<cv::Point2d> out;
+  const cv::Mat zero = cv::Mat::zeros(3, 1, CV_64F);
+  if (camera.distortion_model == DistortionModel::kEquidistant)
+    cv::fisheye::projectPoints(in, out, zero, zero, cameraMatrix(camera),
+                               distortionCoefficients(camera));
+  else
+    cv::projectPoints(in, zero, zero, cameraMatrix(camera), distortionCoefficients(camera), out);
+  std::vector<Eigen::Vector2d> pixels;
+  for (const auto& q : out) pixels.emplace_back(q.x, q.y);
+  return pixels;
+}
+
+TEST_P(Triangulators, TheCamerasDistortionIsRemoved) {
+  // Noise-free pixels through a radial-tangential first camera and an equidistant (fisheye)
+  // second one: the points come back exactly (to the float storage, 1e-6 of the range) and all
+  // are accepted; through the same cameras without their distortion some are off by more than
+  // 1 % of their range.
+  const testing::TwoViewScene scene = testing::twoViewScene({});
+  CameraModel first = scene.camera, second = scene.camera;
+  first.distortion_model = DistortionModel::kRadialTangential;
+  first.distortion = {-0.25, 0.08, 0.001, -0.0015, 0.0};
+  second.distortion_model = DistortionModel::kEquidistant;
+  second.distortion = {0.05, -0.01, 0.002, -0.0005};
+  std::vector<Eigen::Vector3d> in_second;
+  const Transform second_T_first = scene.first_T_second.inverse();
+  for (const auto& p : scene.points) in_second.push_back(second_T_first * p);
+  Correspondences2D pairs;
+  pairs.first = distortedPixels(first, scene.points);
+  pairs.second = distortedPixels(second, in_second);
+  auto dfn = make(GetParam());
+  setInputs(*dfn, scene, pairs);
+  dfn->in.camera.set(first);
+  dfn->in.second_camera.set(second);
+  ASSERT_OK(dfn->process());
+  ASSERT_EQ(*dfn->out.accepted, static_cast<int>(scene.points.size()));
+  for (std::size_t i = 0; i < scene.points.size(); ++i)
+    EXPECT_LT((dfn->out.points->points[i].vec().cast<double>() - scene.points[i]).norm(),
+              1e-5 * scene.points[i].norm())
+        << i;
+  dfn->in.camera.set(scene.camera);
+  dfn->in.second_camera.set(scene.camera);
+  ASSERT_OK(dfn->process());
+  double worst = 0;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < scene.points.size(); ++i)
+    if ((*dfn->out.status)[i] == "ok")
+      worst = std::max(
+          worst, (dfn->out.points->points[k++].vec().cast<double>() - scene.points[i]).norm() /
+                     scene.points[i].norm());
+  EXPECT_GT(worst, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Triangulation, Triangulators, ::testing::Values("Dlt", "Midpoint"));
