@@ -12,6 +12,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "EssentialMatrixEstimation.gen.hpp"
+#include "cdff/types/geometry.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace cdff::dfn::essential {

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "Triangulation.gen.hpp"
+#include "cdff/types/geometry.hpp"
 #include "cdff/types/opencv.hpp"
 
 namespace cdff::dfn::triangulation {
