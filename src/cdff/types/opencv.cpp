@@ -1,5 +1,6 @@
 #include "cdff/types/opencv.hpp"
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace cdff {
@@ -139,6 +140,32 @@ cv::Mat distortionCoefficients(const CameraModel& camera) {
   for (std::size_t i = 0; i < camera.distortion.size(); ++i)
     d.at<double>(0, static_cast<int>(i)) = camera.distortion[i];
   return d;
+}
+
+Result<std::vector<Eigen::Vector2d>> normalizedCoordinates(
+    const CameraModel& camera, const std::vector<Eigen::Vector2d>& pixels, const char* what) {
+  CDFF_RETURN_IF_ERROR(camera.validate());
+  std::vector<cv::Point2d> in(pixels.size());
+  for (std::size_t i = 0; i < pixels.size(); ++i) {
+    if (!pixels[i].allFinite())
+      return invalidInput("{} pixel {} is ({}, {}); expected finite coordinates", what, i,
+                          pixels[i].x(), pixels[i].y());
+    in[i] = {pixels[i].x(), pixels[i].y()};
+  }
+  std::vector<Eigen::Vector2d> out(pixels.size());
+  if (pixels.empty()) return out;
+  std::vector<cv::Point2d> undistorted;
+  try {
+    if (camera.distortion_model == DistortionModel::kEquidistant)
+      cv::fisheye::undistortPoints(in, undistorted, cameraMatrix(camera),
+                                   distortionCoefficients(camera));
+    else
+      cv::undistortPoints(in, undistorted, cameraMatrix(camera), distortionCoefficients(camera));
+  } catch (const cv::Exception& e) {
+    return numericalFailure("{}: removing the camera's distortion failed: {}", what, e.what());
+  }
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {undistorted[i].x, undistorted[i].y};
+  return out;
 }
 
 cv::Mat toMat(const DescriptorMatrix& descriptors) {

@@ -26,6 +26,13 @@ Result<Image> fromMat(const cv::Mat& mat, Timestamp stamp = 0, std::string frame
 cv::Mat cameraMatrix(const CameraModel& camera);
 cv::Mat distortionCoefficients(const CameraModel& camera);
 
+/// The normalised image coordinates (x/z, y/z in the optical frame) of `pixels` seen by
+/// `camera`, its distortion removed (cv::undistortPoints; cv::fisheye::undistortPoints for the
+/// equidistant model). Copies. A camera model that does not validate, a non-finite pixel or an
+/// OpenCV failure is an error naming `what`.
+Result<std::vector<Eigen::Vector2d>> normalizedCoordinates(
+    const CameraModel& camera, const std::vector<Eigen::Vector2d>& pixels, const char* what);
+
 /// The camera of an image halved `levels` times by cv::pyrDown: (w + 1) / 2 pixels, output pixel
 /// j the Gaussian-weighted input centred on pixel 2j, so x' = x / 2 (distortion kept as it is,
 /// meaningful only without).
