@@ -32,7 +32,8 @@ def run(graphs, inputs, output, remaps=(), settings=(),
     pairs: "/pair=/left/image,/right/image" to make stereo pairs from two image channels.
     run_while: "DFPC=TRACKER:STATE[,STATE]" to run a DFPC only while another's track state is
     one of those (detection while a tracker is UNINITIALISED or LOST).
-    These are `cdff run`'s options --map, --set, --passthrough, --pair and --run-while.
+    These are `cdff run`'s options --map, --set, --passthrough, --pair and --run-while; a graph
+    may be a run set (graphs, maps, settings, pairs and rules in one file, docs/dfpc.md).
     Returns {"summary": ..., "dfpcs": [status, ...], "output": output}. Runs without the GIL.
     """
     from cdff._core import _dfpc

@@ -43,6 +43,21 @@ TEST(CampaignFile, ReadsScenariosDispersionsAndGraphs) {
   EXPECT_TRUE(checkCampaign(*c).isOk()) << checkCampaign(*c).message();
 }
 
+// A run set as a campaign's graph: its graphs, settings, maps and rules are checked as a run
+// loads them (the graphs' model files are relative to the repository).
+TEST(CampaignFile, ARunSetIsCheckedAsARunLoadsIt) {
+  fs::current_path(CDFF_SOURCE_DIR);
+  std::string text = campaignText();
+  text.replace(text.find(kGraph), kGraph.size(), "dfpcs/rendezvous.yaml");
+  Result<Campaign> c = parseCampaign(text, "c.yaml");
+  ASSERT_TRUE(c) << c.status().message();
+  EXPECT_TRUE(checkCampaign(*c).isOk()) << checkCampaign(*c).message();
+  c->dfpcs[0].settings = {"nobody.max_iterations=3"};
+  const std::string message = checkCampaign(*c).message();
+  EXPECT_NE(message.find("dfpcs/rendezvous.yaml"), std::string::npos) << message;
+  EXPECT_NE(message.find("node 'nobody'"), std::string::npos) << message;
+}
+
 TEST(CampaignFile, ErrorsNameTheFileLineAndKey) {
   auto error = [](const std::string& text) {
     Result<Campaign> c = parseCampaign(text, "c.yaml");

@@ -12,6 +12,7 @@
 #include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/orchestrator.hpp"
 #include "cdff/dfpc/replay.hpp"
+#include "cdff/dfpc/run_set.hpp"
 #include "cdff/dfpc/stereo_pairing.hpp"
 #include "cdff/egse/rng.hpp"
 #include "cdff/egse/scenario.hpp"
@@ -337,6 +338,13 @@ Status checkCampaign(const Campaign& campaign) {
     }
   }
   for (const DfpcEntry& e : campaign.dfpcs) {
+    if (dfpc::isRunSetFile(e.graph)) {  // its graphs, settings, maps and rules, as a run loads them
+      dfpc::ReplayOptions options;
+      options.graph_files = {e.graph};
+      options.parameter_settings = e.settings;
+      CDFF_RETURN_IF_ERROR(dfpc::checkRun(options).withContext(e.graph));
+      continue;
+    }
     Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(e.graph, e.settings);
     if (!graph) return graph.status();
     for (const Status& problem : dfpc::checkGraph(*graph))

@@ -1,8 +1,8 @@
 #pragma once
 // Run sets: several DFPC graphs run together with the Orchestrator's hand-overs between them,
 // written once in a YAML file instead of on the command line (`cdff run`'s --map, --set, --pair
-// and --run-while). `cdff run`, `cdff node`, campaigns and Python take a run set wherever they
-// take a graph file:
+// and --run-while). `cdff run`, `cdff node`, `cdff dfpc check`, campaigns and Python's
+// `cdff.dfpc.run` take a run set wherever they take a graph file:
 //
 //   name: rendezvous
 //   doc: ...
