@@ -143,11 +143,9 @@ Result<ReplayOptions> expandRunSets(const ReplayOptions& options) {
     if (!set) return set.status();
     out.graph_files.insert(out.graph_files.end(), set->graph_files.begin(), set->graph_files.end());
     settings.insert(settings.end(), set->settings.begin(), set->settings.end());
-    for (const std::string& m : set->maps) out.remaps.push_back(parseRemap(m).value());
-    for (const std::string& p : set->pairs)
-      out.stereo_pairs.push_back(parseStereoPairing(p).value());
-    for (const std::string& r : set->run_while)
-      out.run_while.push_back(parseActivationRule(r).value());
+    out.remaps.insert(out.remaps.end(), set->maps.begin(), set->maps.end());
+    out.stereo_pairs.insert(out.stereo_pairs.end(), set->pairs.begin(), set->pairs.end());
+    out.run_while.insert(out.run_while.end(), set->run_while.begin(), set->run_while.end());
   }
   // The run sets' settings first: a setting of the command line given later wins.
   settings.insert(settings.end(), options.parameter_settings.begin(),

@@ -1,6 +1,7 @@
 #include "cdff/dfpc/run_set.hpp"
 
 #include <filesystem>
+#include <type_traits>
 
 #include <yaml-cpp/yaml.h>
 
@@ -25,18 +26,22 @@ bool isRunSetFile(const std::string& path) {
 
 namespace {
 
-/// The words of `field` (a list of strings), each checked by `parse` at its own line.
-template <typename Parse>
+/// The words of `field` (a list of strings), each parsed by `parse` (the command line's), an
+/// error at its own line.
+template <typename Parse, typename T>
 Status readWords(const schema::Field& field, std::string_view expected, Parse parse,
-                 std::vector<std::string>& out) {
+                 std::vector<T>& out) {
   if (!field.defined()) return Status::ok();
   if (!field.isList()) return field.fail(expected, field.notA("list"));
   for (const schema::Field& word : field.elements()) {
     std::string text;
     CDFF_RETURN_IF_ERROR(word.read(text));
-    const auto parsed = parse(text);
+    auto parsed = parse(text);
     if (!parsed) return word.fail(expected, parsed.status().message());
-    out.push_back(std::move(text));
+    if constexpr (std::is_same_v<T, std::string>)
+      out.push_back(std::move(text));  // a setting: graph loading applies the text
+    else
+      out.push_back(std::move(parsed).value());
   }
   return Status::ok();
 }

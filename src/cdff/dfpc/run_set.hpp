@@ -18,6 +18,9 @@
 #include <string>
 #include <vector>
 
+#include "cdff/dfpc/orchestrator.hpp"
+#include "cdff/dfpc/replay.hpp"
+#include "cdff/dfpc/stereo_pairing.hpp"
 #include "cdff/types/status.hpp"
 
 namespace cdff::dfpc {
@@ -25,11 +28,11 @@ namespace cdff::dfpc {
 struct RunSet {
   std::string name;
   std::string doc;
-  std::vector<std::string> graph_files;  // resolved against the run set's folder
-  std::vector<std::string> maps;         // "DFPC.INPUT=/channel", as --map
-  std::vector<std::string> settings;     // "[DFPC/]NODE.PARAM=VALUE", as --set
-  std::vector<std::string> pairs;        // "/pair=/left,/right", as --pair
-  std::vector<std::string> run_while;    // rules, as --run-while
+  std::vector<std::string> graph_files;   // resolved against the run set's folder
+  std::vector<ChannelRemap> maps;         // "DFPC.INPUT=/channel", as --map
+  std::vector<std::string> settings;      // "[DFPC/]NODE.PARAM=VALUE", as --set
+  std::vector<StereoPairing> pairs;       // "/pair=/left,/right", as --pair
+  std::vector<ActivationRule> run_while;  // rules, as --run-while
 };
 
 /// Whether `path` is a readable YAML file whose top level has `graphs` (a run set, not a graph).

@@ -405,6 +405,7 @@ Status evaluateBearingProducts(RecordingContents& contents,
         truthChannelForBearing(channel, frame, contents.truths, options, notes);
     if (!truth_channel) return truth_channel.status();
     if (truth_channel->empty()) continue;
+    const std::vector<Transform> truth = sortedTruth(contents.truths, *truth_channel);
     const std::string dfpc = dfpcOf(channel);
     const std::vector<std::optional<TrackState>>& states = contents.track_states[dfpc];
     const std::map<Timestamp, double>& walls = contents.step_wall_s[dfpc];
@@ -419,8 +420,8 @@ Status evaluateBearingProducts(RecordingContents& contents,
     std::stable_sort(estimates.begin(), estimates.end(), [](const auto& a, const auto& b) {
       return a.bearing.stamp < b.bearing.stamp;
     });
-    Result<BearingEvaluation> evaluation = evaluateBearings(
-        estimates, sortedTruth(contents.truths, *truth_channel), focal->first, options.pose);
+    Result<BearingEvaluation> evaluation =
+        evaluateBearings(estimates, truth, focal->first, options.pose);
     if (!evaluation)
       return evaluation.status().withContext(
           fmt::format("evaluating {} against {}", channel, *truth_channel));
@@ -430,7 +431,6 @@ Status evaluateBearingProducts(RecordingContents& contents,
     for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
       report.requirements.push_back(std::move(v));
     report.bearings.push_back(std::move(evaluation).value());
-    const std::vector<Transform> truth = sortedTruth(contents.truths, *truth_channel);
     addPhaseVerdicts(
         channel, estimates,
         [&](const std::vector<BearingSample>& during) {
@@ -486,11 +486,11 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     Result<std::string> truth_channel = truthChannelFor(channel, product, truths, options, notes);
     if (!truth_channel) return truth_channel.status();
     if (truth_channel->empty()) continue;
+    const std::vector<Transform> truth = sortedTruth(truths, *truth_channel);
     const std::string dfpc = dfpcOf(channel);
     const std::vector<EstimateSample> estimates =
         estimatesOf(product, track_states[dfpc], step_wall_s[dfpc], activationsOf(handovers, dfpc));
-    Result<PoseEvaluation> evaluation =
-        evaluatePoses(estimates, sortedTruth(truths, *truth_channel), options.pose);
+    Result<PoseEvaluation> evaluation = evaluatePoses(estimates, truth, options.pose);
     if (!evaluation)
       return evaluation.status().withContext(
           fmt::format("evaluating {} against {}", channel, *truth_channel));
@@ -499,7 +499,6 @@ Result<EvaluationReport> evaluateRecording(const std::vector<std::string>& paths
     for (RequirementVerdict& v : checkRequirements(*evaluation, options.statistic))
       report.requirements.push_back(std::move(v));
     report.products.push_back(std::move(evaluation).value());
-    const std::vector<Transform> truth = sortedTruth(truths, *truth_channel);
     addPhaseVerdicts(
         channel, estimates,
         [&](const std::vector<EstimateSample>& during) {
