@@ -140,6 +140,7 @@ Result<std::uint64_t> play(const BridgeArguments& args, dfpc::McapInputStream& i
 }
 
 int runBridge(const BridgeArguments& args) {
+  dds::configureAllocatorForStreaming();
   if (args.speed < 0 || !std::isfinite(args.speed))
     return ddsFail(
         invalidParameter("--speed {}: expected a number >= 0 (0: as fast as the readers "
@@ -265,6 +266,7 @@ std::shared_ptr<dds::DdsInputStream> nodeInput(dds::Subscriber& subscriber, dds:
 }
 
 int runNode(const NodeArguments& args) {
+  dds::configureAllocatorForStreaming();
   Result<dfpc::ReplayOptions> given = nodeOptions(args);
   if (!given) return ddsFail(given.status());
   // A run set's graphs, maps, settings and rules, as `cdff run` takes them.
@@ -362,6 +364,7 @@ Status recordMessages(dds::Subscriber& subscriber, io::Recorder& recorder, doubl
 }
 
 int runRecord(const RecordArguments& args) {
+  dds::configureAllocatorForStreaming();
   const auto compression = io::compressionFromString(args.compression);
   if (!compression)
     return ddsFail(

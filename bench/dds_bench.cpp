@@ -8,8 +8,16 @@
 // back; the latency is half the round trip. The counters give p50 and p99 over the iterations,
 // and the CPU time of this process per message. The peer figure, Cyclone's ddsperf with the same
 // payload sizes, is run beside it by bench/dds_bench.sh.
+//
+// Throughput, the load of a servicer's sensor suite: a 25 Hz stereo pair (two 1624x1234 mono
+// images with their camera infos) and a 10 Hz 30k-point scan, published for 5 s to a sink process
+// (this program, started with --sink DOMAIN FD) that receives them as CDFF values. The counters
+// give each process's CPU (all its threads, Cyclone's included) as a percentage of one core, the
+// samples lost, and the one-way latency under that load (the sample's stamp is the publisher's
+// CLOCK_MONOTONIC, which the sink reads too). Peer: ddsperf pub/sub at the same rates and sizes.
 #include <benchmark/benchmark.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -61,6 +69,73 @@ int runEcho(int domain) {
     }
   }
   return 0;
+}
+
+// The CPU time of this process (every thread), in seconds.
+double processCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+         1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+std::int64_t monotonicMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+const std::pair<const char*, TypeId> kSensorSuite[] = {
+    {"/bench/stereo/left/image", TypeId::of<Image>()},
+    {"/bench/stereo/right/image", TypeId::of<Image>()},
+    {"/bench/lidar/points", TypeId::of<PointCloud>()}};
+
+// What the sink reports through its pipe when it stops.
+struct SinkReport {
+  std::uint64_t received = 0;
+  double cpu_s = 0;  // from its first sample to its last
+  double wall_s = 0;
+  double latency_p50_s = 0;  // publish (stamp) -> received as a CDFF value
+  double latency_p99_s = 0;
+};
+
+// The sink process: receives the sensor suite as CDFF values until SIGTERM, then writes a
+// SinkReport to `fd`.
+int runSink(int domain, int fd) {
+  std::signal(SIGTERM, onEchoStop);
+  auto participant = dds::Participant::create(domain);
+  if (!participant) return 1;
+  dds::Subscriber subscriber(**participant);
+  for (const auto& [channel, type] : kSensorSuite)
+    if (!subscriber.subscribe(channel, type)) return 1;
+  std::vector<dfpc::Message> messages;
+  std::vector<dds::Rejection> rejections;
+  std::vector<double> latencies;
+  SinkReport report;
+  double cpu_first = 0;
+  Clock::time_point wall_first, wall_last;
+  while (!echo_stop.load() && getppid() != 1) {
+    messages.clear();
+    if (!subscriber.poll(0.1, messages, rejections)) return 1;
+    const std::int64_t now = monotonicMicros();
+    for (const dfpc::Message& m : messages) {
+      if (report.received++ == 0) {
+        cpu_first = processCpuSeconds();
+        wall_first = Clock::now();
+      }
+      latencies.push_back(1e-6 * static_cast<double>(now - m.stamp));
+    }
+    if (!messages.empty()) {
+      report.cpu_s = processCpuSeconds() - cpu_first;
+      wall_last = Clock::now();
+    }
+  }
+  report.wall_s = std::chrono::duration<double>(wall_last - wall_first).count();
+  std::sort(latencies.begin(), latencies.end());
+  if (!latencies.empty()) {
+    report.latency_p50_s = latencies[latencies.size() / 2];
+    report.latency_p99_s = latencies[latencies.size() * 99 / 100];
+  }
+  return write(fd, &report, sizeof report) == sizeof report ? 0 : 1;
 }
 
 Image benchImage() {
@@ -172,11 +247,104 @@ BENCHMARK(BM_DdsLatency_PointCloud30k)
     ->Unit(benchmark::kMicrosecond)
     ->Iterations(200);
 
+// 25 Hz stereo + 10 Hz LIDAR for 5 s (one iteration), to a sink in another process.
+void BM_DdsThroughput_Stereo25Hz_Lidar10Hz(benchmark::State& state) {
+  const Image left = benchImage();
+  Image right = left;
+  right.frame_id = "camera_right_optical";
+  const PointCloud cloud = benchCloud();
+  const int domain = 1 + static_cast<int>((getpid() + 7) % dds::kMaxDomainId);
+  int report_pipe[2];
+  if (pipe(report_pipe) != 0) {
+    state.SkipWithError("pipe() failed");
+    return;
+  }
+  const pid_t sink = fork();
+  if (sink == 0) {
+    close(report_pipe[0]);
+    execl("/proc/self/exe", "dds_bench", "--sink", std::to_string(domain).c_str(),
+          std::to_string(report_pipe[1]).c_str(), nullptr);
+    _exit(127);
+  }
+  close(report_pipe[1]);
+  std::uint64_t sent = 0;
+  double publisher_cpu = 0, publisher_wall = 0;
+  {
+    auto participant = dds::Participant::create(domain).value();
+    dds::Publisher publisher(*participant);
+    for (const auto& [channel, type] : kSensorSuite) (void)publisher.prepare(channel, type);
+    for (const auto& [channel, type] : kSensorSuite)
+      while (publisher.matchedReaders(channel) == 0)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    for (auto _ : state) {
+      const auto start = Clock::now();
+      const double cpu_start = processCpuSeconds();
+      const auto period =
+          std::chrono::milliseconds(20);  // the 50 Hz tick: stereo every 2nd, LIDAR every 5th
+      for (int tick = 0; tick < 250; ++tick) {
+        std::this_thread::sleep_until(start + tick * period);
+        // The samples' stamps: the publisher's CLOCK_MONOTONIC (the pixels and points are shared
+        // buffers: a copy of the value does not copy them).
+        const std::int64_t stamp = monotonicMicros();
+        Image left_now = left, right_now = right;
+        PointCloud cloud_now = cloud;
+        left_now.stamp = right_now.stamp = cloud_now.stamp = stamp;
+        const Value left_value = Value::of(std::move(left_now));
+        const Value right_value = Value::of(std::move(right_now));
+        const Value cloud_value = Value::of(std::move(cloud_now));
+        bool ok = true;
+        if (tick % 2 == 0) {
+          ok = ok && publisher.publish({kSensorSuite[0].first, stamp, left_value}).isOk();
+          ok = ok && publisher.publish({kSensorSuite[1].first, stamp, right_value}).isOk();
+          sent += 2;
+        }
+        if (tick % 5 == 0) {
+          ok = ok && publisher.publish({kSensorSuite[2].first, stamp, cloud_value}).isOk();
+          ++sent;
+        }
+        if (!ok) {
+          state.SkipWithError("publish failed");
+          break;
+        }
+      }
+      publisher_cpu = processCpuSeconds() - cpu_start;
+      publisher_wall = std::chrono::duration<double>(Clock::now() - start).count();
+      state.SetIterationTime(publisher_wall);
+    }
+    (void)publisher.waitForAcknowledgements(5.0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  kill(sink, SIGTERM);
+  SinkReport report;
+  const bool reported = read(report_pipe[0], &report, sizeof report) == sizeof report;
+  close(report_pipe[0]);
+  waitpid(sink, nullptr, 0);
+  if (!reported) {
+    state.SkipWithError("the sink did not report");
+    return;
+  }
+  state.counters["sent"] = static_cast<double>(sent);
+  state.counters["lost"] = static_cast<double>(sent) - static_cast<double>(report.received);
+  state.counters["pub_cpu_pct"] = 100 * publisher_cpu / publisher_wall;
+  state.counters["sub_cpu_pct"] = report.wall_s > 0 ? 100 * report.cpu_s / report.wall_s : 0;
+  state.counters["lat_p50_us"] = report.latency_p50_s * 1e6;
+  state.counters["lat_p99_us"] = report.latency_p99_s * 1e6;
+  state.SetBytesProcessed(static_cast<std::int64_t>(
+      (2 * left.pixels.size() * 125 + cloud.size() * 22 * 50) * state.iterations()));
+}
+BENCHMARK(BM_DdsThroughput_Stereo25Hz_Lidar10Hz)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
 }  // namespace
 
 // The benchmark's main, with the echo mode the ping-pong starts and the configuration for ddsperf.
 int main(int argc, char** argv) {
+  dds::configureAllocatorForStreaming();  // as `cdff node`, `bridge` and `record` do
   if (argc == 3 && std::strcmp(argv[1], "--echo") == 0) return runEcho(std::atoi(argv[2]));
+  if (argc == 4 && std::strcmp(argv[1], "--sink") == 0)
+    return runSink(std::atoi(argv[2]), std::atoi(argv[3]));
   if (argc == 2 && std::strcmp(argv[1], "--print-config") == 0) {
     std::puts(dds::kDefaultConfiguration);  // for ddsperf, the peer (bench/dds_bench.sh)
     return 0;

@@ -1,6 +1,7 @@
 #include "cdff/dds/participant.hpp"
 
 #include <fmt/format.h>
+#include <malloc.h>
 
 #include <cstdlib>
 
@@ -10,6 +11,11 @@ Status ddsError(dds_return_t code, std::string_view what) {
   const StatusCode status =
       code == DDS_RETCODE_TIMEOUT ? StatusCode::kTimeout : StatusCode::kIoError;
   return {status, fmt::format("{}: {} (DDS return code {})", what, dds_strretcode(code), code)};
+}
+
+void configureAllocatorForStreaming() {
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
 }
 
 Result<std::unique_ptr<Participant>> Participant::create(int domain) {
