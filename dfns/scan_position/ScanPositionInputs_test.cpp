@@ -51,7 +51,7 @@ TEST(ScanPositionVisibleCentroid, BadCloudsAndFramesAreErrors) {
                           "servicer_T_lidar");
 
   m.reset();
-  PoseWithCovariance in_lidar = m.draw.prediction;
+  RigidBodyState in_lidar = m.draw.prediction;
   in_lidar.pose.parent_frame = "lidar";
   m.node->in.prediction.set(in_lidar);
   testing::expectRejected(*m.node,
@@ -79,12 +79,12 @@ TEST(ScanPositionVisibleCentroid, BadCloudsAndFramesAreErrors) {
 // A prediction is read with a new cloud (a call without one only reads a new model).
 TEST(ScanPositionVisibleCentroid, BadPredictionsAreErrors) {
   Measured m;
-  const auto rejects = [&](const PoseWithCovariance& p, const std::string& fragment) {
+  const auto rejects = [&](const RigidBodyState& p, const std::string& fragment) {
     m.reset();
     m.node->in.prediction.set(p);
     testing::expectRejected(*m.node, fragment);
   };
-  PoseWithCovariance p = m.draw.prediction;
+  RigidBodyState p = m.draw.prediction;
   p.pose.translation.y() = kNaN;
   rejects(p,
           "input 'prediction': transform servicer_T_target translation has a non-finite entry "
@@ -92,7 +92,7 @@ TEST(ScanPositionVisibleCentroid, BadPredictionsAreErrors) {
 
   p = m.draw.prediction;
   p.covariance(1, 1) = std::numeric_limits<double>::infinity();
-  rejects(p, "pose covariance has a non-finite entry (inf) at (1, 1)");
+  rejects(p, "state covariance has a non-finite entry (inf) at (1, 1)");
 
   p = m.draw.prediction;
   p.covariance(2, 2) = 0.0;  // singular: no gate along z
@@ -130,7 +130,7 @@ TEST(ScanPositionVisibleCentroid, BadModelsAreErrors) {
 TEST(ScanPositionVisibleCentroid, TooFewReturnsInTheGateGiveAWarningAndNoPosition) {
   Measured m;
   const void* before = m.node->out.position.anyValue().raw();
-  PoseWithCovariance p = m.draw.prediction;
+  RigidBodyState p = m.draw.prediction;
   p.pose.translation += Eigen::Vector3d(0, 20, 0);  // 20 m to the side: nothing in the gate
   m.reset();
   m.node->in.prediction.set(p);

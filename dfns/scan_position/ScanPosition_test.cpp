@@ -164,14 +164,14 @@ TEST(ScanPositionVisibleCentroid, AMountedSensorMovesTheResultByItsMounting) {
   auto in_lidar = make();
   setInputs(*in_lidar, d);
   in_lidar->in.sensor_pose.set(Transform::identity("lidar", "lidar"));
-  PoseWithCovariance prediction_in_lidar = d.prediction;
+  RigidBodyState prediction_in_lidar = d.prediction;
   prediction_in_lidar.pose.parent_frame = "lidar";
   in_lidar->in.prediction.set(prediction_in_lidar);
   ASSERT_OK(in_lidar->process());
 
   const Transform mount = mountedServicerTLidar();
   const Eigen::Matrix3d rotation = mount.rotation.toRotationMatrix();
-  PoseWithCovariance prediction = d.prediction;
+  RigidBodyState prediction = d.prediction;
   prediction.pose.translation = mount * d.prediction.pose.translation;
   prediction.covariance.topLeftCorner<3, 3>() =
       rotation * d.prediction.covariance.topLeftCorner<3, 3>() * rotation.transpose();

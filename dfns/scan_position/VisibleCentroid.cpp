@@ -180,7 +180,7 @@ class ScanPositionVisibleCentroid final : public ScanPositionVisibleCentroidBase
   Status checkInputs() const {
     const PointCloud& cloud = *in.cloud;
     const Transform& a_T_lidar = *in.sensor_pose;
-    const PoseWithCovariance& prediction = *in.prediction;
+    const RigidBodyState& prediction = *in.prediction;
     CDFF_RETURN_IF_ERROR(cloud.validate("input 'cloud'", /*require_finite=*/false));
     CDFF_RETURN_IF_ERROR(a_T_lidar.validate().withContext("input 'sensor_pose'"));
     if (cloud.frame_id != a_T_lidar.child_frame)

@@ -45,7 +45,7 @@ struct Draw {
   testing::ScanOptions options;
   PointCloud scan;           // frame lidar, every return on the target
   Eigen::Vector3d centroid;  // of the scan: the naive position
-  PoseWithCovariance prediction;
+  RigidBodyState prediction;
 };
 
 inline Eigen::Quaterniond randomAttitude(std::mt19937& rng) {
@@ -78,7 +78,7 @@ inline Draw drawScene(double range, std::mt19937& rng) {
   d.prediction.pose = Transform::identity("servicer", "target", kStamp - 100'000);
   d.prediction.pose.translation =
       d.truth.translation() + kPredictionSigma * Eigen::Vector3d(n(rng), n(rng), n(rng));
-  d.prediction.covariance = Matrix6d::Identity();
+  d.prediction.covariance = Matrix12d::Identity();
   d.prediction.covariance.topLeftCorner<3, 3>() *= kPredictionSigma * kPredictionSigma;
   return d;
 }
