@@ -3,7 +3,9 @@
 // (2.5 m) and mid (10 m) range: PointCloudFiltering (Fast, Pcl), NormalsEstimation (Pca, Pcl),
 // Registration3D (FastIcp, PclIcpPointToPlane, each in several configurations) on the same scan /
 // guess pairs, with the pose errors each reaches and its iterations as counters, and the whole
-// per-scan chain of the LIDAR tracking DFPC (crop + voxel grid, ICP, EKF correction).
+// per-scan chain of the LIDAR tracking DFPC (crop + voxel grid, ICP, EKF correction); and
+// ScanPosition (VisibleCentroid), the target's position from a sparse scan at 15 and 50 m (per
+// scan, and the first call that builds the model's visible-surface statistics).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 #include "PointCloudFiltering.gen.hpp"
 #include "PointCloudMotionCompensation.gen.hpp"
 #include "Registration3D.gen.hpp"
+#include "ScanPosition.gen.hpp"
 #include "SymmetryCheck.gen.hpp"
 #include "bench_support.hpp"
 #include "cdff/egse/procedural.hpp"
@@ -381,6 +384,67 @@ void BM_SymmetryCheckModel(benchmark::State& state) {
   state.counters["model_points"] = static_cast<double>(s.model.size());
 }
 BENCHMARK(BM_SymmetryCheckModel)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// The target alone at `range` m (no room: a sparse mid-range scan), with a prediction 0.3 m off.
+struct SparseScene {
+  PointCloud scan;
+  RigidBodyState prediction;
+  LidarInfo sensor;
+};
+
+const SparseScene& sparseScene(double range) {
+  static std::map<double, SparseScene> scenes;
+  auto [it, inserted] = scenes.try_emplace(range);
+  if (inserted) {
+    const Eigen::Isometry3d truth = truthAt(range);
+    testing::ScanOptions options;
+    it->second.scan = testing::simulateScan(testing::satelliteMesh(), truth, options, 11, "lidar");
+    it->second.scan.stamp = 1'000'000;
+    it->second.sensor = testing::lidarInfo(options, "lidar");
+    RigidBodyState& p = it->second.prediction;
+    p.pose = Transform::identity("servicer", "target", 900'000);
+    p.pose.translation = truth.translation() + Eigen::Vector3d(0.3, -0.2, 0.1);
+    p.covariance = Matrix12d::Identity() * 0.09;
+  }
+  return it->second;
+}
+
+std::unique_ptr<dfn::ScanPosition> scanPosition(const SparseScene& s) {
+  auto node = bench::createConfigured<dfn::ScanPosition>("ScanPosition", "VisibleCentroid");
+  node->in.sensor_pose.set(Transform::identity("servicer", "lidar"));
+  node->in.sensor.set(s.sensor);
+  node->in.model.set(model());
+  return node;
+}
+
+void BM_ScanPosition(benchmark::State& state) {
+  const SparseScene& s = sparseScene(static_cast<double>(state.range(0)));
+  auto node = scanPosition(s);
+  node->in.cloud.set(s.scan);
+  node->in.prediction.set(s.prediction);
+  if (!node->process() || !node->out.position.hasValue())
+    return state.SkipWithError("no position from the scan");
+  for (auto _ : state) {
+    node->in.cloud.set(s.scan);
+    node->in.prediction.set(s.prediction);
+    if (!node->process()) return state.SkipWithError("ScanPosition failed");
+  }
+  state.counters["returns_used"] = static_cast<double>(*node->out.points_used);
+}
+BENCHMARK(BM_ScanPosition)->Arg(15)->Arg(50)->Unit(benchmark::kMicrosecond);
+
+// The first scan: the model's visible surface at 200 attitudes, built once per 0.01 rad of R / r.
+void BM_ScanPositionFirstScan(benchmark::State& state) {
+  const SparseScene& s = sparseScene(static_cast<double>(state.range(0)));
+  for (auto _ : state) {
+    auto node = scanPosition(s);
+    node->in.cloud.set(s.scan);
+    node->in.prediction.set(s.prediction);
+    if (!node->process()) return state.SkipWithError("ScanPosition failed");
+  }
+  state.counters["model_points"] = static_cast<double>(model().size());
+}
+BENCHMARK(BM_ScanPositionFirstScan)->Arg(15)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# make demo: first the rendezvous from 2 km to capture (dfpcs/rendezvous.yaml: far-range,
-# LIDAR and visual tracking handing the target over by range and track state, with no ground
-# truth and no initial state; evaluated per phase); then simulate the mid-range approach -> LIDAR tracking DFPC -> evaluation against the
+# make demo: first the rendezvous from 2 km to capture (dfpcs/rendezvous.yaml: far-range
+# tracking, the LIDAR's position of the target, LIDAR and visual tracking handing the target over
+# by range and track state, with no ground truth and no initial state; evaluated per phase);
+# then simulate the mid-range approach -> LIDAR tracking DFPC -> evaluation against the
 # ground truth (a short table on the terminal and an HTML report); then the same for visual
 # tracking on the simulated close-range approach, first from a perturbed truth, then started by
 # the detection DFPC with no truth at all.
@@ -26,7 +27,7 @@ fi
 echo "== 0. the rendezvous, 2 km -> capture (docs/rendezvous.md)"
 # The sensors the run set reads: the far camera, radar, AHRS and IMU, the LIDAR, and the left
 # camera at 2 Hz (the right camera and the ToF camera off: they take most of the simulation's
-# time and no graph of the run set reads them). About 1 min to simulate, 40 s to run.
+# time and no graph of the run set reads them). About 1 min to simulate, 35 s to run.
 "$cdff" sim rendezvous -o "$out/rdv_sim.mcap" -q --set sensors.camera_right.enabled=false \
   --set sensors.tof.enabled=false --set sensors.camera_left.rate=2
 "$cdff" run dfpcs/rendezvous.yaml -i "$out/rdv_sim.mcap" -o "$out/rdv_out.mcap"
@@ -34,7 +35,7 @@ echo "== 0. the rendezvous, 2 km -> capture (docs/rendezvous.md)"
 # the whole run's verdicts include what does not hold yet (docs/rendezvous.md).
 "$cdff" eval "$out/rdv_out.mcap" --camera /chaser/camera/far/calibration \
   --product /cdff/far_range_tracking/bearing --product /cdff/target_state/state \
-  --json "$out/rdv_report.json" --html "$out/rdv_report.html"
+  --product /cdff/lidar_position/state --json "$out/rdv_report.json" --html "$out/rdv_report.html"
 echo "report: $out/rdv_report.html"
 echo "== 1. simulate the mid-range approach (17 m -> 2 m, VLP-16 LIDAR with ground truth)"
 # Cameras and ToF off: the LIDAR chain needs none of them, and they take most of the time.

@@ -131,6 +131,33 @@ TEST(ConsiderCovarianceFirstOrder, ZeroSigmasLeaveTheStateUnchanged) {
   EXPECT_EQ(dfn->out.state->pose.stamp, s.pose.stamp);
 }
 
+// A systematic covariance computed elsewhere (ScanPosition's position_bias) is added as given
+// while it is recent, and no longer once older than systematic_max_age_s.
+TEST(ConsiderCovarianceFirstOrder, ASystematicCovarianceIsAddedWhileRecent) {
+  auto dfn = make("{systematic_max_age_s: 1.0}");
+  dfn->in.extrinsic.set(servicerTLidar());
+  RigidBodyState s = servicerState();
+  PoseWithCovariance systematic;
+  systematic.pose = Transform::identity("servicer", "target", s.pose.stamp - 500'000);
+  systematic.covariance.topLeftCorner<3, 3>() << 0.04, 0.01, 0, 0.01, 0.09, 0, 0, 0, 0.25;
+  dfn->in.systematic.set(systematic);
+  EXPECT_TRUE(added(*dfn, s).isApprox(systematic.covariance));
+
+  s.pose.stamp += 1'000'000;  // 1.5 s after the systematic covariance: it no longer applies
+  EXPECT_TRUE(added(*dfn, s).isZero());
+
+  systematic.pose.parent_frame = "lidar";
+  dfn->in.systematic.set(systematic);
+  dfn->in.state.set(servicerState());
+  testing::expectRejected(
+      *dfn, "input 'systematic' is lidar_T_target; expected a covariance in frame 'servicer'");
+  systematic.pose.parent_frame = "servicer";
+  systematic.covariance(0, 0) = std::numeric_limits<double>::infinity();
+  dfn->in.systematic.set(systematic);
+  dfn->in.state.set(servicerState());
+  testing::expectRejected(*dfn, "input 'systematic'");
+}
+
 TEST(ConsiderCovarianceFirstOrder, BadInputsAreReported) {
   auto dfn = make("{extrinsic_angle_sigma: 0.2}");
   dfn->in.extrinsic.set(Transform::fromIsometry(Eigen::Isometry3d::Identity(), "servicer", "tof"));

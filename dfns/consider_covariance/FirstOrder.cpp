@@ -13,15 +13,24 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
     extrinsic_.reset();
     model_rms_radius_.reset();
     model_points_ = nullptr;
+    systematic_.reset();
     return Status::ok();
   }
 
   Status onProcess() override {
-    if (in.extrinsic.isFresh() && in.extrinsic->child_frame == params_.frame) {
+    // Inputs are read when fresh, and also when kept while the instance slept (a DFPC keeps
+    // but does not freshen the values an asleep instance receives, e.g. a latched mounting).
+    if (in.extrinsic.hasValue() && (in.extrinsic.isFresh() || !extrinsic_) &&
+        in.extrinsic->child_frame == params_.frame) {
       CDFF_RETURN_IF_ERROR(in.extrinsic->validate().withContext("input 'extrinsic'"));
       extrinsic_ = *in.extrinsic;
     }
-    if (in.model.isFresh()) CDFF_RETURN_IF_ERROR(readModel(*in.model));
+    if (in.model.hasValue() && (in.model.isFresh() || !model_rms_radius_))
+      CDFF_RETURN_IF_ERROR(readModel(*in.model));
+    if (in.systematic.hasValue() && (in.systematic.isFresh() || !systematic_)) {
+      CDFF_RETURN_IF_ERROR(in.systematic->validate().withContext("input 'systematic'"));
+      systematic_ = *in.systematic;
+    }
     if (!in.state.isFresh()) return Status::ok();
     CDFF_RETURN_IF_ERROR(in.state->validate().withContext("input 'state'"));
     if (!extrinsic_)
@@ -42,6 +51,7 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
           params_.model_scale_sigma);
     RigidBodyState out_state = *in.state;
     out_state.covariance.topLeftCorner<6, 6>() += considerCovariance(in.state->pose.translation);
+    CDFF_RETURN_IF_ERROR(addSystematic(out_state));
     out.state.set(std::move(out_state));
     return Status::ok();
   }
@@ -55,6 +65,26 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
     CDFF_RETURN_IF_ERROR(model.validate("input 'model'"));
     model_rms_radius_ = std::sqrt(model.xyzMatrix().cast<double>().colwise().squaredNorm().mean());
     model_points_ = model.points.data();
+    return Status::ok();
+  }
+
+  // The latest `systematic` covariance, when it applies to the state's time and frame.
+  Status addSystematic(RigidBodyState& state) {
+    if (!systematic_) return Status::ok();
+    if (systematic_->pose.parent_frame != state.pose.parent_frame)
+      return invalidInput(
+          "input 'systematic' is {}_T_{}; expected a covariance in frame '{}', the state's "
+          "parent",
+          systematic_->pose.parent_frame, systematic_->pose.child_frame, state.pose.parent_frame);
+    const double age_s = 1e-6 * static_cast<double>(state.pose.stamp - systematic_->pose.stamp);
+    if (age_s > params_.systematic_max_age_s) {
+      warn(fmt::format(
+          "input 'systematic' is {:.2f} s older than the state (stamp {} us); expected at most "
+          "{} s (systematic_max_age_s): not added",
+          age_s, state.pose.stamp, params_.systematic_max_age_s));
+      return Status::ok();
+    }
+    state.covariance.topLeftCorner<6, 6>() += systematic_->covariance;
     return Status::ok();
   }
 
@@ -79,6 +109,7 @@ class ConsiderCovarianceFirstOrder final : public ConsiderCovarianceFirstOrderBa
   }
 
   std::optional<Transform> extrinsic_;
+  std::optional<PoseWithCovariance> systematic_;
   std::optional<double> model_rms_radius_;
   const Point4f* model_points_ = nullptr;  // the buffer model_rms_radius_ was computed from
 };

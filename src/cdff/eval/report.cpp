@@ -29,7 +29,8 @@ std::string formatValue(double value, const char* format = "{:.4g}") {
 
 // null when no estimate carried a usable covariance.
 nlohmann::json consistencyJson(const CovarianceConsistency& c) {
-  if (c.count == 0 && c.rejected == 0) return nullptr;
+  // A product whose attitude is never observed has a position consistency alone.
+  if (c.count == 0 && c.rejected == 0 && !std::isfinite(c.position_nees_mean)) return nullptr;
   return {{"count", c.count},
           {"rejected", c.rejected},
           {"nees_mean", number(c.nees_mean)},
@@ -43,7 +44,13 @@ nlohmann::json consistencyJson(const CovarianceConsistency& c) {
 
 // One line on the covariance's honesty, empty when the product carries none.
 std::string consistencyText(const CovarianceConsistency& c) {
-  if (c.count == 0 && c.rejected == 0) return {};
+  if (c.count == 0 && c.rejected == 0) {
+    if (!std::isfinite(c.position_nees_mean)) return {};
+    return fmt::format(
+        "covariance: position NEES mean {} (3 if honest); the attitude is never "
+        "observed",
+        formatValue(c.position_nees_mean, "{:.3g}"));
+  }
   std::string text = fmt::format(
       "covariance: NEES mean {} (6 if honest; position {}, attitude {}, 3 each), p95 {}, {} % "
       "within the 95 % bound {:g}",
