@@ -164,6 +164,28 @@ json goalRows(const std::vector<ProductGoal>& goals, const json& run) {
   return rows;
 }
 
+/// A run's verdicts per phase of the seed's Table 1 (a run through several ranges, e.g. the
+/// rendezvous: docs/evaluation.md), as requirement rows whose id names the phase
+/// ("SR_DFPC_0100 in mid range"): tallied apart from the whole run's. A run within one phase has
+/// none (its verdicts are the whole run's).
+json phaseRows(const json& run) {
+  json rows = json::array();
+  const json phases = evaluationOf(run).value("phases", json::array());
+  if (!phases.is_array() || phases.size() < 2) return rows;
+  for (const json& phase : phases) {
+    if (!phase.is_object()) continue;
+    const std::string name = phase.value("name", "?");
+    for (const json& v : phase.value("verdicts", json::array())) {
+      if (!v.is_object()) continue;
+      json row = v;
+      row["id"] = fmt::format("{} in {}", v.value("id", "?"), name);
+      row["title"] = fmt::format("{} ({})", v.value("title", ""), name);
+      rows.push_back(std::move(row));
+    }
+  }
+  return rows;
+}
+
 /// The scenario entry a run belongs to (its label; results written before labels: its scenario).
 std::string labelOf(const json& run) {
   return run.value("label", run.value("scenario", std::string()));
@@ -185,6 +207,14 @@ json productsOf(const std::map<std::uint64_t, json>& runs, const std::string& la
           f[std::string(quantity) + "_p95"].push_back(p[quantity]["p95"]);
       if (p.contains("tracked_fraction") && p["tracked_fraction"].is_number())
         f["tracked_fraction"].push_back(p["tracked_fraction"]);
+      // The covariance's honesty (3 if honest) and the largest step from one estimate to the
+      // next under the previous one's covariance (a hand-over's jump: docs/evaluation.md).
+      const json consistency = p.value("covariance_consistency", json::object());
+      if (consistency.is_object() && consistency.value("position_nees_mean", json()).is_number())
+        f["position_nees_mean"].push_back(consistency["position_nees_mean"]);
+      const json continuity = p.value("continuity", json::object());
+      if (continuity.is_object() && continuity.value("max_step_sigma", json()).is_number())
+        f["max_step_sigma"].push_back(continuity["max_step_sigma"]);
     }
   }
   json out = json::object();
@@ -276,6 +306,7 @@ Result<json> gatherReport(const Campaign& campaign, const fs::path& results, std
       continue;
     }
     json rows = evaluationOf(r).value("requirements", json::array());
+    for (json& row : phaseRows(r)) rows.push_back(std::move(row));
     for (json& row : goalRows(goals, r)) rows.push_back(std::move(row));
     for (const json& row : rows) {
       const std::string key =
@@ -370,6 +401,18 @@ std::string reportText(const json& report) {
         r["pass"].get<std::uint64_t>(), applicable, 100 * r["pass_fraction"].get<double>(),
         100 * r["pass_interval"][0].get<double>(), 100 * r["pass_interval"][1].get<double>(),
         m.value("p50", NAN), m.value("p95", NAN), m.value("max", NAN));
+  }
+  // Per product, over the runs: the covariance's honesty and the largest step (continuity).
+  const json products = report.value("products", json::object());  // items() needs it alive
+  for (const auto& [channel, figures] : products.items()) {
+    std::string line;
+    for (const char* figure : {"position_nees_mean", "max_step_sigma"}) {
+      const json d = figures.value(figure, json::object());
+      if (d.value("count", 0) > 0)
+        line += fmt::format(" {} p50 {:.3g} max {:.3g};", figure, d.value("p50", NAN),
+                            d.value("max", NAN));
+    }
+    if (!line.empty()) out += fmt::format("  {}:{}\n", channel, line);
   }
   for (const json& sc : report.value("scenarios", json::array()))
     out += fmt::format(
