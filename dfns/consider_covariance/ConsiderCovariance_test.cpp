@@ -158,6 +158,16 @@ TEST(ConsiderCovarianceFirstOrder, ASystematicCovarianceIsAddedWhileRecent) {
   testing::expectRejected(*dfn, "input 'systematic'");
 }
 
+// A DFPC keeps, but does not freshen, what an asleep instance receives (a latched mounting that
+// came before the instance's condition held): the kept value is read at the first state.
+TEST(ConsiderCovarianceFirstOrder, AnInputKeptWhileAsleepIsRead) {
+  auto dfn = make("{extrinsic_position_sigma: 0.01}");
+  dfn->in.extrinsic.set(servicerTLidar());
+  dfn->in.extrinsic.markConsumed();  // as the DFPC leaves it for an instance that slept
+  const Matrix6d c = added(*dfn, servicerState());
+  EXPECT_NEAR(c(0, 0), 1e-4, 1e-12);
+}
+
 TEST(ConsiderCovarianceFirstOrder, BadInputsAreReported) {
   auto dfn = make("{extrinsic_angle_sigma: 0.2}");
   dfn->in.extrinsic.set(Transform::fromIsometry(Eigen::Isometry3d::Identity(), "servicer", "tof"));

@@ -320,6 +320,56 @@ TEST(Report, GathersRequirementsAndScenarioEntries) {
   fs::remove_all(dir);
 }
 
+// A run through several of Table 1's phases (the rendezvous) has each requirement tallied per
+// phase too; a run within one phase has no phase rows. Each product's NEES and largest step are
+// distributed over the runs, and the text report gives them.
+TEST(Report, TalliesEachPhaseAndTheProductsConsistencyAndSteps) {
+  Result<Campaign> c = parseCampaign(faultEntries(), "f.yaml");
+  ASSERT_TRUE(c) << c.status().message();
+  const fs::path dir = fs::temp_directory_path() / "cdff_campaign_phase_test";
+  fs::remove_all(dir);
+  ASSERT_TRUE(prepareResults(*c, dir).isOk());
+  const auto verdict = [](double measured) {
+    return nlohmann::json{
+        {"id", "SR_DFPC_0100"}, {"channel", "/s"},  {"quantity", "position_error_m"},
+        {"comparison", "<"},    {"threshold", 1.0}, {"verdict", measured < 1.0 ? "pass" : "fail"},
+        {"measured", measured}};
+  };
+  const auto run = [&](double far_m, double mid_m, double nees, double step, bool two_phases) {
+    nlohmann::json phases = {{{"name", "far range"}, {"verdicts", {verdict(far_m)}}}};
+    if (two_phases) phases.push_back({{"name", "mid range"}, {"verdicts", {verdict(mid_m)}}});
+    return nlohmann::json{{"status", "ok"},
+                          {"label", c->scenarios[0].label},
+                          {"scenario", c->scenarios[0].name},
+                          {"evaluation",
+                           {{"requirements", {verdict(std::max(far_m, mid_m))}},
+                            {"phases", phases},
+                            {"products",
+                             {{{"channel", "/s"},
+                               {"covariance_consistency", {{"position_nees_mean", nees}}},
+                               {"continuity", {{"max_step_sigma", step}}}}}}}}};
+  };
+  ASSERT_TRUE(writeResult(dir, 0, run(1.5, 0.5, 3.0, 1.0, true)).isOk());
+  ASSERT_TRUE(writeResult(dir, 1, run(0.8, 0.4, 9.0, 5.0, true)).isOk());
+  ASSERT_TRUE(writeResult(dir, 2, run(0.2, 0.2, 6.0, 2.0, false)).isOk());
+  Result<nlohmann::json> report = campaignReport(*c, dir);
+  ASSERT_TRUE(report) << report.status().message();
+  std::map<std::string, std::pair<int, int>> rows;  // id: pass, fail
+  for (const nlohmann::json& row : (*report)["requirements"])
+    rows[row["id"]] = {row["pass"].get<int>(), row["fail"].get<int>()};
+  EXPECT_EQ(rows["SR_DFPC_0100"], std::make_pair(2, 1));
+  EXPECT_EQ(rows["SR_DFPC_0100 in far range"], std::make_pair(1, 1));  // run 2: one phase
+  EXPECT_EQ(rows["SR_DFPC_0100 in mid range"], std::make_pair(2, 0));
+  const nlohmann::json& s = (*report)["products"]["/s"];
+  EXPECT_DOUBLE_EQ(s["position_nees_mean"]["p50"], 6.0);
+  EXPECT_DOUBLE_EQ(s["max_step_sigma"]["max"], 5.0);
+  EXPECT_NE(reportText(*report).find("/s: position_nees_mean p50 6 max 9; max_step_sigma p50 2 "
+                                     "max 5;"),
+            std::string::npos)
+      << reportText(*report);
+  fs::remove_all(dir);
+}
+
 TEST(Pool, ARunWhoseProcessCrashesIsRetriedOnceThenRecorded) {
   Result<Campaign> c = parseCampaign(campaignText(), "crash.yaml");
   ASSERT_TRUE(c);
