@@ -12,6 +12,7 @@
 #include <opencv2/core/eigen.hpp>
 
 #include "EssentialMatrixEstimation.gen.hpp"
+#include "cdff/types/epipolar.hpp"
 #include "cdff/types/geometry.hpp"
 #include "cdff/types/opencv.hpp"
 
@@ -34,19 +35,6 @@ Settings settings(const Parameters& p, int method, const char* method_name, bool
           p.min_parallax, p.first_frame, p.second_frame, refit};
 }
 
-inline std::vector<cv::Point2d> cvPoints(const std::vector<Eigen::Vector2d>& v) {
-  std::vector<cv::Point2d> out(v.size());
-  for (std::size_t i = 0; i < v.size(); ++i) out[i] = {v[i].x(), v[i].y()};
-  return out;
-}
-
-/// The distance (normalised units) of b to the epipolar line E a, and of a to E^T b: the larger.
-inline double epipolarError(const cv::Matx33d& e, const cv::Point2d& a, const cv::Point2d& b) {
-  const cv::Vec3d l2 = e * cv::Vec3d(a.x, a.y, 1), l1 = e.t() * cv::Vec3d(b.x, b.y, 1);
-  const double r = b.x * l2[0] + b.y * l2[1] + l2[2];
-  return std::max(std::abs(r) / std::hypot(l2[0], l2[1]), std::abs(r) / std::hypot(l1[0], l1[1]));
-}
-
 /// The linear 8-point fit to the inliers of `mask`, projected onto the essential matrices; it
 /// replaces `e` (and its inliers `mask`) when it has at least as many inliers within `threshold`.
 inline void refitToInliers(const std::vector<cv::Point2d>& a, const std::vector<cv::Point2d>& b,
@@ -63,7 +51,7 @@ inline void refitToInliers(const std::vector<cv::Point2d>& a, const std::vector<
   std::vector<std::uint8_t> refit_mask(a.size());
   int before = 0, after = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {
-    refit_mask[i] = epipolarError(em, a[i], b[i]) <= threshold;
+    refit_mask[i] = epipolarDistance(em, a[i], b[i]) <= threshold;
     after += refit_mask[i];
     before += mask[i] != 0;
   }
@@ -93,13 +81,7 @@ inline double medianParallax(const std::vector<cv::Point2d>& a, const std::vecto
 inline Eigen::VectorXd sampsonResiduals(const std::vector<Eigen::Vector3d>& a,
                                         const std::vector<Eigen::Vector3d>& b,
                                         const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
-  const Eigen::Matrix3d e = skew(t) * r;
-  Eigen::VectorXd out(a.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const Eigen::Vector3d ea = e * a[i], eb = e.transpose() * b[i];
-    out(i) = b[i].dot(ea) / std::sqrt(ea.head<2>().squaredNorm() + eb.head<2>().squaredNorm());
-  }
-  return out;
+  return sampsonDistances(a, b, skew(t) * r);
 }
 
 /// Gauss-Newton on the inliers' Sampson distances over the pose's 5 degrees of freedom (a
@@ -176,7 +158,7 @@ inline int classify(const std::vector<cv::Point2d>& a, const std::vector<cv::Poi
     Eigen::Matrix<double, 3, 2> m;
     m << rd1, -d2;
     const Eigen::Vector2d depths = m.colPivHouseholderQr().solve(-t);
-    mask[i] = depths.x() > 0 && depths.y() > 0 && epipolarError(em, a[i], b[i]) <= threshold;
+    mask[i] = depths.x() > 0 && depths.y() > 0 && epipolarDistance(em, a[i], b[i]) <= threshold;
     count += mask[i];
   }
   return count;
@@ -232,7 +214,7 @@ inline Status estimate(const Correspondences2D& c, const CameraModel& first,
   if (!n1) return n1.status();
   auto n2 = normalizedCoordinates(second, c.second, "input 'correspondences' (second)");
   if (!n2) return n2.status();
-  const std::vector<cv::Point2d> a = cvPoints(n1.value()), b = cvPoints(n2.value());
+  const std::vector<cv::Point2d> a = toCvPoints(n1.value()), b = toCvPoints(n2.value());
   const double threshold = s.threshold / (0.5 * (first.fx + first.fy));
   cv::Mat e, r, t;
   std::vector<std::uint8_t> mask;

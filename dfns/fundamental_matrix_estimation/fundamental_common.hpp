@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "FundamentalMatrixEstimation.gen.hpp"
+#include "cdff/types/opencv.hpp"
 #include "fundamental_refinement.hpp"
 
 namespace cdff::dfn::fundamental {
@@ -38,20 +39,6 @@ inline nlohmann::json matrixJson(const cv::Mat& m) {
   return rows;
 }
 
-inline std::vector<cv::Point2d> cvPoints(const std::vector<Eigen::Vector2d>& v) {
-  std::vector<cv::Point2d> out(v.size());
-  for (std::size_t i = 0; i < v.size(); ++i) out[i] = {v[i].x(), v[i].y()};
-  return out;
-}
-
-/// The larger of the distances of b to the epipolar line F a and of a to F^T b (px): the error
-/// cv::findFundamentalMat's RANSAC thresholds.
-inline double epipolarError(const cv::Matx33d& f, const cv::Point2d& a, const cv::Point2d& b) {
-  const cv::Vec3d l2 = f * cv::Vec3d(a.x, a.y, 1), l1 = f.t() * cv::Vec3d(b.x, b.y, 1);
-  const double r = b.x * l2[0] + b.y * l2[1] + l2[2];
-  return std::max(std::abs(r) / std::hypot(l2[0], l2[1]), std::abs(r) / std::hypot(l1[0], l1[1]));
-}
-
 /// The linear (normalised 8-point) fit of F to the inliers of `mask`, and the inliers of that F
 /// within the threshold; `f` and `mask` unchanged when the fit fails.
 inline Status refitToInliers(const std::vector<cv::Point2d>& a, const std::vector<cv::Point2d>& b,
@@ -69,7 +56,8 @@ inline Status refitToInliers(const std::vector<cv::Point2d>& a, const std::vecto
   if (refit.rows != 3 || refit.cols != 3 || !cv::checkRange(refit)) return Status::ok();
   f = refit;
   const cv::Matx33d fm(f);
-  for (std::size_t i = 0; i < a.size(); ++i) mask[i] = epipolarError(fm, a[i], b[i]) <= s.threshold;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    mask[i] = epipolarDistance(fm, a[i], b[i]) <= s.threshold;
   return Status::ok();
 }
 
@@ -129,7 +117,7 @@ inline int refineInRounds(const std::vector<cv::Point2d>& a, const std::vector<c
     for (int i = 0; i < 9; ++i) fm.val[i] = fe(i / 3, i % 3);
     count = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
-      mask[i] = epipolarError(fm, a[i], b[i]) <= s.threshold;
+      mask[i] = epipolarDistance(fm, a[i], b[i]) <= s.threshold;
       count += mask[i];
     }
     if (mask == before || count < 8) break;
@@ -148,7 +136,7 @@ inline Status estimate(const Correspondences2D& c, const Settings& s,
         "input 'correspondences' has {} pairs; expected at least 8 for a "
         "fundamental matrix",
         c.size());
-  const std::vector<cv::Point2d> a = cvPoints(c.first), b = cvPoints(c.second);
+  const std::vector<cv::Point2d> a = toCvPoints(c.first), b = toCvPoints(c.second);
   std::vector<std::uint8_t> mask;
   cv::Mat f;
   try {

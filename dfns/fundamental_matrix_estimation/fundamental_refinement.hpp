@@ -12,21 +12,10 @@
 #include <Eigen/Dense>
 #include <opencv2/core.hpp>
 
+#include "cdff/types/epipolar.hpp"
 #include "cdff/types/geometry.hpp"
 
 namespace cdff::dfn::fundamental {
-
-/// The Sampson distances (px) of the pairs under F.
-inline Eigen::VectorXd sampsonResiduals(const std::vector<Eigen::Vector3d>& a,
-                                        const std::vector<Eigen::Vector3d>& b,
-                                        const Eigen::Matrix3d& f) {
-  Eigen::VectorXd out(a.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const Eigen::Vector3d fa = f * a[i], fb = f.transpose() * b[i];
-    out(i) = b[i].dot(fa) / std::sqrt(fa.head<2>().squaredNorm() + fb.head<2>().squaredNorm());
-  }
-  return out;
-}
 
 /// The Jacobians of the Sampson distances with respect to F's 9 entries (row-major), analytic:
 /// r = N / D with N = b^T F a and D^2 = (Fa)_0^2 + (Fa)_1^2 + (F^T b)_0^2 + (F^T b)_1^2.
@@ -125,10 +114,10 @@ inline void refineF(const std::vector<cv::Point2d>& pa, const std::vector<cv::Po
   // Iteratively reweighted: the Cauchy scale from the starting residuals, then fixed, the
   // weights from each iteration's residuals.
   double c = 1;
-  cauchyWeights(sampsonResiduals(a, b, x.matrix()), 1e-3, c);
-  double cost = cauchyCost(sampsonResiduals(a, b, x.matrix()), c), lambda = 1e-6;
+  cauchyWeights(sampsonDistances(a, b, x.matrix()), 1e-3, c);
+  double cost = cauchyCost(sampsonDistances(a, b, x.matrix()), c), lambda = 1e-6;
   for (int iteration = 0; iteration < 200; ++iteration) {
-    const Eigen::VectorXd r0 = sampsonResiduals(a, b, x.matrix());
+    const Eigen::VectorXd r0 = sampsonDistances(a, b, x.matrix());
     const Eigen::VectorXd w = (1.0 + (r0.array() / c).square()).inverse().matrix();
     // J = dr/dF (analytic) dF/dd (central differences of the 3x3 matrix: cheap).
     Eigen::Matrix<double, 9, 7> df;
@@ -150,7 +139,7 @@ inline void refineF(const std::vector<cv::Point2d>& pa, const std::vector<cv::Po
       const Vector7d step = damped.ldlt().solve(g);
       if (!step.allFinite()) break;
       next = x.perturbed(step);
-      new_cost = cauchyCost(sampsonResiduals(a, b, next.matrix()), c);
+      new_cost = cauchyCost(sampsonDistances(a, b, next.matrix()), c);
     }
     if (!(new_cost < cost)) break;
     lambda = std::max(lambda / 100, 1e-9);

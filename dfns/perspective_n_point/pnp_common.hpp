@@ -132,11 +132,8 @@ Status estimate(const Correspondences2D3D& c, const CameraModel& camera, const P
   auto normalised = normalizedCoordinates(camera, c.pixels, "input 'correspondences'");
   if (!normalised) return normalised.status();
   std::vector<cv::Point3d> points;
-  std::vector<cv::Point2d> rays;
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    points.emplace_back(c.points[i].x(), c.points[i].y(), c.points[i].z());
-    rays.emplace_back(normalised.value()[i].x(), normalised.value()[i].y());
-  }
+  for (const Eigen::Vector3d& p : c.points) points.emplace_back(p.x(), p.y(), p.z());
+  const std::vector<cv::Point2d> rays = toCvPoints(normalised.value());
   Result<Fit> fit = robustFit(points, rays, p, 0.5 * (camera.fx + camera.fy), flags, solver);
   if (!fit) return fit.status();
   cv::Mat rm;

@@ -196,6 +196,13 @@ Result<DescriptorMatrix> descriptorsFromMat(const cv::Mat& mat) {
   return d;
 }
 
+std::vector<cv::Point2d> toCvPoints(const std::vector<Eigen::Vector2d>& points) {
+  std::vector<cv::Point2d> out;
+  out.reserve(points.size());
+  for (const Eigen::Vector2d& p : points) out.emplace_back(p.x(), p.y());
+  return out;
+}
+
 std::vector<cv::KeyPoint> toCvKeypoints(const std::vector<Keypoint2D>& keypoints) {
   std::vector<cv::KeyPoint> out;
   out.reserve(keypoints.size());

@@ -44,6 +44,9 @@ cv::Mat pyrDownTimes(const cv::Mat& image, int levels);
 cv::Mat toMat(const DescriptorMatrix& descriptors);
 Result<DescriptorMatrix> descriptorsFromMat(const cv::Mat& mat);
 
+/// Points as OpenCV points (copies).
+std::vector<cv::Point2d> toCvPoints(const std::vector<Eigen::Vector2d>& points);
+
 /// Keypoint conversions (copies: the layouts differ).
 std::vector<cv::KeyPoint> toCvKeypoints(const std::vector<Keypoint2D>& keypoints);
 std::vector<Keypoint2D> fromCvKeypoints(const std::vector<cv::KeyPoint>& keypoints);
