@@ -250,10 +250,15 @@ class ScanPositionVisibleCentroid final : public ScanPositionVisibleCentroidBase
     const double R = model_->radius;
     if (!rows_ || std::abs(R / r - R / rows_->viewDistance()) > kViewTolerance)
       rows_ = VisibleRows::build(*model_, params_.attitude_samples, r);
-    // Only the draws that would give a measurement (min_points returns) count; if none would
-    // (a model smaller than the target seen), every draw with a return.
-    OffsetStatistics offset =
-        rows_->offsets(heights, r * rings.gap, {seen.spacing, params_.min_points});
+    // Only the draws that would give a measurement (min_points returns) count, weighed by how
+    // well their spread along the rings matches the scan's; if none would (a model smaller than
+    // the target seen), every draw with a return alike.
+    const Eigen::Matrix3d los = lineOfSightFrame(u);
+    double along_sq = 0;
+    for (const Eigen::Vector3d& p : points) along_sq += std::pow((p - c).dot(los.col(1)), 2);
+    OffsetStatistics offset = rows_->offsets(
+        heights, r * rings.gap,
+        {seen.spacing, params_.min_points, std::sqrt(along_sq / n), static_cast<int>(n)});
     if (offset.samples == 0) offset = rows_->offsets(heights, r * rings.gap);
     if (offset.samples == 0) {
       std::vector<double> degrees;
@@ -264,7 +269,6 @@ class ScanPositionVisibleCentroid final : public ScanPositionVisibleCentroidBase
           "took the cloud (input 'sensor') and the target's model",
           fmt::join(degrees, ", "), R, r, elevation * 180 / M_PI);
     }
-    const Eigen::Matrix3d los = lineOfSightFrame(u);
     const Eigen::Vector3d origin = c + los * offset.mean;
     // Beside the offset's spread, three small terms that the rows do not hold: the grid's
     // resolution (a cell h, uniform h^2 / 12 on each axis: a symmetric model's offset may not

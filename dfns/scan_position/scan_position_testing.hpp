@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -55,19 +56,25 @@ inline Eigen::Quaterniond randomAttitude(std::mt19937& rng) {
 
 /// The target at `range` m, azimuth within +-40 deg and elevation within +-5 deg of the
 /// sensor's x axis (its top or bottom may leave the +-15 deg field at 15 m), at a uniformly
-/// random attitude; drawn again until the scan has 5 returns (a target between two rings gives
-/// no measurement: ScanPosition warns).
-inline Draw drawScene(double range, std::mt19937& rng) {
+/// random attitude or, given `los_T_target`, at that attitude relative to the line of sight (x
+/// along it, away from the sensor, z up across the rings: the same view from every direction);
+/// drawn again until the scan has 5 returns (a target between two rings gives no measurement:
+/// ScanPosition warns).
+inline Draw drawScene(double range, std::mt19937& rng,
+                      const std::optional<Eigen::Quaterniond>& los_T_target = std::nullopt) {
   std::uniform_real_distribution<double> azimuth(-40 * kDeg, 40 * kDeg),
       elevation(-5 * kDeg, 5 * kDeg);
   std::normal_distribution<double> n;
   Draw d;
   do {
     const double az = azimuth(rng), el = elevation(rng);
+    const Eigen::Quaterniond los(Eigen::AngleAxisd(az, Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(-el, Eigen::Vector3d::UnitY()));
+    const Eigen::Quaterniond attitude = los_T_target ? los * *los_T_target : randomAttitude(rng);
     d.truth =
         Eigen::Translation3d(range * Eigen::Vector3d(std::cos(el) * std::cos(az),
                                                      std::cos(el) * std::sin(az), std::sin(el))) *
-        randomAttitude(rng);
+        attitude;
     const double half = std::asin(std::min(1.0, modelRadius() / range)) + 1 * kDeg;
     d.options.min_azimuth = az - half;
     d.options.max_azimuth = az + half;

@@ -25,11 +25,11 @@ struct Grid {
   int size;
 };
 
-// One attitude's visible rows: the nearest point per cell of the projection plane's grid,
-// summed per z row.
+// One attitude's visible rows (`rows`, one per z row of the grid, empty on entry): the nearest
+// point per cell of the projection plane's grid, summed per row.
 void visibleRows(const Eigen::Matrix3Xf& model, const Eigen::Matrix3f& rotation, const Grid& g,
                  std::vector<float>& depth, std::vector<Eigen::Vector3f>& nearest,
-                 std::span<Eigen::Vector3d> row_sums, std::span<double> row_counts) {
+                 std::span<VisibleRow> rows) {
   std::fill(depth.begin(), depth.end(), std::numeric_limits<float>::infinity());
   const auto distance = static_cast<float>(g.distance);
   const auto extent = static_cast<float>(g.extent);
@@ -49,8 +49,11 @@ void visibleRows(const Eigen::Matrix3Xf& model, const Eigen::Matrix3f& rotation,
     for (int iy = 0; iy < g.size; ++iy) {
       const std::size_t k = static_cast<std::size_t>(iz) * g.size + iy;
       if (!std::isfinite(depth[k])) continue;
-      row_sums[iz] += nearest[k].cast<double>();
-      row_counts[iz] += 1.0;
+      const Eigen::Vector3d p = nearest[k].cast<double>();
+      VisibleRow& row = rows[static_cast<std::size_t>(iz)];
+      row.sum += p;
+      row.sum_yy += p.y() * p.y();
+      row.count += 1.0;
     }
 }
 
@@ -104,20 +107,14 @@ VisibleRows VisibleRows::build(const ViewableModel& model, int attitudes, double
   v.grid_ = static_cast<int>(std::ceil(2.0 * v.extent_ / v.cell_)) + 1;
   const Grid grid{v.extent_, v.cell_, v.view_distance_, v.grid_};
   const auto size = static_cast<std::size_t>(v.grid_);
-  v.rows_.assign(static_cast<std::size_t>(attitudes) * size, Row{});
+  v.rows_.assign(static_cast<std::size_t>(attitudes) * size, VisibleRow{});
   std::vector<float> depth(size * size);
   std::vector<Eigen::Vector3f> nearest(size * size);
-  std::vector<Eigen::Vector3d> sums(size);
-  std::vector<double> counts(size);
   const std::vector<Eigen::Vector4d> spread = spreadAttitudes(attitudes);
   for (int a = 0; a < attitudes; ++a) {
     const Eigen::Quaterniond q(spread[a].w(), spread[a].x(), spread[a].y(), spread[a].z());
-    std::fill(sums.begin(), sums.end(), Eigen::Vector3d::Zero());
-    std::fill(counts.begin(), counts.end(), 0.0);
     visibleRows(model.points, q.normalized().toRotationMatrix().cast<float>(), grid, depth, nearest,
-                sums, counts);
-    for (int z = 0; z < v.grid_; ++z)
-      v.rows_[static_cast<std::size_t>(a) * size + z] = Row{sums[z], counts[z]};
+                std::span<VisibleRow>(v.rows_).subspan(static_cast<std::size_t>(a) * size, size));
   }
   return v;
 }
@@ -132,44 +129,92 @@ OffsetStatistics VisibleRows::offsets(std::span<const double> rings, double phas
   std::vector<double> near;  // the lasers that can reach the model at some phase
   for (const double z : rings)
     if (std::abs(z) <= extent_ + 0.5 * phase_span + cell_) near.push_back(z);
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero(), sum_attitude_sq = Eigen::Matrix3d::Zero();
-  std::size_t samples = 0;
-  for (int a = 0; a < attitudes_; ++a) {
-    Eigen::Vector3d attitude_sum = Eigen::Vector3d::Zero();
-    int attitude_samples = 0;
+  struct Draw {
+    Eigen::Vector3d offset;  // origin (0) - centroid of the rows hit
+    double spread;           // of the visible points along the rows hit (y), m
+    int attitude;
+  };
+  std::vector<Draw> draws;
+  for (int a = 0; a < attitudes_; ++a)
     for (int e = 0; e < phases; ++e) {
       const double shift = phase_span * ((e + 0.5) / phases - 0.5);
       Eigen::Vector3d s = Eigen::Vector3d::Zero();
-      double count = 0;
+      double yy = 0, count = 0;
       for (const double z : near) {
         const double index = std::floor((z + shift + extent_) / cell_);
         if (index < 0 || index >= grid_) continue;
-        const Row& r = row(a, static_cast<int>(index));
+        const VisibleRow& r = row(a, static_cast<int>(index));
         s += r.sum;
+        yy += r.sum_yy;
         count += r.count;
       }
       // A draw with fewer returns than min_returns gives no measurement (rounded: a row of
       // 4.6 cells' worth of returns gives 4 or 5 of them, as its phase along the ring falls).
       if (count == 0 || count * per_cell < shape.min_returns - 0.5) continue;
-      const Eigen::Vector3d offset = -s / count;  // origin (0) - centroid
-      sum += offset;
-      sum_sq += offset * offset.transpose();
-      attitude_sum += offset;
-      ++attitude_samples;
+      const Eigen::Vector3d centroid = s / count;
+      const double variance = std::max(yy / count - centroid.y() * centroid.y(), 0.0);
+      draws.push_back({-centroid, std::sqrt(variance), a});
     }
-    if (attitude_samples == 0) continue;
-    samples += static_cast<std::size_t>(attitude_samples);
-    sum_attitude_sq += attitude_sum * attitude_sum.transpose() / attitude_samples;
-  }
   OffsetStatistics out;
-  out.samples = samples;
-  if (samples == 0) return out;
-  const auto n = static_cast<double>(samples);
-  out.mean = sum / n;
+  out.samples = draws.size();
+  if (draws.empty()) return out;
+
+  // The weights: 1 without the scan's spread; else a kernel on log(spread of the draw / spread
+  // of the scan), both floored at a cell (a row one cell wide has no measurable spread), as
+  // wide as the spread of n returns varies (relative standard deviation 1 / sqrt(2 (n - 1))),
+  // widened by sqrt(2) until kMinEffectiveAttitudes attitudes count.
+  std::vector<double> weights(draws.size(), 1.0);
+  if (shape.returns > 1) {
+    const double observed = std::log(std::max(shape.along_ring_spread, cell_));
+    std::vector<double> log_ratio_sq(draws.size());
+    for (std::size_t i = 0; i < draws.size(); ++i)
+      log_ratio_sq[i] = std::pow(std::log(std::max(draws[i].spread, cell_)) - observed, 2);
+    double width = 1.0 / std::sqrt(2.0 * (shape.returns - 1));
+    std::vector<double> per_attitude(static_cast<std::size_t>(attitudes_));
+    for (int round = 0; round < 32; ++round, width *= std::sqrt(2.0)) {
+      std::fill(per_attitude.begin(), per_attitude.end(), 0.0);
+      for (std::size_t i = 0; i < draws.size(); ++i) {
+        weights[i] = std::exp(-0.5 * log_ratio_sq[i] / (width * width));
+        per_attitude[static_cast<std::size_t>(draws[i].attitude)] += weights[i];
+      }
+      double sum = 0, sum_sq = 0;
+      for (const double w : per_attitude) {
+        sum += w;
+        sum_sq += w * w;
+      }
+      if (sum_sq > 0 && sum * sum / sum_sq >= kMinEffectiveAttitudes) break;
+    }
+  }
+
+  // Weighted moments; the attitude's part (law of total covariance) from each attitude's
+  // weighted mean over its phases.
+  double total = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero(), sum_attitude_sq = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < draws.size();) {
+    Eigen::Vector3d attitude_sum = Eigen::Vector3d::Zero();
+    double attitude_weight = 0;
+    const int a = draws[i].attitude;
+    for (; i < draws.size() && draws[i].attitude == a; ++i) {
+      const double w = weights[i];
+      const Eigen::Vector3d& o = draws[i].offset;
+      sum += w * o;
+      sum_sq += w * o * o.transpose();
+      attitude_sum += w * o;
+      attitude_weight += w;
+    }
+    total += attitude_weight;
+    if (attitude_weight > 0)
+      sum_attitude_sq += attitude_sum * attitude_sum.transpose() / attitude_weight;
+  }
+  if (!(total > 0)) {  // every weight underflowed: no draw resembles the scan
+    out.samples = 0;
+    return out;
+  }
+  out.mean = sum / total;
   const Eigen::Matrix3d mean_sq = out.mean * out.mean.transpose();
-  out.covariance = sum_sq / n - mean_sq;
-  out.attitude = sum_attitude_sq / n - mean_sq;
+  out.covariance = sum_sq / total - mean_sq;
+  out.attitude = sum_attitude_sq / total - mean_sq;
   out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
   out.attitude = 0.5 * (out.attitude + out.attitude.transpose());
   return out;

@@ -50,12 +50,26 @@ struct ViewableModel {
   static Result<ViewableModel> of(const PointCloud& model);
 };
 
-/// Which draws give a scan that is measured: those with at least `min_returns` returns.
+/// What is known of the scan: which draws give a scan that is measured (those with at least
+/// `min_returns` returns), and how far its returns spread along the rings, which the draws
+/// that count must resemble.
 struct ScanShape {
   /// The distance between neighbouring returns along a ring at the target (m; its azimuth
   /// step times the range); 0: unknown (each visible cell a laser crosses is one return).
   double return_spacing = 0;
   int min_returns = 1;
+  /// The standard deviation of the returns' positions along the rings (y, m) and their number;
+  /// returns == 0: not known (every draw counts alike).
+  double along_ring_spread = 0;
+  int returns = 0;
+};
+
+/// One row of the visible surface at one attitude: its points (one per grid cell) in the
+/// line-of-sight frame.
+struct VisibleRow {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();  // of the points, m
+  double sum_yy = 0;                              // of their y^2 (along the rings), m^2
+  double count = 0;
 };
 
 class VisibleRows {
@@ -72,6 +86,15 @@ class VisibleRows {
   /// [-phase_span / 2, phase_span / 2] (m; the gap between the lasers at the target: where the
   /// target's origin lies between them is not known). Draws in which no laser hits are left out
   /// (they give no scan). samples == 0 when no laser ever hits the model.
+  ///
+  /// With the scan's spread along the rings known, each draw is weighed by how well its own
+  /// spread matches it (a Gaussian kernel on the logarithm of the ratio, as wide as the
+  /// standard deviation of n returns' spread, 1 / sqrt(2 (n - 1)), widened until the draws that
+  /// count come from at least kMinEffectiveAttitudes attitudes): the statistics are then those
+  /// of the attitudes that look like the scan. A satellite whose wings face the sensor spreads
+  /// a ring's returns over metres and puts their centroid far from the origin; one seen
+  /// edge-on does not: over every attitude alike, the first is a rare draw and its covariance
+  /// far too small.
   OffsetStatistics offsets(std::span<const double> rings, double phase_span,
                            const ScanShape& shape = {}) const;
 
@@ -80,17 +103,18 @@ class VisibleRows {
   static std::vector<Eigen::Vector4d> spreadAttitudes(int count);
 
  private:
-  struct Row {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();  // of the visible points, LOS frame
-    double count = 0;
-  };
-  const Row& row(int attitude, int index) const {
+  const VisibleRow& row(int attitude, int index) const {
     return rows_[static_cast<std::size_t>(attitude) * grid_ + index];
   }
 
+  /// The fewest attitudes (effective number, (sum w)^2 / sum w^2 of their weights) the
+  /// weighed draws must come from: the mean offset within about 1 / sqrt(30) = 18 % of its
+  /// spread of the mean over all such attitudes.
+  static constexpr double kMinEffectiveAttitudes = 30;
+
   double extent_ = 0, cell_ = 0, view_distance_ = 0;
   int attitudes_ = 0, grid_ = 0;  // grid_ rows of cell_ from z = -extent_
-  std::vector<Row> rows_;         // attitude-major
+  std::vector<VisibleRow> rows_;  // attitude-major
 };
 
 }  // namespace cdff::dfn::scan_position
