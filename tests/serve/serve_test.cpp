@@ -201,6 +201,12 @@ TEST(ServeToken, RequiredOnEveryRequestWhenSet) {
     EXPECT_EQ(get(port, target, {{"Authorization", "Bearer " + token}}).status, 200) << target;
     EXPECT_EQ(get(port, std::string(target) + "?token=" + token).status, 200) << target;
   }
+  // The page opened with ?token= gets it as a cookie, which its own files and requests carry.
+  const Reply page = get(port, "/?token=" + token);
+  const std::string cookie = "cdff_token_" + std::to_string(port) + "=" + token;
+  EXPECT_EQ(page.headers.at("Set-Cookie"), cookie + "; Path=/; HttpOnly; SameSite=Strict");
+  EXPECT_EQ(get(port, "/api/recordings", {{"Cookie", "theme=dark; " + cookie}}).status, 200);
+  EXPECT_EQ(get(port, "/api/recordings", {{"Cookie", "cdff_token_1=" + token + "0"}}).status, 401);
   // With a token, a Host other than loopback is expected (the server listens elsewhere).
   EXPECT_EQ(sendRaw(port, "GET /api/recordings?token=" + token +
                               " HTTP/1.1\r\nHost: groundstation:8765\r\n\r\n")

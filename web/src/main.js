@@ -36,12 +36,15 @@ function fillSelect(select, channels, preferred) {
 }
 
 function renderChannels(recording) {
+  // A topic may wrap after its slashes only.
+  const breakable = (topic) => topic.split('/').flatMap((part, i) => (
+    i === 0 ? [part] : [document.createElement('wbr'), `/${part}`]));
   const rows = recording.channels.map((c) => {
     const tr = document.createElement('tr');
-    for (const text of [c.topic, c.type || c.schema || '-', String(c.messages),
-                        c.rate_hz > 0 ? `${c.rate_hz.toFixed(2)} Hz` : '-']) {
+    for (const content of [breakable(c.topic), [c.type || c.schema || '-'], [String(c.messages)],
+                           [c.rate_hz > 0 ? `${c.rate_hz.toFixed(2)} Hz` : '-']]) {
       const td = document.createElement('td');
-      td.textContent = text;
+      td.append(...content);
       tr.append(td);
     }
     tr.dataset.topic = c.topic;

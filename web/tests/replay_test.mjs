@@ -114,17 +114,27 @@ try {
     const expected = times.filter((f) => f <= t + 1e-9).at(-1) ?? times[0];
     check(`scrub-${fraction}-frame-of-that-time`, Math.abs(shown - expected) < 1e-6,
           `scrubbed to ${t.toFixed(3)} s, shows the frame at ${shown.toFixed(6)} s, expected ${expected.toFixed(6)} s`);
-    // The pixels shown are that frame's: the same JPEG as the server's image at that time.
+    // The pixels shown are that frame's: those of the server's image at that time, both
+    // decoded by the browser (fetching the page's blob: URL would break its CSP).
     const same = await page.evaluate(async ({ camera, t }) => {
-      const img = document.getElementById('frame');
-      await img.decode();
-      const shownBytes = new Uint8Array(await fetch(img.src).then((r) => r.arrayBuffer()));
-      const q = new URLSearchParams({ channel: camera, t: String(t), max_width: '640' });
-      const served = new Uint8Array(await fetch(`/api/recordings/0/image?${q}`).then((r) => r.arrayBuffer()));
-      return shownBytes.length > 0 && shownBytes.length === served.length
-        && shownBytes.every((b, i) => b === served[i]);
+      const pixels = (img) => {
+        const canvas = document.createElement('canvas');
+        canvas.width = img.naturalWidth;
+        canvas.height = img.naturalHeight;
+        const ctx = canvas.getContext('2d');
+        ctx.drawImage(img, 0, 0);
+        return ctx.getImageData(0, 0, canvas.width, canvas.height).data;
+      };
+      const shown = document.getElementById('frame');
+      await shown.decode();
+      const served = new Image();
+      served.src = `/api/recordings/0/image?${new URLSearchParams({ channel: camera, t: String(t), max_width: '640' })}`;
+      await served.decode();
+      const a = pixels(shown);
+      const b = pixels(served);
+      return a.length > 0 && a.length === b.length && a.every((v, i) => v === b[i]);
     }, { camera, t: shown });
-    check(`scrub-${fraction}-pixels`, same, 'the shown JPEG equals the server\'s image of that frame');
+    check(`scrub-${fraction}-pixels`, same, 'the image shown has the pixels of the server\'s image of that frame');
     return shown;
   };
   const late = await scrubTo(0.8);

@@ -240,7 +240,8 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
   std::lock_guard lock(mutex_);
   auto it = reader_.messages(options);
   for (std::size_t i = 0; it.next(); ++i) {
-    if (i % stride != 0 && i + 1 != c.times_ns.size()) continue;
+    // Every stride-th pose, and the last one while there is room for it.
+    if (i % stride != 0 && (i + 1 != c.times_ns.size() || t.size() >= max_points)) continue;
     const io::MessageView& m = it.message();
     Transform pose;
     if (c.type == "Transform") {

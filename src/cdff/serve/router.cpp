@@ -119,6 +119,22 @@ bool sameToken(std::string_view a, std::string_view b) {
   return diff == 0;
 }
 
+// A cookie cdff_token<...> holding the token (set by tokenCookie() on the page's first load, so
+// that the page's own files and requests carry it).
+bool hasTokenCookie(std::string_view header, const std::string& token) {
+  while (!header.empty()) {
+    const std::size_t end = std::min(header.find(';'), header.size());
+    std::string_view cookie = header.substr(0, end);
+    header = end < header.size() ? header.substr(end + 1) : std::string_view();
+    while (cookie.starts_with(' ')) cookie.remove_prefix(1);
+    const std::size_t eq = cookie.find('=');
+    if (eq != std::string_view::npos && cookie.starts_with("cdff_token") &&
+        sameToken(cookie.substr(eq + 1), token))
+      return true;
+  }
+  return false;
+}
+
 bool isLoopbackHost(std::string_view host) {
   // Host without its port ("[::1]:8080" -> "[::1]", "localhost:80" -> "localhost").
   const std::size_t colon = host.rfind(':');
@@ -221,11 +237,12 @@ std::optional<Response> Router::admit(const Request& req, Target& target) const 
     if (auth.starts_with("Bearer ")) given = std::string(auth.substr(7));
     auto q = target.query.find("token");
     if (given.empty() && q != target.query.end()) given = q->second;
-    if (given.empty())
+    const bool cookie = given.empty() && hasTokenCookie(req[http::field::cookie], options_.token);
+    if (given.empty() && !cookie)
       return refuse(http::status::unauthorized,
                     "this server requires its token (printed by `cdff serve` at start); expected "
                     "'Authorization: Bearer <token>' or '?token=<token>'");
-    if (!sameToken(given, options_.token))
+    if (!cookie && !sameToken(given, options_.token))
       return refuse(http::status::unauthorized,
                     "the token does not match the one printed by `cdff serve` at start");
   }
@@ -245,8 +262,21 @@ Result<const Recording*> Router::recording(const std::string& id) const {
 Response Router::handle(const Request& req) const {
   Target target;
   if (std::optional<Response> refused = admit(req, target)) return std::move(*refused);
-  if (!target.segments.empty() && target.segments[0] == "api") return api(req, target);
-  return file(req, target);
+  const bool api_route = !target.segments.empty() && target.segments[0] == "api";
+  Response res = api_route ? api(req, target) : file(req, target);
+  // The page was opened with ?token=: its scripts, styles and requests carry the token as a
+  // cookie from then on. Named per port (cookies are not), readable by no script, sent to no
+  // other site.
+  if (!options_.token.empty() && !api_route && res.result() == http::status::ok) {
+    const std::string_view host = req[http::field::host];
+    const std::size_t colon = host.rfind(':');
+    std::string port = colon == std::string_view::npos ? "" : std::string(host.substr(colon + 1));
+    if (port.find_first_not_of("0123456789") != std::string::npos) port.clear();
+    res.set(http::field::set_cookie, fmt::format("cdff_token{}={}; Path=/; HttpOnly; "
+                                                 "SameSite=Strict",
+                                                 port.empty() ? "" : "_" + port, options_.token));
+  }
+  return res;
 }
 
 Response Router::file(const Request& req, const Target& target) const {
