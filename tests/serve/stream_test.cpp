@@ -1,12 +1,16 @@
 // The replay stream over a WebSocket: the frames of a time after a seek, playback to the end in
 // order, refusals before the upgrade, and the per-browser queue that drops its oldest frames.
 #include <gtest/gtest.h>
+#include <condition_variable>
+#include <mutex>
+
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "cdff/serve/frame_queue.hpp"
+#include "cdff/serve/replay_stream.hpp"
 #include "serve_fixture.hpp"
 
 namespace cdff::serve::testing {
@@ -182,6 +186,46 @@ TEST(ReplayStream, RefusedBeforeTheUpgrade) {
   // The page's own origin is accepted.
   Client same(server->port(), kStream, "http://127.0.0.1:" + std::to_string(server->port()));
   EXPECT_FALSE(same.error()) << same.error().message();
+}
+
+TEST(ReplayStream, ABrowserThatDoesNotReadNeverHoldsTheReplayBack) {
+  const Files files = makeFiles("stream_slow");
+  Result<std::unique_ptr<Recording>> recording = Recording::open(files.recording.string());
+  ASSERT_TRUE(recording.isOk()) << recording.status().message();
+  // Nobody pops this queue: the browser has stopped reading.
+  auto queue = std::make_shared<FrameQueue>(2);
+  struct End {
+    std::mutex mutex;
+    std::condition_variable reached;
+    bool ended = false;
+  };
+  auto end = std::make_shared<End>();
+  const auto sink = [queue, end](Frame f) {
+    const bool ended =
+        !f.binary && json::parse(f.data, nullptr, false).value("ended", false) == true;
+    queue->push(std::move(f));
+    if (!ended) return;
+    std::lock_guard lock(end->mutex);
+    end->ended = true;
+    end->reached.notify_all();
+  };
+  Result<std::unique_ptr<ReplayStream>> replay =
+      ReplayStream::start(**recording, StreamSpec{"/camera/image", {"/truth/pose"}}, sink,
+                          [queue] { return queue->dropped(); });
+  ASSERT_TRUE(replay.isOk()) << replay.status().message();
+  ASSERT_TRUE((*replay)->command({{"cmd", "speed"}, {"value", 64}}).isOk());
+  ASSERT_TRUE((*replay)->command({{"cmd", "play"}}).isOk());
+  // 0.9 s of recording at 64x: about 14 ms. The replay reaches its end all the same.
+  std::unique_lock lock(end->mutex);
+  ASSERT_TRUE(end->reached.wait_for(lock, std::chrono::seconds(10), [&] { return end->ended; }));
+  // Start (image, pose, state), speed and play states, 9 images and 9 poses, the end state: 24
+  // frames, of which the queue keeps the newest 2 (an image more than 0.2 s late on a loaded
+  // machine is skipped, not queued).
+  EXPECT_EQ(queue->size(), 2u);
+  EXPECT_GE(queue->dropped(), 15u);
+  EXPECT_LE(queue->dropped(), 22u);
+  queue->pop();
+  EXPECT_EQ(json::parse(queue->pop()->data)["ended"], true);
 }
 
 TEST(FrameQueue, DropsTheOldestFramesOfASlowBrowserOnly) {
