@@ -2,6 +2,8 @@
 
 #include <fstream>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -19,8 +21,14 @@ using tcp = net::ip::tcp;
 
 Files makeFiles(const std::string& name) {
   Files f;
-  f.dir = std::filesystem::path(::testing::TempDir()) / ("cdff_serve_" + name);
+  // One directory per process: CTest runs the tests of this program in parallel processes.
+  f.dir = std::filesystem::path(::testing::TempDir()) /
+          ("cdff_serve_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(f.dir);
+  f.cleanup = std::shared_ptr<void>(nullptr, [dir = f.dir](void*) {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  });
   f.app_dir = f.dir / "app";
   std::filesystem::create_directories(f.app_dir);
   std::ofstream(f.app_dir / "index.html") << "<!doctype html><title>app</title>\n";

@@ -20,9 +20,11 @@ constexpr Timestamp kPeriod = 100'000;        // us
 
 struct Files {
   std::filesystem::path dir, recording, app_dir, secret;
+  std::shared_ptr<void> cleanup;
 };
 /// Writes the recording, the application (index.html) and a file beside it that must never be
-/// served, under a fresh directory of the test's temporary directory.
+/// served, under a fresh directory of the test's temporary directory, removed with the last copy
+/// of the Files.
 Files makeFiles(const std::string& name);
 
 struct Reply {

@@ -216,9 +216,12 @@ Result<EncodedImage> Recording::imageAt(const std::string& topic, double t, int 
   Result<std::uint64_t> at = timeAt(t);
   if (!at) return at.status();
   const std::uint64_t frame = (*channel)->times_ns[indexAt(**channel, *at)];
-  std::lock_guard lock(mutex_);
-  Result<io::MessageView> message = readMessageAt(reader_, **channel, frame);
+  Result<io::MessageView> message = [&] {
+    std::lock_guard lock(mutex_);
+    return readMessageAt(reader_, **channel, frame);
+  }();
   if (!message) return message.status();
+  // Encoded without the lock: the message holds its chunk, other queries go on meanwhile.
   return imageOf(*message, max_width, quality);
 }
 
