@@ -61,6 +61,7 @@ const handlers = {
     img.src = state.imageUrl;
     if (previous) URL.revokeObjectURL(previous);
     img.dataset.t = header.t.toFixed(6);
+    img.dataset.channel = header.channel;
     img.dataset.logTimeNs = String(header.log_time_ns);
     $('frame-caption').textContent = `${header.channel}: frame at ${header.t.toFixed(3)} s `
       + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`;
