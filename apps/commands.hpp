@@ -20,5 +20,6 @@ void addModelCommands(CLI::App& root, int& exit_code);
 void addTrainCommand(CLI::App& root, int& exit_code);
 void addCampaignCommands(CLI::App& root, int& exit_code);
 void addDdsCommands(CLI::App& root, int& exit_code);
+void addServeCommand(CLI::App& root, int& exit_code);
 
 }  // namespace cdff::app

@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
   cdff::app::addTrainCommand(app, exit_code);
   cdff::app::addCampaignCommands(app, exit_code);
   cdff::app::addDdsCommands(app, exit_code);
+  cdff::app::addServeCommand(app, exit_code);
 
   if (!subcommandsAreKnown(app, argc, argv)) return 2;
   try {

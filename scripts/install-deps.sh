@@ -25,6 +25,9 @@ packages=(
   slurm-wlm munge
   # peers measured in the benchmarks (Open3D: global registration)
   libopen3d-dev
+  # the web UI's browser tests (`cdff serve`, docs/web-ui.md): Playwright drives this Chromium
+  # headless; the HTTP/WebSocket server is Boost.Beast, header-only in libboost-dev above
+  chromium
 )
 
 # Only for `make fuzz` (scripts/install-deps.sh fuzz): clang with libFuzzer and its sanitizers.
@@ -33,8 +36,9 @@ if [ "${1:-}" = "fuzz" ]; then
 fi
 
 missing=()
-# The MCAP interoperability test runs the official TypeScript MCAP reader under Node.js: install
-# Debian's nodejs and npm only when no node is on the PATH (a newer one may be installed).
+# The web UI (web/) is bundled with esbuild from npm at build time, and the MCAP
+# interoperability test runs the official TypeScript MCAP reader under Node.js: install Debian's
+# nodejs and npm only when no node is on the PATH (a newer one may be installed).
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
   missing+=(nodejs npm)
 fi

@@ -20,6 +20,18 @@ for dfn in ImageUndistortion EdgeDetection FeaturesExtraction2D FeaturesMatching
   check "list-$dfn" 0 "^$dfn " -- "$cdff" dfn list
 done
 check list-one-per-line 0 '^EdgeDetection +edge_detection +Canny Sobel$' -- "$cdff" dfn list
+# cdff serve: errors naming the value before it listens (docs/web-ui.md)
+check serve-help 0 '--listen' -- "$cdff" serve --help
+check serve-missing-recording 2 'File does not exist: nowhere.mcap' -- "$cdff" serve nowhere.mcap
+check serve-bad-port 2 '--port' -- "$cdff" serve --port 70000
+check serve-bad-listen 1 "listen address 'banana' is not an IP address" -- \
+  "$cdff" serve --listen banana --port 0
+check serve-no-app 1 "the web application is not in '/nonexistent' \\(no index.html\\)" -- \
+  "$cdff" serve --app-dir /nonexistent --port 0
+app=$(mktemp -d)
+echo '<!doctype html>' > "$app/index.html"
+check serve-not-mcap 1 "not an MCAP file" -- "$cdff" serve "$0" --port 0 --app-dir "$app"
+rm -r "$app"
 # The area column starts at the same offset on every line, however long the longest name.
 area_columns=$("$cdff" dfn list | awk '{ print index($0, " " $2 " ") }' | sort -u | wc -l)
 if [ "$area_columns" -eq 1 ]; then

@@ -1,0 +1,288 @@
+#include "cdff/serve/recording.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "cdff/io/inspect.hpp"
+#include "cdff/io/recorder.hpp"
+#include "cdff/types/codec/codec.hpp"
+#include "cdff/types/opencv.hpp"
+
+namespace cdff::serve {
+
+using nlohmann::json;
+
+double ChannelSummary::rateHz() const {
+  if (times_ns.size() < 2 || times_ns.back() <= times_ns.front()) return 0.0;
+  return static_cast<double>(times_ns.size() - 1) / ((times_ns.back() - times_ns.front()) * 1e-9);
+}
+
+bool isPoseType(const std::string& type) {
+  return type == "PoseWithCovariance" || type == "RigidBodyState" || type == "Transform";
+}
+
+Result<EncodedImage> encodeJpeg(const Image& image, int max_width, int quality) {
+  CDFF_RETURN_IF_ERROR(image.validate("the recorded image"));
+  if (max_width < 16)
+    return invalidInput("max_width = {}: too small; expected at least 16 pixels", max_width);
+  cv::Mat mat = toMat(image);
+  if (image.format == PixelFormat::kGray16 || image.format == PixelFormat::kFloat32) {
+    cv::Mat stretched;
+    cv::normalize(mat, stretched, 0, 255, cv::NORM_MINMAX, CV_8U);
+    mat = stretched;
+  }
+  if (mat.cols > max_width) {
+    const int height = std::max(
+        1, static_cast<int>(std::lround(static_cast<double>(mat.rows) * max_width / mat.cols)));
+    cv::Mat small;
+    cv::resize(mat, small, cv::Size(max_width, height), 0, 0, cv::INTER_AREA);
+    mat = small;
+  }
+  EncodedImage out;
+  if (!cv::imencode(".jpg", mat, out.jpeg, {cv::IMWRITE_JPEG_QUALITY, quality}))
+    return invalidInput("OpenCV could not encode a {}x{} {} image as JPEG", image.width,
+                        image.height, toString(image.format));
+  out.width = mat.cols;
+  out.height = mat.rows;
+  out.source_width = image.width;
+  out.source_height = image.height;
+  return out;
+}
+
+Result<std::unique_ptr<Recording>> Recording::open(const std::string& path) {
+  std::unique_ptr<Recording> r(new Recording());
+  r->path_ = path;
+  CDFF_RETURN_IF_ERROR(r->reader_.open(path));
+  for (const io::Damage& d : r->reader_.recovery().damages) r->damages_.push_back(d.toString());
+  std::map<std::uint16_t, std::size_t> index;
+  for (const auto& [id, ch] : r->reader_.channels()) {
+    const io::Schema* schema = r->reader_.schemaOf(ch);
+    const TypeId type = io::typeOfChannel(ch, schema);
+    ChannelSummary c;
+    c.id = id;
+    c.topic = ch.topic;
+    c.type = type ? std::string(type.name()) : "";
+    c.schema = schema ? schema->name : "";
+    c.message_encoding = ch.message_encoding;
+    index[id] = r->channels_.size();
+    r->channels_.push_back(std::move(c));
+  }
+  auto it = r->reader_.messages();
+  bool any = false;
+  while (it.next()) {
+    const io::MessageView& m = it.message();
+    r->channels_[index.at(m.channel->id)].times_ns.push_back(m.log_time);
+    r->start_ns_ = any ? std::min(r->start_ns_, m.log_time) : m.log_time;
+    r->end_ns_ = any ? std::max(r->end_ns_, m.log_time) : m.log_time;
+    any = true;
+    ++r->messages_;
+  }
+  for (const io::Damage& d : it.damages()) r->damages_.push_back(d.toString());
+  for (ChannelSummary& c : r->channels_) std::sort(c.times_ns.begin(), c.times_ns.end());
+  std::sort(r->channels_.begin(), r->channels_.end(),
+            [](const ChannelSummary& a, const ChannelSummary& b) { return a.topic < b.topic; });
+  return r;
+}
+
+std::string Recording::name() const {
+  return std::filesystem::path(path_).filename().string();
+}
+
+const ChannelSummary* Recording::channel(std::string_view topic) const {
+  for (const ChannelSummary& c : channels_)
+    if (c.topic == topic) return &c;
+  return nullptr;
+}
+
+Result<const ChannelSummary*> Recording::findChannel(const std::string& topic) const {
+  if (const ChannelSummary* c = channel(topic); c && !c->times_ns.empty()) return c;
+  std::vector<std::string> topics;
+  for (const ChannelSummary& c : channels_)
+    if (!c.times_ns.empty()) topics.push_back(c.topic);
+  return notFound("channel '{}' has no messages in {}; expected one of {{{}}}", topic, name(),
+                  fmt::join(topics, ", "));
+}
+
+json Recording::summary(bool with_channels) const {
+  json j = {{"name", name()},
+            {"messages", messages_},
+            {"start_ns", start_ns_},
+            {"duration_s", (end_ns_ - start_ns_) * 1e-9},
+            {"damage", damages_}};
+  if (!with_channels) return j;
+  j["channels"] = json::array();
+  for (const ChannelSummary& c : channels_) {
+    json e = {{"topic", c.topic},
+              {"type", c.type},
+              {"schema", c.schema},
+              {"message_encoding", c.message_encoding},
+              {"messages", c.times_ns.size()},
+              {"rate_hz", c.rateHz()}};
+    if (!c.times_ns.empty()) {
+      e["first_t"] = secondsOf(c.times_ns.front());
+      e["last_t"] = secondsOf(c.times_ns.back());
+    }
+    j["channels"].push_back(std::move(e));
+  }
+  return j;
+}
+
+Result<std::uint64_t> Recording::timeAt(double t) const {
+  const double duration = (end_ns_ - start_ns_) * 1e-9;
+  if (!std::isfinite(t) || t < 0 || t > duration + 1e-9)
+    return invalidInput("t = {} s is outside the recording; expected seconds in [0, {}]", t,
+                        duration);
+  return std::min(end_ns_, start_ns_ + static_cast<std::uint64_t>(std::llround(t * 1e9)));
+}
+
+double Recording::secondsOf(std::uint64_t log_time_ns) const {
+  return log_time_ns >= start_ns_ ? (log_time_ns - start_ns_) * 1e-9
+                                  : -((start_ns_ - log_time_ns) * 1e-9);
+}
+
+std::size_t Recording::indexAt(const ChannelSummary& channel, std::uint64_t log_time_ns) {
+  const auto& t = channel.times_ns;
+  const auto after = std::upper_bound(t.begin(), t.end(), log_time_ns);
+  return after == t.begin() ? 0 : static_cast<std::size_t>(after - t.begin()) - 1;
+}
+
+Result<io::MessageView> readMessageAt(const io::McapReader& reader, const ChannelSummary& channel,
+                                      std::uint64_t log_time_ns) {
+  io::ReadOptions options;
+  options.start_time = log_time_ns;
+  options.end_time = log_time_ns;
+  options.channels = {channel.id};
+  auto it = reader.messages(options);
+  if (it.next()) return it.message();
+  if (!it.status().isOk()) return it.status();
+  return notFound("no message of '{}' at log time {} ns", channel.topic, log_time_ns);
+}
+
+Result<EncodedImage> imageOf(const io::MessageView& message, int max_width, int quality) {
+  Image image;
+  CDFF_RETURN_IF_ERROR(codec::decode(message.data, message.owner, image)
+                           .withContext(fmt::format("channel '{}'", message.channel->topic)));
+  Result<EncodedImage> jpeg = encodeJpeg(image, max_width, quality);
+  if (jpeg) jpeg->log_time_ns = message.log_time;
+  return jpeg;
+}
+
+Result<json> Recording::messages(const std::string& topic, double t, std::size_t count) const {
+  Result<const ChannelSummary*> channel = findChannel(topic);
+  if (!channel) return channel.status();
+  Result<std::uint64_t> at = timeAt(t);
+  if (!at) return at.status();
+  const ChannelSummary& c = **channel;
+  const std::size_t first = indexAt(c, *at);
+  const std::size_t last = std::min(c.times_ns.size(), first + count) - 1;
+  io::ReadOptions options;
+  options.start_time = c.times_ns[first];
+  options.end_time = c.times_ns[last];
+  options.channels = {c.id};
+  json out = {{"channel", topic}, {"messages", json::array()}};
+  std::lock_guard lock(mutex_);
+  const io::Channel& mc = reader_.channels().at(c.id);
+  Result<io::MessageInspector> inspector =
+      io::MessageInspector::create(mc, reader_.schemaOf(mc), io::InspectOptions{});
+  if (!inspector) return inspector.status();
+  auto it = reader_.messages(options);
+  while (out["messages"].size() < count && it.next()) {
+    const io::MessageView& m = it.message();
+    Result<json> data = inspector->toJson(m.data);
+    if (!data) return data.status().withContext(fmt::format("channel '{}'", topic));
+    out["messages"].push_back({{"t", secondsOf(m.log_time)},
+                               {"log_time_ns", m.log_time},
+                               {"sequence", m.sequence},
+                               {"data", std::move(*data)}});
+  }
+  CDFF_RETURN_IF_ERROR(it.status());
+  return out;
+}
+
+Result<EncodedImage> Recording::imageAt(const std::string& topic, double t, int max_width,
+                                        int quality) const {
+  Result<const ChannelSummary*> channel = findChannel(topic);
+  if (!channel) return channel.status();
+  if ((*channel)->type != "Image")
+    return invalidInput("channel '{}' holds {} messages; expected an Image channel", topic,
+                        (*channel)->type.empty() ? (*channel)->schema : (*channel)->type);
+  Result<std::uint64_t> at = timeAt(t);
+  if (!at) return at.status();
+  const std::uint64_t frame = (*channel)->times_ns[indexAt(**channel, *at)];
+  Result<io::MessageView> message = [&] {
+    std::lock_guard lock(mutex_);
+    return readMessageAt(reader_, **channel, frame);
+  }();
+  if (!message) return message.status();
+  // Encoded without the lock: the message holds its chunk, other queries go on meanwhile.
+  return imageOf(*message, max_width, quality);
+}
+
+Result<json> Recording::poses(const std::string& topic, std::size_t max_points) const {
+  Result<const ChannelSummary*> channel = findChannel(topic);
+  if (!channel) return channel.status();
+  const ChannelSummary& c = **channel;
+  if (!isPoseType(c.type))
+    return invalidInput(
+        "channel '{}' holds {} messages; expected PoseWithCovariance, RigidBodyState or "
+        "Transform",
+        topic, c.type.empty() ? c.schema : c.type);
+  const std::size_t stride = (c.times_ns.size() + max_points - 1) / max_points;
+  json cols = {{"channel", topic}, {"stride", stride}};
+  std::vector<double> t, x, y, z, qw, qx, qy, qz;
+  std::string frame, child;
+  io::ReadOptions options;
+  options.channels = {c.id};
+  std::lock_guard lock(mutex_);
+  auto it = reader_.messages(options);
+  for (std::size_t i = 0; it.next(); ++i) {
+    // Every stride-th pose, and the last one while there is room for it.
+    if (i % stride != 0 && (i + 1 != c.times_ns.size() || t.size() >= max_points)) continue;
+    const io::MessageView& m = it.message();
+    Transform pose;
+    if (c.type == "Transform") {
+      CDFF_RETURN_IF_ERROR(codec::decode(m.data, m.owner, pose));
+    } else {
+      PoseWithCovariance p;
+      CDFF_RETURN_IF_ERROR(codec::decode(m.data, m.owner, p));
+      pose = p.pose;
+    }
+    frame = pose.parent_frame;
+    child = pose.child_frame;
+    t.push_back(secondsOf(m.log_time));
+    x.push_back(pose.translation.x());
+    y.push_back(pose.translation.y());
+    z.push_back(pose.translation.z());
+    qw.push_back(pose.rotation.w());
+    qx.push_back(pose.rotation.x());
+    qy.push_back(pose.rotation.y());
+    qz.push_back(pose.rotation.z());
+  }
+  CDFF_RETURN_IF_ERROR(it.status());
+  cols.update({{"frame", frame},
+               {"child_frame", child},
+               {"t", t},
+               {"x", x},
+               {"y", y},
+               {"z", z},
+               {"qw", qw},
+               {"qx", qx},
+               {"qy", qy},
+               {"qz", qz}});
+  return cols;
+}
+
+Result<std::unique_ptr<io::McapReader>> Recording::openReader() const {
+  auto reader = std::make_unique<io::McapReader>();
+  CDFF_RETURN_IF_ERROR(reader->open(path_));
+  return reader;
+}
+
+}  // namespace cdff::serve

@@ -1,0 +1,130 @@
+#include "serve_fixture.hpp"
+
+#include <fstream>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/beast/core.hpp>
+
+#include "cdff/io/recorder.hpp"
+
+namespace cdff::serve::testing {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+Files makeFiles(const std::string& name) {
+  Files f;
+  // One directory per process: CTest runs the tests of this program in parallel processes.
+  f.dir = std::filesystem::path(::testing::TempDir()) /
+          ("cdff_serve_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(f.dir);
+  f.cleanup = std::shared_ptr<void>(nullptr, [dir = f.dir](void*) {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  });
+  f.app_dir = f.dir / "app";
+  std::filesystem::create_directories(f.app_dir);
+  std::ofstream(f.app_dir / "index.html") << "<!doctype html><title>app</title>\n";
+  f.secret = f.dir / "secret.txt";
+  std::ofstream(f.secret) << "not for the browser\n";
+  f.recording = f.dir / "small.mcap";
+  io::Recorder recorder;
+  EXPECT_TRUE(recorder.open(f.recording.string()).isOk());
+  for (int k = 0; k < kFrames; ++k) {
+    const Timestamp stamp = kFirstStamp + k * kPeriod;
+    Result<Image> image =
+        Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 20 * k), 64, 48, PixelFormat::kGray8);
+    EXPECT_TRUE(image.isOk());
+    image->stamp = stamp;
+    image->frame_id = "camera_optical";
+    EXPECT_TRUE(recorder.write("/camera/image", *image).isOk());
+    PoseWithCovariance pose;
+    pose.pose.stamp = stamp;
+    pose.pose.parent_frame = "world";
+    pose.pose.child_frame = "target";
+    pose.pose.translation = Eigen::Vector3d(k, 2 * k, 3 * k);
+    pose.covariance = Matrix6d::Identity() * 0.01;
+    EXPECT_TRUE(recorder.write("/truth/pose", pose).isOk());
+    EXPECT_TRUE(recorder.write("/range", 10.0 + k, stamp).isOk());
+  }
+  EXPECT_TRUE(recorder.close().isOk());
+  return f;
+}
+
+nlohmann::json Reply::json() const {
+  return nlohmann::json::parse(body, nullptr, false);
+}
+
+namespace {
+
+Reply readReply(tcp::socket& socket) {
+  beast::flat_buffer buffer;
+  http::response_parser<http::string_body> parser;
+  parser.body_limit(64u << 20);
+  beast::error_code ec;
+  http::read(socket, buffer, parser, ec);
+  Reply r;
+  if (ec) {
+    r.status = -1;
+    r.body = ec.message();
+    return r;
+  }
+  const auto& res = parser.get();
+  r.status = static_cast<int>(res.result_int());
+  for (const auto& field : res) r.headers[std::string(field.name_string())] = field.value();
+  r.body = res.body();
+  return r;
+}
+
+tcp::socket connect(net::io_context& ioc, unsigned short port) {
+  tcp::socket socket(ioc);
+  socket.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+  return socket;
+}
+
+}  // namespace
+
+Reply sendRaw(unsigned short port, const std::string& raw) {
+  net::io_context ioc;
+  tcp::socket socket = connect(ioc, port);
+  beast::error_code ec;
+  net::write(socket, net::buffer(raw), ec);
+  return readReply(socket);
+}
+
+Reply get(unsigned short port, const std::string& target,
+          const std::map<std::string, std::string>& headers) {
+  std::string raw = "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                    "\r\nConnection: close\r\n";
+  for (const auto& [k, v] : headers) raw += k + ": " + v + "\r\n";
+  return sendRaw(port, raw + "\r\n");
+}
+
+Reply post(unsigned short port, const std::string& target, const std::string& body,
+           const std::string& content_type) {
+  const std::string raw = "POST " + target +
+                          " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                          "\r\nConnection: close\r\nContent-Type: " + content_type +
+                          "\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+  return sendRaw(port, raw);
+}
+
+std::unique_ptr<Server> startServer(const Files& files, const std::string& token) {
+  ServerOptions options;
+  options.port = 0;
+  options.token = token;
+  options.app_dir = files.app_dir;
+  options.recordings = {files.recording.string()};
+  Result<std::unique_ptr<Server>> server = Server::start(options);
+  EXPECT_TRUE(server.isOk()) << server.status().message();
+  return server ? std::move(*server) : nullptr;
+}
+
+}  // namespace cdff::serve::testing
