@@ -5,6 +5,7 @@
 // move; bad input must be reported.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -134,10 +135,88 @@ double rmsOfInliers(const RingScene& s, const std::vector<Eigen::Isometry3d>& po
   return std::sqrt(sum2 / (2.0 * n));
 }
 
-std::vector<Eigen::Vector3d> pointsOf(const PointCloud& cloud) {
-  std::vector<Eigen::Vector3d> out;
-  for (const Point4f& p : cloud.points) out.emplace_back(p.x, p.y, p.z);
-  return out;
+/// The DFN's labels against the injected outliers; its inlier mask. On points seen by at least
+/// 3 true inliers, every outlier is found (a random pixel within 3 px of its point's projection:
+/// probability 3.6e-5) and every inlier kept (3 px = 6 sigma: 1.5e-8); the observations of
+/// points with fewer than 2 are "unverified" (or behind_camera). An outlier whose pixel lies
+/// within the threshold of the epipolar line of another view of its point (probability about
+/// 2 x 3 px x 1000 px / (1024 x 768 px) = 0.8 %) is consistent with it: on a point with one other
+/// observation it cannot be found, on a point with two true inliers it forms a second consensus
+/// of two; each case at most once per draw (a swap: one outlier kept, one inlier refused).
+std::vector<bool> checkLabels(const RingScene& s, const nlohmann::json& status, int draw) {
+  EXPECT_EQ(status.size(), s.observations.size());
+  std::vector<int> true_views(s.points.size(), 0);
+  for (const auto& ob : s.observations) true_views[ob.point] += ob.inlier;
+  std::vector<bool> inlier(s.observations.size());
+  int missed = 0, refused = 0, unverifiable = 0, ambiguous = 0;
+  for (std::size_t k = 0; k < s.observations.size() && k < status.size(); ++k) {
+    const auto& ob = s.observations[k];
+    inlier[k] = status[k] == "inlier";
+    if (true_views[ob.point] == 2) {
+      ambiguous += ob.inlier != inlier[k];
+    } else if (true_views[ob.point] >= 3) {
+      missed += !ob.inlier && inlier[k];
+      refused += ob.inlier && !inlier[k];
+    } else {
+      unverifiable += !ob.inlier && inlier[k];
+      if (!inlier[k]) {
+        EXPECT_TRUE(status[k] == "unverified" || status[k] == "behind_camera")
+            << "draw " << draw << ": " << status[k];
+      }
+    }
+  }
+  EXPECT_EQ(missed, 0) << "draw " << draw;
+  EXPECT_EQ(refused, 0) << "draw " << draw;
+  EXPECT_LE(unverifiable, 1) << "draw " << draw;
+  EXPECT_LE(ambiguous, 2) << "draw " << draw;
+  return inlier;
+}
+
+/// The number of free parameters p: the free poses' `pose_dofs` and 3 per point seen through
+/// inliers from 2 poses, the points that the DFN must report "ok" (the others "undetermined").
+int freeParameters(const RingScene& s, const std::vector<bool>& inlier, int pose_dofs,
+                   const nlohmann::json& point_status) {
+  EXPECT_EQ(point_status.size(), s.points.size());
+  std::vector<std::vector<int>> seen(s.points.size());
+  for (std::size_t k = 0; k < s.observations.size(); ++k) {
+    std::vector<int>& poses = seen[s.observations[k].point];
+    if (inlier[k] && std::find(poses.begin(), poses.end(), s.observations[k].camera) == poses.end())
+      poses.push_back(s.observations[k].camera);
+  }
+  int p = pose_dofs;
+  for (std::size_t j = 0; j < seen.size() && j < point_status.size(); ++j) {
+    p += seen[j].size() >= 2 ? 3 : 0;
+    EXPECT_EQ(point_status[j], seen[j].size() >= 2 ? "ok" : "undetermined") << "point " << j;
+  }
+  return p;
+}
+
+/// Each free pose's output covariance against the bound (the traces of its position and
+/// rotation blocks within 10 %); the largest relative difference.
+double checkCovariance(const Gauge& g, const Eigen::MatrixXd& bound, const nlohmann::json& cov,
+                       int draw) {
+  double worst = 0;
+  EXPECT_EQ(cov.size(), g.offset.size());
+  for (std::size_t i = 0; i < cov.size() && i < g.offset.size(); ++i) {
+    Matrix6d c;
+    for (int r = 0; r < 6; ++r)
+      for (int col = 0; col < 6; ++col) c(r, col) = cov[i][r][col].get<double>();
+    if (g.offset[i] < 0) {
+      EXPECT_EQ(c.norm(), 0.0) << "held pose " << i;
+      continue;
+    }
+    const int tc = g.centreSize(static_cast<int>(i));
+    const Eigen::MatrixXd map = g.centreMap(static_cast<int>(i));
+    const double position =
+        (map * bound.block(g.offset[i], g.offset[i], tc, tc) * map.transpose()).trace();
+    const double rotation = bound.block(g.offset[i] + tc, g.offset[i] + tc, 3, 3).trace();
+    const double position_ratio = c.topLeftCorner<3, 3>().trace() / position;
+    const double rotation_ratio = c.bottomRightCorner<3, 3>().trace() / rotation;
+    worst = std::max({worst, std::abs(position_ratio - 1), std::abs(rotation_ratio - 1)});
+    EXPECT_NEAR(position_ratio, 1.0, 0.10) << "draw " << draw << ", pose " << i;
+    EXPECT_NEAR(rotation_ratio, 1.0, 0.10) << "draw " << draw << ", pose " << i;
+  }
+  return worst;
 }
 
 class Rings : public ::testing::TestWithParam<std::tuple<int, int, std::string, double>> {};
@@ -159,16 +238,15 @@ TEST_P(Rings, PosesReachTheCramerRaoBoundAndOutliersAreFound) {
   //    +- 4 sqrt(2 k / draws) and 15 % (the bound is first order);
   //  - the covariance output: each free pose's position and rotation variances (traces) within
   //    10 % of the bound's with the same sigma^2 estimate (RSS / (2N - p)): the DFN's Jacobian
-  //    is taken at the estimate, the bound's at the truth (measured: within 6 %);
-  //  - every injected outlier marked "outlier" (a random pixel within 3 px of its point's
-  //    projection: probability 3.6e-5), no inlier (3 px = 6 sigma: 1.5e-8);
+  //    is taken at the estimate, the bound's at the truth (measured: within 5.2 %);
+  //  - the outliers found (checkLabels);
   //  - the result better than the input: the residual smaller, the poses' NEES a tenth of the
   //    input's (2 cm and 0.3 deg per axis off: hundreds of times the bound's in its stiff
   //    directions; the bound's position error of a pose opposite the first is about 1 cm).
   const auto [cameras, arc_deg, loss, outliers] = GetParam();
   constexpr int kDraws = 10;
   const double sigma = 0.5;
-  double nees_sum = 0;
+  double nees_sum = 0, worst_ratio = 0;
   int k_dof = 0;
   for (int draw = 0; draw < kDraws; ++draw) {
     RingOptions o;
@@ -184,7 +262,6 @@ TEST_P(Rings, PosesReachTheCramerRaoBoundAndOutliersAreFound) {
     setInputs(*dfn, s);
     ASSERT_OK(dfn->process());
     const std::vector<Eigen::Isometry3d>& poses = dfn->out.poses->poses;
-    const std::vector<Eigen::Vector3d> points = pointsOf(*dfn->out.points);
     ASSERT_EQ(poses.size(), s.world_T_camera.size());
     EXPECT_EQ(dfn->out.poses->frame_id, "target");
     EXPECT_EQ(poses[0].matrix(), s.initial_poses[0].matrix()) << "draw " << draw;
@@ -192,56 +269,10 @@ TEST_P(Rings, PosesReachTheCramerRaoBoundAndOutliersAreFound) {
                 (s.world_T_camera[1].translation() - s.world_T_camera[0].translation()).norm(),
                 1e-9);
 
-    // Outliers: on points seen by at least 3 true inliers, every outlier is found and every
-    // inlier kept; the observations of points with fewer than 2 are "unverified" (or
-    // behind_camera). An outlier whose pixel lies within the threshold of the epipolar line of
-    // another view of its point (probability about 2 x 3 px x 1000 px / (1024 x 768 px) =
-    // 0.8 %) is consistent with it: on a point with one other observation it cannot be found,
-    // on a point with two true inliers it forms a second consensus of two; each case at most
-    // once per draw (a swap: one outlier kept, one inlier refused).
-    const nlohmann::json& status = *dfn->out.status;
-    ASSERT_EQ(status.size(), s.observations.size());
-    std::vector<int> true_views(s.points.size(), 0);
-    for (const auto& ob : s.observations) true_views[ob.point] += ob.inlier;
-    std::vector<bool> inlier(s.observations.size());
-    int missed = 0, refused = 0, unverifiable = 0, ambiguous = 0;
-    for (std::size_t k = 0; k < s.observations.size(); ++k) {
-      const auto& ob = s.observations[k];
-      inlier[k] = status[k] == "inlier";
-      if (true_views[ob.point] == 2) {
-        ambiguous += ob.inlier != inlier[k];
-      } else if (true_views[ob.point] >= 3) {
-        missed += !ob.inlier && inlier[k];
-        refused += ob.inlier && !inlier[k];
-      } else {
-        unverifiable += !ob.inlier && inlier[k];
-        if (!inlier[k]) {
-          EXPECT_TRUE(status[k] == "unverified" || status[k] == "behind_camera")
-              << "draw " << draw << ": " << status[k];
-        }
-      }
-    }
-    EXPECT_EQ(missed, 0) << "draw " << draw;
-    EXPECT_EQ(refused, 0) << "draw " << draw;
-    EXPECT_LE(unverifiable, 1) << "draw " << draw;
-    EXPECT_LE(ambiguous, 2) << "draw " << draw;
-    const nlohmann::json& point_status = *dfn->out.point_status;
-    ASSERT_EQ(point_status.size(), s.points.size());
-
+    const std::vector<bool> inlier = checkLabels(s, *dfn->out.status, draw);
     // Residual.
     const int n = *dfn->out.inlier_count;
-    std::vector<int> views(s.points.size(), 0);
-    {
-      std::vector<std::vector<int>> seen(s.points.size());
-      for (std::size_t k = 0; k < s.observations.size(); ++k)
-        if (inlier[k]) seen[s.observations[k].point].push_back(s.observations[k].camera);
-      for (std::size_t j = 0; j < seen.size(); ++j) views[j] = static_cast<int>(seen[j].size());
-    }
-    int p = 6 * (cameras - 1) - 1;
-    for (std::size_t j = 0; j < views.size(); ++j) {
-      p += views[j] >= 2 ? 3 : 0;
-      EXPECT_EQ(point_status[j], views[j] >= 2 ? "ok" : "undetermined");
-    }
+    const int p = freeParameters(s, inlier, 6 * (cameras - 1) - 1, *dfn->out.point_status);
     const double nu = 2.0 * n - p;
     const double rss = *dfn->out.rms_error * *dfn->out.rms_error * 2.0 * n / (sigma * sigma);
     EXPECT_GT(rss, chi2Quantile(nu, -4.42)) << "draw " << draw << ", nu " << nu;
@@ -262,30 +293,12 @@ TEST_P(Rings, PosesReachTheCramerRaoBoundAndOutliersAreFound) {
 
     // Covariance against the bound, both with the DFN's sigma^2 estimate.
     const Eigen::MatrixXd bound = rss / nu * sigma * sigma * info.inverse();
-    const nlohmann::json& cov = *dfn->out.pose_covariance;
-    ASSERT_EQ(cov.size(), poses.size());
-    for (int i = 0; i < cameras; ++i) {
-      Matrix6d c;
-      for (int r = 0; r < 6; ++r)
-        for (int col = 0; col < 6; ++col) c(r, col) = cov[i][r][col].get<double>();
-      if (i == 0) {
-        EXPECT_EQ(c.norm(), 0.0);
-        continue;
-      }
-      const int tc = g.centreSize(i);
-      const Eigen::MatrixXd map = g.centreMap(i);
-      const double position =
-          (map * bound.block(g.offset[i], g.offset[i], tc, tc) * map.transpose()).trace();
-      const double rotation = bound.block(g.offset[i] + tc, g.offset[i] + tc, 3, 3).trace();
-      const double position_ratio = c.topLeftCorner<3, 3>().trace() / position;
-      const double rotation_ratio = c.bottomRightCorner<3, 3>().trace() / rotation;
-      EXPECT_NEAR(position_ratio, 1.0, 0.10) << "draw " << draw << ", pose " << i;
-      EXPECT_NEAR(rotation_ratio, 1.0, 0.10) << "draw " << draw << ", pose " << i;
-    }
+    worst_ratio = std::max(worst_ratio, checkCovariance(g, bound, *dfn->out.pose_covariance, draw));
   }
   const double mean = nees_sum / kDraws;
   std::cout << "BundleAdjustment " << cameras << " cameras on " << arc_deg << " deg, " << loss
-            << ": mean NEES " << mean << " for " << k_dof << " dof\n";
+            << ": mean NEES " << mean << " for " << k_dof << " dof; covariance traces within "
+            << 100 * worst_ratio << " % of the bound's\n";
   EXPECT_NEAR(mean / k_dof, 1.0, 0.15 + 4 * std::sqrt(2.0 / (k_dof * kDraws)));
 }
 
@@ -359,7 +372,7 @@ TEST(BundleAdjustment, AnUnknownScaleIsHeldByTheFirstBaseline) {
   EXPECT_NEAR(*unitless->out.rms_error, *metric->out.rms_error, 1e-6);
 }
 
-TEST(BundleAdjustment, BadInputIsReported) {
+TEST(BundleAdjustment, BadObservationsAreReported) {
   RingOptions o;
   o.cameras = 5;
   o.points = 60;
@@ -393,9 +406,16 @@ TEST(BundleAdjustment, BadInputIsReported) {
     if (ob["camera"] != 3) obs.push_back(ob);
   dfn->in.observations.set(obs);
   testing::expectRejected(*dfn, "no observation from pose 3");
-  dfn->in.observations.set(testing::ringObservations(s));
+}
 
-  // Poses.
+TEST(BundleAdjustment, BadPosesPointsAndCameraAreReported) {
+  RingOptions o;
+  o.cameras = 5;
+  o.points = 60;
+  const RingScene s = testing::ringScene(o);
+  auto dfn = make();
+  setInputs(*dfn, s);
+  ASSERT_OK(dfn->process());
   std::vector<Eigen::Isometry3d> poses = s.initial_poses;
   poses[2].translation().y() = std::numeric_limits<double>::infinity();
   dfn->in.poses.set(testing::ringPoses(poses));

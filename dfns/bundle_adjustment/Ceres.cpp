@@ -29,28 +29,61 @@ struct Observation {
 };
 
 /// The reprojection residual (px) of one observation over the pose's rotation (world_q_camera,
-/// Eigen's x y z w), its centre block and the point. The centre block is the camera centre in
-/// the world frame, or, when `on_sphere`, the unit direction u of the centre from `origin` (the
-/// first camera's centre): centre = origin + radius u.
-struct Reprojection {
-  Eigen::Vector2d ray;
-  double fx, fy;
-  bool on_sphere;
-  Eigen::Vector3d origin;
-  double radius;
+/// Eigen's x y z w), its centre block and the point, with its analytic Jacobians. The centre
+/// block is the camera centre in the world frame, or, when `on_sphere`, the unit direction d of
+/// the centre from `origin` (the first camera's centre): centre = origin + radius d. The point in
+/// the camera, p = q* (x - centre) q, is written for q = (w, u) as v - 2 w (u x v) + 2 u x (u x v)
+/// with v = x - centre (Eigen's rotation by a unit quaternion), whose derivatives in w and u are
+/// the ambient Jacobian Ceres maps through the quaternion manifold.
+class Reprojection final : public ceres::SizedCostFunction<2, 4, 3, 3> {
+ public:
+  Reprojection(const Eigen::Vector2d& ray, double fx, double fy, bool on_sphere,
+               const Eigen::Vector3d& origin, double radius)
+      : ray_(ray), fx_(fx), fy_(fy), on_sphere_(on_sphere), origin_(origin), radius_(radius) {}
 
-  template <typename T>
-  bool operator()(const T* q, const T* c, const T* x, T* r) const {
-    const Eigen::Map<const Eigen::Quaternion<T>> world_q_camera(q);
-    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> block(c), point(x);
-    const Eigen::Matrix<T, 3, 1> centre =
-        on_sphere ? Eigen::Matrix<T, 3, 1>(origin.cast<T>() + T(radius) * block)
-                  : Eigen::Matrix<T, 3, 1>(block);
-    const Eigen::Matrix<T, 3, 1> p = world_q_camera.conjugate() * (point - centre);
-    r[0] = T(fx) * (p.x() / p.z() - T(ray.x()));
-    r[1] = T(fy) * (p.y() / p.z() - T(ray.y()));
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    const Eigen::Map<const Eigen::Vector3d> u(parameters[0]);
+    const double w = parameters[0][3];
+    const Eigen::Map<const Eigen::Vector3d> block(parameters[1]), point(parameters[2]);
+    const Eigen::Vector3d centre =
+        on_sphere_ ? Eigen::Vector3d(origin_ + radius_ * block) : Eigen::Vector3d(block);
+    const Eigen::Vector3d v = point - centre;
+    const Eigen::Vector3d uv = u.cross(v);
+    const Eigen::Vector3d p = v - 2 * w * uv + 2 * u.cross(uv);
+    const double iz = 1.0 / p.z();
+    residuals[0] = fx_ * (p.x() * iz - ray_.x());
+    residuals[1] = fy_ * (p.y() * iz - ray_.y());
+    if (!jacobians) return true;
+    Eigen::Matrix<double, 2, 3> dr_dp;
+    dr_dp << fx_ * iz, 0, -fx_ * p.x() * iz * iz, 0, fy_ * iz, -fy_ * p.y() * iz * iz;
+    const Eigen::Matrix3d su = skew(u);
+    const Eigen::Matrix3d dp_dv = Eigen::Matrix3d::Identity() - 2 * w * su + 2 * su * su;
+    if (jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, 2, 4, Eigen::RowMajor>> j(jacobians[0]);
+      const Eigen::Matrix3d dp_du =
+          2 * w * skew(v) +
+          2 * (u.dot(v) * Eigen::Matrix3d::Identity() + u * v.transpose() - 2 * v * u.transpose());
+      j.leftCols<3>() = dr_dp * dp_du;
+      j.col(3) = dr_dp * (-2 * uv);
+    }
+    if (jacobians[1]) {
+      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[1]);
+      j = -(on_sphere_ ? radius_ : 1.0) * dr_dp * dp_dv;
+    }
+    if (jacobians[2]) {
+      Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>> j(jacobians[2]);
+      j = dr_dp * dp_dv;
+    }
     return true;
   }
+
+ private:
+  Eigen::Vector2d ray_;
+  double fx_, fy_;
+  bool on_sphere_;
+  Eigen::Vector3d origin_;
+  double radius_;
 };
 
 /// The poses and points being refined, in the blocks Ceres works on.
@@ -225,12 +258,22 @@ struct Solve {
 class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
  protected:
   Status onProcess() override {
-    const Parameters& p = params_;
+    State s;
+    std::vector<Observation> obs;
+    CDFF_RETURN_IF_ERROR(readInputs(s, obs));
+    CDFF_RETURN_IF_ERROR(checkProblem(s, obs));
+    std::vector<Label> labels;
+    Solve solve;
+    CDFF_RETURN_IF_ERROR(adjust(s, obs, labels, solve));
+    return writeOutputs(s, obs, labels, solve);
+  }
+
+ private:
+  /// The poses, points and observations (undistorted to normalised coordinates), checked.
+  Status readInputs(State& s, std::vector<Observation>& obs) {
     const PoseArray& in_poses = *in.poses;
     const PointCloud& in_points = *in.points;
     const CameraModel& camera = *in.camera;
-
-    State s;
     CDFF_RETURN_IF_ERROR(readPoses(in_poses, s));
     CDFF_RETURN_IF_ERROR(in_points.validate("input 'points'"));
     if (!in_poses.frame_id.empty() && !in_points.frame_id.empty() &&
@@ -246,22 +289,27 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
     if (n_points < 3)
       return invalidInput(
           "input 'points' has {} points; expected at least 3 (a pose needs 3 points)", n_points);
-    if (p.fixed_poses > n_poses)
+    if (params_.fixed_poses > n_poses)
       return invalidInput(
           "parameter fixed_poses = {} holds more poses than the {} of input 'poses'; expected "
           "at most {}",
-          p.fixed_poses, n_poses, n_poses);
-
+          params_.fixed_poses, n_poses, n_poses);
     std::vector<Eigen::Vector2d> pixels;
     Result<std::vector<Observation>> read =
         readObservations(*in.observations, n_poses, n_points, pixels);
     if (!read) return read.status();
-    std::vector<Observation> obs = std::move(read).value();
+    obs = std::move(read).value();
     auto rays = normalizedCoordinates(camera, pixels, "input 'observations'");
     if (!rays) return rays.status();
     for (std::size_t k = 0; k < obs.size(); ++k) obs[k].ray = rays.value()[k];
+    return Status::ok();
+  }
 
-    // Every pose must be seen in, and a free one determined by at least 3 points.
+  /// Every pose seen in and a free one determined by 3 points, the gauge's scale (the first two
+  /// centres' distance when only the first pose is held), more residuals than unknowns.
+  Status checkProblem(State& s, const std::vector<Observation>& obs) {
+    const int n_poses = static_cast<int>(s.rotation.size());
+    const int n_points = static_cast<int>(s.points.size());
     const std::vector<char> all(obs.size(), 1);
     const std::vector<int> per_pose = pointsPerPose(obs, all, n_poses);
     for (int i = 0; i < n_poses; ++i) {
@@ -270,13 +318,12 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
             "input 'observations' has no observation from pose {}; expected every pose to see "
             "points",
             i);
-      if (i >= p.fixed_poses && per_pose[i] < 3)
+      if (i >= params_.fixed_poses && per_pose[i] < 3)
         return invalidInput(
             "input 'observations': pose {} sees {} points; expected at least 3 for a free pose", i,
             per_pose[i]);
     }
-    // The gauge's scale: the first two centres' distance when only the first pose is held.
-    held_ = p.fixed_poses;
+    held_ = params_.fixed_poses;
     s.on_sphere = held_ == 1;
     if (s.on_sphere) {
       const Eigen::Vector3d d = s.centre[1] - s.centre[0];
@@ -290,84 +337,99 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
             s.radius);
       s.direction = d / s.radius;
     }
-    // More residuals than unknowns (points seen from 2 poses; the others are held).
-    {
-      const std::vector<int> views = viewsPerPoint(obs, all, n_points);
-      int unknowns = 6 * (n_poses - held_) - (s.on_sphere ? 1 : 0);
-      for (int v : views) unknowns += v >= 2 ? 3 : 0;
-      if (2 * static_cast<int>(obs.size()) <= unknowns)
-        return invalidInput(
-            "input 'observations' has {} observations ({} residuals) for {} unknowns; expected "
-            "more residuals than unknowns",
-            obs.size(), 2 * obs.size(), unknowns);
-    }
+    const std::vector<int> views = viewsPerPoint(obs, all, n_points);
+    int unknowns = 6 * (n_poses - held_) - (s.on_sphere ? 1 : 0);
+    for (int v : views) unknowns += v >= 2 ? 3 : 0;
+    if (2 * static_cast<int>(obs.size()) <= unknowns)
+      return invalidInput(
+          "input 'observations' has {} observations ({} residuals) for {} unknowns; expected "
+          "more residuals than unknowns",
+          obs.size(), 2 * obs.size(), unknowns);
+    return Status::ok();
+  }
 
-    // Observations whose point is behind the camera at the start, and those of points seen
-    // from one pose, are left out.
-    std::vector<Label> labels(obs.size(), Label::kInlier);
+  /// Each observation's label at the current state: behind the camera, beyond the threshold,
+  /// unverified (markUnverified) or an inlier.
+  std::vector<Label> classify(const State& s, const std::vector<Observation>& obs) const {
+    const CameraModel& camera = *in.camera;
+    std::vector<Label> labels(obs.size());
     for (std::size_t k = 0; k < obs.size(); ++k) {
       Eigen::Vector2d r;
-      if (!s.residual(obs[k], camera.fx, camera.fy, r)) labels[k] = Label::kBehind;
+      labels[k] = !s.residual(obs[k], camera.fx, camera.fy, r) ? Label::kBehind
+                  : r.norm() > params_.outlier_threshold       ? Label::kOutlier
+                                                               : Label::kInlier;
     }
-    markUnverified(obs, n_points, labels);
-    std::vector<char> use(obs.size());
-    for (std::size_t k = 0; k < obs.size(); ++k) use[k] = labels[k] == Label::kInlier;
+    markUnverified(obs, static_cast<int>(s.points.size()), labels);
+    return labels;
+  }
 
-    // The robust solves on every observation, the loss's scale from the residuals' median down
-    // to loss_scale (a quarter each time), then least squares on the inliers until the
-    // classification settles.
-    Solve solve;
-    const std::size_t n_obs = obs.size();
-    int robust_rounds = 0;
+  /// The robust solves on every usable observation, the loss's scale from the residuals' median
+  /// down to loss_scale (a quarter each time), then least squares on the inliers until the
+  /// classification settles (at most 3 rounds). Observations behind the camera at the start and
+  /// those of points seen from one pose are left out of the robust solves.
+  Status adjust(State& s, const std::vector<Observation>& obs, std::vector<Label>& labels,
+                Solve& solve) {
+    const Parameters& p = params_;
+    const CameraModel& camera = *in.camera;
+    labels = classify(s, obs);
+    std::vector<char> use(obs.size());
+    for (std::size_t k = 0; k < obs.size(); ++k) use[k] = labels[k] != Label::kBehind;
+    std::vector<Label> start(obs.size());
+    for (std::size_t k = 0; k < obs.size(); ++k)
+      start[k] = use[k] ? Label::kInlier : Label::kBehind;
+    markUnverified(obs, static_cast<int>(s.points.size()), start);
+    for (std::size_t k = 0; k < obs.size(); ++k) use[k] = start[k] == Label::kInlier;
     for (double scale = std::max(p.loss_scale, medianResidual(s, obs, use, camera.fx, camera.fy));;
          scale = std::max(p.loss_scale, 0.25 * scale)) {
       Result<Solve> solved = solveOnce(s, obs, use, camera, scale);
       if (!solved) return solved.status();
-      ++robust_rounds;
       if (scale <= p.loss_scale) break;
     }
-    for (int round = 0; round < 4; ++round) {
-      if (round > 0) {
-        Result<Solve> solved = solveOnce(s, obs, use, camera, 0.0);
-        if (!solved) return solved.status();
-        solve = std::move(solved).value();
-      }
-      std::vector<Label> next(n_obs);
-      for (std::size_t k = 0; k < n_obs; ++k) {
-        Eigen::Vector2d r;
-        next[k] = !s.residual(obs[k], camera.fx, camera.fy, r) ? Label::kBehind
-                  : r.norm() > p.outlier_threshold             ? Label::kOutlier
-                                                               : Label::kInlier;
-      }
-      markUnverified(obs, n_points, next);
-      const bool settled = round > 0 && next == labels;
+    labels = classify(s, obs);
+    for (int round = 0; round < 3; ++round) {
+      for (std::size_t k = 0; k < obs.size(); ++k) use[k] = labels[k] == Label::kInlier;
+      Result<Solve> solved = solveOnce(s, obs, use, camera, 0.0);
+      if (!solved) return solved.status();
+      solve = std::move(solved).value();
+      std::vector<Label> next = classify(s, obs);
+      const bool settled = next == labels;
       labels = std::move(next);
-      for (std::size_t k = 0; k < n_obs; ++k) use[k] = labels[k] == Label::kInlier;
       if (settled) break;
     }
-    const std::vector<int> inlier_points = pointsPerPose(obs, use, n_poses);
-    for (int i = held_; i < n_poses; ++i)
+    for (std::size_t k = 0; k < obs.size(); ++k) use[k] = labels[k] == Label::kInlier;
+    const std::vector<int> inlier_points =
+        pointsPerPose(obs, use, static_cast<int>(s.rotation.size()));
+    for (std::size_t i = held_; i < inlier_points.size(); ++i)
       if (inlier_points[i] < 3)
         return numericalFailure(
             "BundleAdjustment: pose {} keeps {} inlier points after the refinement (outlier "
             "threshold {} px); expected at least 3",
             i, inlier_points[i], p.outlier_threshold);
+    return Status::ok();
+  }
 
-    // Outputs.
+  /// The outputs (and the warnings that give the counts).
+  Status writeOutputs(State& s, const std::vector<Observation>& obs,
+                      const std::vector<Label>& labels, Solve& solve) {
+    const CameraModel& camera = *in.camera;
+    const int n_poses = static_cast<int>(s.rotation.size());
+    const int n_points = static_cast<int>(s.points.size());
+    nlohmann::json covariance;
+    if (params_.compute_covariance) {
+      Result<nlohmann::json> cov = poseCovariance(s, solve, n_poses);
+      if (!cov) return cov.status();
+      covariance = std::move(cov).value();
+    }
     nlohmann::json status = nlohmann::json::array();
+    std::vector<char> use(obs.size());
     double sum2 = 0;
-    int inliers = 0, outliers = 0, behind = 0, unverified = 0;
-    for (std::size_t k = 0; k < n_obs; ++k) {
+    std::array<int, 4> count{};  // per label
+    for (std::size_t k = 0; k < obs.size(); ++k) {
       status.push_back(labelName(labels[k]));
-      if (labels[k] == Label::kInlier) {
-        Eigen::Vector2d r;
-        s.residual(obs[k], camera.fx, camera.fy, r);
-        sum2 += r.squaredNorm();
-        ++inliers;
-      }
-      outliers += labels[k] == Label::kOutlier;
-      behind += labels[k] == Label::kBehind;
-      unverified += labels[k] == Label::kUnverified;
+      ++count[static_cast<int>(labels[k])];
+      use[k] = labels[k] == Label::kInlier;
+      Eigen::Vector2d r;
+      if (use[k] && s.residual(obs[k], camera.fx, camera.fy, r)) sum2 += r.squaredNorm();
     }
     const std::vector<int> views = viewsPerPoint(obs, use, n_points);
     nlohmann::json point_status = nlohmann::json::array();
@@ -376,48 +438,38 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
       point_status.push_back(views[j] >= 2 ? "ok" : "undetermined");
       undetermined += views[j] < 2;
     }
-    nlohmann::json covariance;
-    if (p.compute_covariance) {
-      Result<nlohmann::json> cov = poseCovariance(s, solve, n_poses);
-      if (!cov) return cov.status();
-      covariance = std::move(cov).value();
-    }
-    if (outliers + behind + unverified > 0)
+    const int inliers = count[static_cast<int>(Label::kInlier)];
+    if (inliers < static_cast<int>(obs.size()))
       warn(fmt::format(
           "BundleAdjustment: of {} observations, {} are outliers, {} behind the camera, {} "
           "unverified; {} of {} points undetermined",
-          n_obs, outliers, behind, unverified, undetermined, n_points));
+          obs.size(), count[static_cast<int>(Label::kOutlier)],
+          count[static_cast<int>(Label::kBehind)], count[static_cast<int>(Label::kUnverified)],
+          undetermined, n_points));
     if (solve.summary.termination_type == ceres::NO_CONVERGENCE)
       warn(fmt::format("BundleAdjustment: no convergence in max_iterations = {} ({})",
-                       p.max_iterations, solve.summary.message));
-
+                       params_.max_iterations, solve.summary.message));
     PoseArray poses;
-    poses.stamp = in_poses.stamp;
-    poses.frame_id = in_poses.frame_id;
+    poses.stamp = in.poses->stamp;
+    poses.frame_id = in.poses->frame_id;
     for (int i = 0; i < n_poses; ++i) {
-      if (i < held_) {
-        poses.poses.push_back(in_poses.poses[i]);
-        continue;
-      }
       Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
       pose.linear() = s.rotation[i].normalized().toRotationMatrix();
       pose.translation() = s.centreOf(i);
-      poses.poses.push_back(pose);
+      poses.poses.push_back(i < held_ ? in.poses->poses[i] : pose);
     }
     std::vector<Eigen::Vector3f> points;
-    points.reserve(s.points.size());
     for (const Eigen::Vector3d& x : s.points) points.push_back(x.cast<float>());
     out.poses.set(std::move(poses));
-    out.points.set(PointCloud::fromXyz(points, in_points.frame_id, in_points.stamp));
+    out.points.set(PointCloud::fromXyz(points, in.points->frame_id, in.points->stamp));
     out.status.set(std::move(status));
     out.point_status.set(std::move(point_status));
     out.inlier_count.set(inliers);
     out.rms_error.set(inliers > 0 ? std::sqrt(sum2 / (2.0 * inliers)) : 0.0);
-    if (p.compute_covariance) out.pose_covariance.set(std::move(covariance));
+    if (params_.compute_covariance) out.pose_covariance.set(std::move(covariance));
     return Status::ok();
   }
 
- private:
   /// One Levenberg-Marquardt solve of the observations in `use`, updating `s`: with the robust
   /// loss at `scale` px, or plain least squares when `scale` is 0.
   Result<Solve> solveOnce(State& s, const std::vector<Observation>& obs,
@@ -444,8 +496,8 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
       const Observation& o = obs[k];
       const bool sphere = s.on_sphere && o.camera == 1;
       double* centre = sphere ? s.direction.data() : s.centre[o.camera].data();
-      auto* cost = new ceres::AutoDiffCostFunction<Reprojection, 2, 4, 3, 3>(new Reprojection{
-          o.ray, camera.fx, camera.fy, sphere, s.centre[0], sphere ? s.radius : 0.0});
+      auto* cost = new Reprojection(o.ray, camera.fx, camera.fy, sphere, s.centre[0],
+                                    sphere ? s.radius : 0.0);
       problem.AddResidualBlock(cost, loss, s.rotation[o.camera].coeffs().data(), centre,
                                s.points[o.point].data());
       pose_used[o.camera] = point_used[o.point] = 1;
