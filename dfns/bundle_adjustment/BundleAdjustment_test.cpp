@@ -478,6 +478,12 @@ TEST(BundleAdjustment, BadPosesPointsAndCameraAreReported) {
   auto held = make("{fixed_poses: 6}");
   setInputs(*held, s);
   testing::expectRejected(*held, "fixed_poses = 6 holds more poses than the 5");
+  auto two = make("{fixed_poses: 2}");
+  setInputs(*two, s);
+  poses = s.initial_poses;
+  poses[1].translation() = poses[0].translation();
+  two->in.poses.set(testing::ringPoses(poses));
+  testing::expectRejected(*two, "the 2 held camera centres (fixed_poses) are at one place");
   ASSERT_OK(dfn->process());
 }
 

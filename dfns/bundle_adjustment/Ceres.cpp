@@ -325,10 +325,18 @@ class BundleAdjustmentCeres final : public BundleAdjustmentCeresBase {
     }
     held_ = params_.fixed_poses;
     s.on_sphere = held_ == 1;
+    double extent = 0;
+    for (const Eigen::Vector3d& x : s.points) extent = std::max(extent, (x - s.centre[0]).norm());
+    double held_baseline = 0;
+    for (int i = 1; i < held_; ++i)
+      held_baseline = std::max(held_baseline, (s.centre[i] - s.centre[0]).norm());
+    if (held_ >= 2 && !(held_baseline > 1e-9 * extent))
+      return invalidInput(
+          "input 'poses': the {} held camera centres (fixed_poses) are at one place; expected a "
+          "baseline between them, which holds the scale",
+          held_);
     if (s.on_sphere) {
       const Eigen::Vector3d d = s.centre[1] - s.centre[0];
-      double extent = 0;
-      for (const Eigen::Vector3d& x : s.points) extent = std::max(extent, (x - s.centre[0]).norm());
       s.radius = d.norm();
       if (!(s.radius > 1e-9 * extent))
         return invalidInput(
