@@ -487,6 +487,20 @@ TEST(BundleAdjustment, BadPosesPointsAndCameraAreReported) {
   ASSERT_OK(dfn->process());
 }
 
+TEST(BundleAdjustment, AScaleFreeGeometryMakesTheCovarianceAnError) {
+  // 5 frames on the closed ring: neighbours 72 deg apart share only two-view points (a surface
+  // point is seen within about 56 deg of azimuth either side), so each link's scale is free and
+  // the loop closure fixes all but one of them: J^T J is singular, and the covariance says so
+  // instead of returning a finite matrix.
+  RingOptions o;
+  o.cameras = 5;
+  o.seed = 5;
+  const RingScene s = testing::ringScene(o);
+  auto dfn = make("{compute_covariance: true}");
+  setInputs(*dfn, s);
+  testing::expectRejected(*dfn, "Ceres' Covariance failed", StatusCode::kNumericalFailure);
+}
+
 TEST(BundleAdjustment, OutOfRangeParametersAreRejected) {
   auto node = Registry::instance().create("BundleAdjustment", "Ceres");
   ASSERT_TRUE(node.isOk());
