@@ -99,11 +99,12 @@ class LiveClient {
   beast::error_code error_;
 };
 
+// Recording 0: the live recording; 1: the fixture's, which has no pose measurement.
 std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesystem::path& rec) {
   ServerOptions options;
   options.port = 0;
   options.app_dir = files.app_dir;
-  options.recordings = {rec.string()};
+  options.recordings = {rec.string(), files.recording.string()};
   options.graphs = {kGraph};
   Result<std::unique_ptr<Server>> server = Server::start(options);
   EXPECT_TRUE(server.isOk()) << server.status().message();
@@ -255,6 +256,11 @@ TEST(LiveRun, RefusesGraphsOutsideTheServedOnesAndBadValues) {
               404, kGraph);
   // Bad values: recording, speed, types, unknown and missing keys, not JSON, wrong type.
   expectError(start({{"graph", kGraph}, {"recording", 3}}), 404, "\"recording\" = 3");
+  // A recording without the graph's input: the API's own refusal.
+  const Reply lacking = start({{"graph", kGraph}, {"recording", 1}});
+  EXPECT_EQ(lacking.status, 404) << lacking.body;
+  EXPECT_NE(lacking.body.find("/chaser/target_pose_measurement"), std::string::npos)
+      << lacking.body;
   expectError(start({{"graph", kGraph}, {"recording", 0}, {"speed", 100}}), 400, "[0.0625, 16]");
   expectError(start({{"graph", kGraph}, {"recording", "0"}}), 400, "an integer");
   expectError(start({{"graph", kGraph}, {"recording", 0}, {"colour", 1}}), 400, "colour");
