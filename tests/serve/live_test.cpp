@@ -193,6 +193,21 @@ TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
   EXPECT_TRUE(state["dfpcs"][0]["instances"][0].contains("mean_wall_s")) << state.dump();
   EXPECT_FALSE(state["events"].empty());  // the DFPC's lifecycle (initialised, started)
 
+  // One DFPC through stopDFPC and initDFPC; an unknown DFPC (the API's 404), a bad request.
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "stop"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["dfpcs"][0]["state"], "stopped");
+  EXPECT_EQ(r.json()["state"], "running");
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "init"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["dfpcs"][0]["state"], "running");
+  r = post(port, "/api/live/dfpcs/nope", R"({"request": "stop"})");
+  EXPECT_EQ(r.status, 404) << r.body;
+  EXPECT_NE(r.body.find("nope"), std::string::npos) << r.body;
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "start"})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_NE(r.body.find("initDFPC"), std::string::npos) << r.body;
+
   // The state machine through setCDFFState: idle, a refused idle (the API's message), a bad
   // value, stop.
   r = post(port, "/api/live/state", R"({"request": "idle"})");

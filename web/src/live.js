@@ -1,5 +1,6 @@
 // The Live page (docs/web-ui.md#the-live-run): a DFPC graph run on a served recording through
-// the server's /api/live routes (the §7.3 external API), watched over /ws/live: the camera image
+// the server's /api/live routes (the §7.3 external API: setCDFFState, initDFPC, stopDFPC),
+// watched over /ws/live: the camera image
 // being processed, the estimated position against the truth, each DFPC's state and faults, the
 // events log.
 import uPlot from 'uplot';
@@ -190,6 +191,17 @@ export class LivePage {
         row = body.insertRow();
         row.dataset.name = d.name;
         for (let i = 0; i < 7; i += 1) row.insertCell();
+        // initDFPC and stopDFPC of this DFPC alone.
+        const actions = row.insertCell();
+        for (const [label, request] of [['Init', 'init'], ['Stop', 'stop']]) {
+          const button = document.createElement('button');
+          button.type = 'button';
+          button.textContent = label;
+          button.dataset.request = request;
+          button.addEventListener('click', () => this.command(() => sendJson(
+            'POST', `/api/live/dfpcs/${encodeURIComponent(d.name)}`, { request })));
+          actions.append(button);
+        }
       }
       const step = (d.instances ?? []).reduce((sum, i) => sum + (i.mean_wall_s ?? 0), 0);
       const cells = [d.name, d.error ?? d.state, d.track_state ?? '-', String(d.products ?? '-'),

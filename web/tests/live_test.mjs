@@ -1,8 +1,9 @@
 // The Live page in a real browser (Playwright driving Debian's Chromium, headless), against
 // `cdff serve` on a recording that `cdff sim` writes first. A live run started from the page
 // (dfpcs/pose_filtering.yaml fed with the recording's /truth/target_pose, given with --graph)
-// produces poses on the plot beside the truth, the camera image and the DFPC's row; Idle,
-// Resume and Stop move the CDFF's state; no console error. Screenshots go to OUT_DIR.
+// produces poses on the plot beside the truth, the camera image and the DFPC's row; the row's
+// Stop and Init (stopDFPC, initDFPC), Idle, Resume and Stop move the states; no console error.
+// Screenshots go to OUT_DIR.
 // usage: node live_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
 import { spawn, spawnSync } from 'node:child_process';
 import { existsSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
@@ -124,6 +125,14 @@ try {
   check('recording-consumed', await waitFor(page, () => /consumed/.test(document.getElementById('live-state').textContent)),
         await page.$eval('#live-state', (p) => p.textContent));
   await page.screenshot({ path: path.join(out, 'live-running.png') });
+
+  // One DFPC stopped and initialised again (stopDFPC, initDFPC) from its row.
+  await page.click('#live-dfpcs tr[data-name="pose_filtering"] button[data-request="stop"]');
+  check('dfpc-stopped', await waitFor(page, () => document.querySelector('#live-dfpcs tr[data-name="pose_filtering"]').dataset.state === 'stopped'),
+        await page.$eval('#live-dfpcs tbody', (b) => b.textContent));
+  await page.click('#live-dfpcs tr[data-name="pose_filtering"] button[data-request="init"]');
+  check('dfpc-initialised', await waitFor(page, () => document.querySelector('#live-dfpcs tr[data-name="pose_filtering"]').dataset.state === 'running'),
+        await page.$eval('#live-dfpcs tbody', (b) => b.textContent));
 
   await page.click('#live-idle');
   check('idle', await waitFor(page, () => document.body.dataset.liveState === 'idle'),

@@ -75,7 +75,11 @@ class LiveHub::Run final : public dfpc::Sink {
       : hub_(hub), id_(id), spec_(std::move(spec)), recording_(recording), dfpc_(std::move(dfpc)) {}
 
   ~Run() override {
-    // The API's threads (input, subscriptions) call into this run: they end with the Cdff.
+    // The API's threads (input, subscriptions) call into this run. The subscriptions are
+    // cancelled first (their callbacks use cdff_, which is null while it is being destroyed);
+    // the input thread ends with the Cdff.
+    if (cdff_)
+      for (api::SubscriptionId id : subscriptions_) (void)cdff_->cancelSubscription(id);
     cdff_.reset();
     {
       std::lock_guard lock(mutex_);
@@ -102,9 +106,11 @@ class LiveHub::Run final : public dfpc::Sink {
         dfpc_, kPoseHz,
         [this](Timestamp, const Result<PoseWithCovariance>& pose) { onPose(pose); });
     if (!poses) return poses.status();
+    subscriptions_.push_back(*poses);
     Result<api::SubscriptionId> status = cdff_->getDFPCStatus(
         dfpc_, kStatusHz, [this](Timestamp, const Result<dfpc::DfpcStatus>& s) { onStatus(s); });
     if (!status) return status.status();
+    subscriptions_.push_back(*status);
     return cdff_->setCDFFState(api::StateRequest::kInitialize);
   }
 
@@ -304,6 +310,7 @@ class LiveHub::Run final : public dfpc::Sink {
   const Recording& recording_;
   const std::string dfpc_;
   std::unique_ptr<api::Cdff> cdff_;
+  std::vector<api::SubscriptionId> subscriptions_;
   std::optional<Timestamp> last_pose_;  // the subscription thread's only
 
   mutable std::mutex mutex_;  // what follows
@@ -395,6 +402,19 @@ Status LiveHub::request(api::StateRequest request) {
     std::lock_guard lock(run_mutex_);
     if (!run_) return notFound("no live run; expected POST /api/live first");
     s = run_->cdff().setCDFFState(request);
+  }
+  json j = state();
+  j["type"] = "state";
+  publish({false, dump(j)});
+  return s;
+}
+
+Status LiveHub::dfpcRequest(const std::string& dfpc, bool init) {
+  Status s;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (!run_) return notFound("no live run; expected POST /api/live first");
+    s = init ? run_->cdff().initDFPC(dfpc) : run_->cdff().stopDFPC(dfpc);
   }
   json j = state();
   j["type"] = "state";

@@ -61,6 +61,9 @@ class LiveHub {
   nlohmann::json state() const;
   /// setCDFFState(request); the API's own error when it refuses. kNotFound when no run exists.
   Status request(api::StateRequest request);
+  /// initDFPC(dfpc) (`init`) or stopDFPC(dfpc); the API's own error when it refuses (an unknown
+  /// DFPC, a CDFF that is not running or idle). kNotFound when no run exists.
+  Status dfpcRequest(const std::string& dfpc, bool init);
   /// Stops the run (setCDFFState(stop) when the state allows it) and removes it.
   Status remove();
 

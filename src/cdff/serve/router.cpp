@@ -592,11 +592,12 @@ Response Router::live(const Request& req, const Target& target) const {
     res.set(http::field::allow, allowed);
     return res;
   };
-  if (!options_.live || seg.size() > 3 || (seg.size() == 3 && seg[1] != "live") ||
-      (seg.size() == 3 && seg[2] != "state"))
+  const bool state_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "state";
+  const bool dfpc_route = seg.size() == 4 && seg[1] == "live" && seg[2] == "dfpcs";
+  if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route))
     return errorResponse(http::status::not_found,
-                         fmt::format("no API route '{}'; expected /api/graphs, /api/live or "
-                                     "/api/live/state",
+                         fmt::format("no API route '{}'; expected /api/graphs, /api/live, "
+                                     "/api/live/state or /api/live/dfpcs/<dfpc>",
                                      req.target()),
                          req.version(), req.keep_alive());
   if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
@@ -605,10 +606,35 @@ Response Router::live(const Request& req, const Target& target) const {
     if (req.method() != http::verb::get) return notAllowed("GET");
     return jsonResponse(req, json{{"graphs", hub.graphs()}});
   }
+  // The API refuses what its state does not allow: a conflict with that state (409), with the
+  // API's message; no run, or an unknown DFPC, is 404.
+  const auto refused = [&](const Status& s) {
+    return errorResponse(
+        s.code() == StatusCode::kNotFound ? http::status::not_found : http::status::conflict,
+        s.message(), req.version(), req.keep_alive());
+  };
+  if (dfpc_route) {  // /api/live/dfpcs/<dfpc>: initDFPC, stopDFPC
+    if (req.method() != http::verb::post) return notAllowed("POST");
+    auto body = objectBody(req, "{\"request\": \"init\"|\"stop\"}");
+    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+    const json& b = std::get<json>(body);
+    for (const auto& [key, value] : b.items())
+      if (key != "request")
+        return fromStatus(req,
+                          invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
+    const json request = b.value("request", json());
+    if (request != "init" && request != "stop")
+      return fromStatus(req, invalidInput("\"request\" = {}: expected \"init\" (initDFPC) or "
+                                          "\"stop\" (stopDFPC)",
+                                          request.dump()));
+    Status s = hub.dfpcRequest(seg[3], request == "init");
+    if (!s.isOk()) return refused(s);
+    return jsonResponse(req, hub.state());
+  }
   if (seg.size() == 3) {  // /api/live/state
     if (req.method() != http::verb::post) return notAllowed("POST");
     auto body = objectBody(req, "{\"request\": \"idle\"|\"initialize\"|\"reset\"|\"stop\"}");
-    if (Response* refused = std::get_if<Response>(&body)) return std::move(*refused);
+    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
     const json& b = std::get<json>(body);
     for (const auto& [key, value] : b.items())
       if (key != "request")
@@ -621,11 +647,7 @@ Response Router::live(const Request& req, const Target& target) const {
     Result<api::StateRequest> request = parseStateRequest(b["request"].get<std::string>());
     if (!request) return fromStatus(req, request.status());
     Status s = hub.request(*request);
-    // The API refuses a transition that its state does not allow: a conflict with that state.
-    if (!s.isOk())
-      return errorResponse(
-          s.code() == StatusCode::kNotFound ? http::status::not_found : http::status::conflict,
-          s.message(), req.version(), req.keep_alive());
+    if (!s.isOk()) return refused(s);
     return jsonResponse(req, hub.state());
   }
   if (req.method() == http::verb::get) return jsonResponse(req, hub.state());
