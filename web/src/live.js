@@ -23,13 +23,18 @@ class LivePlot {
     this.pending = false;
   }
 
-  reset(truth, title) {
-    this.truth = truth;
+  /** A new run: no estimate yet, no truth until setTruth(). */
+  reset(title) {
     this.estimate = { t: [], x: [], y: [], z: [] };
+    this.setTruth(null, title);
+  }
+
+  /** The truth of the run's recording (the estimates received meanwhile are kept). */
+  setTruth(truth, title) {
+    this.truth = truth;
     this.title = title;
     this.plot?.destroy();
     this.plot = null;
-    this.element.dataset.estimates = '0';
     this.element.dataset.truth = String(truth?.t.length ?? 0);
     this.draw();
   }
@@ -80,7 +85,8 @@ export class LivePage {
     this.plot = new LivePlot($('live-plot'));
     this.socket = null;
     this.run = null;  // the server's state of the run
-    this.runKey = '';  // graph and recording of the run the plot shows
+    this.runKey = '';  // the number of the run the plot shows
+    this.truthFor = '';  // the run whose truth and events are shown
     this.imageUrl = null;
     this.recordings = [];
   }
@@ -132,6 +138,8 @@ export class LivePage {
     }
     const frame = JSON.parse(data);
     if (frame.type === 'pose') {
+      // A run's first poses may come before its state.
+      if (String(frame.run) !== this.runKey) this.beginRun(String(frame.run));
       this.plot.add(frame);
       $('live-pose').textContent = `${frame.dfpc}: ${frame.child_frame} in ${frame.frame} at ${frame.t.toFixed(2)} s: `
         + `(${frame.p.map((v) => v.toFixed(3)).join(', ')}) m, σ (${[0, 7, 14].map((i) => Math.sqrt(frame.covariance[i]).toFixed(3)).join(', ')}) m`;
@@ -163,12 +171,18 @@ export class LivePage {
     if (!active) return;
     if (run.dfpcs) this.showDfpcs(run.dfpcs);
     const key = String(run.run);
-    if (key !== this.runKey) {
-      this.runKey = key;
+    if (key !== this.runKey) this.beginRun(key);
+    if (this.truthFor !== key) {  // the run's first state: its events so far, its truth
+      this.truthFor = key;
       $('live-events').replaceChildren();
       for (const e of run.events ?? []) this.addEvent(e);
       this.loadTruth(run.recording).catch((e) => { $('live-error').textContent = e.message; });
     }
+  }
+
+  beginRun(key) {
+    this.runKey = key;
+    this.plot.reset('estimated position (m)');
   }
 
   async loadTruth(recordingId) {
@@ -176,11 +190,11 @@ export class LivePage {
     const truth = info.channels.filter((c) => c.topic.startsWith('/truth/') && POSE_TYPES.includes(c.type) && c.messages > 0);
     const pick = truth.find((c) => c.topic === '/truth/target_pose') ?? truth[0];
     if (!pick) {
-      this.plot.reset(null, 'estimated position (m); the recording has no /truth/ pose channel');
+      this.plot.setTruth(null, 'estimated position (m); the recording has no /truth/ pose channel');
       return;
     }
     const poses = await getJson(`/api/recordings/${recordingId}/poses`, { channel: pick.topic, max_points: 4000 });
-    this.plot.reset(poses, `estimated position (solid) and ${pick.topic} (dashed, ${poses.child_frame} in ${poses.frame}), m`);
+    this.plot.setTruth(poses, `estimated position (solid) and ${pick.topic} (dashed, ${poses.child_frame} in ${poses.frame}), m`);
   }
 
   showDfpcs(dfpcs) {

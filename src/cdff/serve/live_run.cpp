@@ -250,6 +250,7 @@ class LiveHub::Run final : public dfpc::Sink {
     last_pose_ = pose->pose.stamp;
     json j = poseJson(pose->pose);
     j["type"] = "pose";
+    j["run"] = id_;
     j["dfpc"] = dfpc_;
     j["t"] = seconds(pose->pose.stamp);
     j["stamp_us"] = pose->pose.stamp;
