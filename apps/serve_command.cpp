@@ -101,7 +101,7 @@ void addServeCommand(CLI::App& root, int& exit_code) {
       "serve",
       "The web application: replay MCAP recordings in a browser, run a DFPC graph live on one "
       "(docs/web-ui.md)");
-  cmd->add_option("RECORDING", options->recordings, "MCAP files to offer for replay")
+  cmd->add_option("RECORDING", options->recordings, "MCAP files to offer for replay and live runs")
       ->check(CLI::ExistingFile);
   cmd->add_option("--port", options->port, "TCP port (0: any free port, printed at start)")
       ->check(CLI::Range(0, 65535))

@@ -100,9 +100,11 @@ class LiveClient {
 };
 
 // Recording 0: the live recording; 1: the fixture's, which has no pose measurement.
-std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesystem::path& rec) {
+std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesystem::path& rec,
+                                        const std::string& token = {}) {
   ServerOptions options;
   options.port = 0;
+  options.token = token;
   options.app_dir = files.app_dir;
   options.recordings = {rec.string(), files.recording.string()};
   options.graphs = {kGraph};
@@ -289,8 +291,36 @@ TEST(LiveRun, RefusesGraphsOutsideTheServedOnesAndBadValues) {
                       "0\r\nConnection: close\r\n\r\n"),
               405, "GET, POST, DELETE");
   expectError(get(port, "/api/live/other"), 404, "/api/live/state");
+  // The live stream from another site's page (WebSockets are not bound by the same-origin
+  // policy).
+  const std::string upgrade =
+      "GET /ws/live HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+      "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n"
+      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
+  expectError(sendRaw(port, upgrade + "Origin: http://evil.example\r\n\r\n"), 403,
+              "Origin 'http://evil.example'");
+  expectError(sendRaw(port, upgrade.substr(0, 12) + "?x=1" + upgrade.substr(12) + "\r\n"), 400,
+              "'x'");
   // Nothing was started by any of them.
   EXPECT_EQ(get(port, "/api/live").json()["active"], false);
+}
+
+TEST(LiveRun, RoutesNeedTheTokenWhenTheServerHasOne) {
+  const Files files = makeFiles("live_token");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  const std::string token = "0123456789abcdef0123456789abcdef";
+  auto server = startLiveServer(files, rec, token);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+  EXPECT_EQ(post(port, "/api/live", startBody()).status, 401);
+  EXPECT_EQ(get(port, "/api/live").status, 401);
+  EXPECT_EQ(get(port, "/api/graphs").status, 401);
+  EXPECT_EQ(post(port, "/api/live/state", R"({"request": "idle"})").status, 401);
+  EXPECT_EQ(get(port, "/ws/live").status, 401);
+  EXPECT_EQ(get(port, "/api/live").json()["error"].is_string(), true);
+  const Reply r = post(port, "/api/live?token=" + token, startBody());
+  EXPECT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
 }
 
 }  // namespace
