@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <random>
+#include <thread>
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
@@ -32,16 +34,20 @@ Eigen::Vector3d truthAt(Timestamp stamp) {
   return {1.0 + 0.2 * toSeconds(stamp - kLiveStart), 0.5, 10.0};
 }
 
-// A camera at 10 Hz whose frame k is uniform with value 6 k, the target's pose measured at
-// 10 Hz on the graph's input channel, and its truth.
-std::filesystem::path writeLiveRecording(const Files& files) {
-  const std::filesystem::path path = files.dir / "live.mcap";
+// A camera at 10 Hz whose frame k is uniform with value 6 k (or, `noisy`, 640x480 of noise:
+// large JPEGs), the target's pose measured at 10 Hz on the graph's input channel, and its truth.
+std::filesystem::path writeLiveRecording(const Files& files, bool noisy = false) {
+  const std::filesystem::path path = files.dir / (noisy ? "noisy.mcap" : "live.mcap");
   io::Recorder recorder;
   EXPECT_TRUE(recorder.open(path.string()).isOk());
+  std::mt19937 random(7);
+  const int width = noisy ? 640 : 64, height = noisy ? 480 : 48;
   for (int k = 0; k < kLiveFrames; ++k) {
     const Timestamp stamp = kLiveStart + k * kPeriod;
-    Result<Image> image =
-        Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 6 * k), 64, 48, PixelFormat::kGray8);
+    std::vector<std::uint8_t> pixels(width * height, 6 * k);
+    if (noisy)
+      for (std::uint8_t& p : pixels) p = static_cast<std::uint8_t>(random());
+    Result<Image> image = Image::fromBytes(std::move(pixels), width, height, PixelFormat::kGray8);
     EXPECT_TRUE(image.isOk());
     image->stamp = stamp;
     image->frame_id = "camera_optical";
@@ -321,6 +327,35 @@ TEST(LiveRun, RoutesNeedTheTokenWhenTheServerHasOne) {
   const Reply r = post(port, "/api/live?token=" + token, startBody());
   EXPECT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(r.json()["state"], "running");
+}
+
+// A browser that connects and never reads: its socket's buffers fill with 640x480 noise JPEGs
+// (about 300 kB each, 40 of them) and its queue drops frames, while the DFPC still gets every
+// message of the recording and the input reaches its end.
+TEST(LiveRun, ABrowserThatDoesNotReadNeverHoldsTheRunBack) {
+  const Files files = makeFiles("live_slow");
+  const std::filesystem::path rec = writeLiveRecording(files, true);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+  LiveClient idle(port);  // never reads
+  ASSERT_FALSE(idle.error()) << idle.error().message();
+  Reply r = post(port, "/api/live", startBody(4.0));
+  ASSERT_EQ(r.status, 200) << r.body;
+  json state;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    state = get(port, "/api/live").json();
+  } while (!state.value("input_ended", false) && std::chrono::steady_clock::now() < deadline);
+  ASSERT_TRUE(state.value("input_ended", false)) << state.dump();
+  // Every measurement reached the DFPC (processed before the input's end was seen).
+  ASSERT_EQ(state["dfpcs"].size(), 1u) << state.dump();
+  EXPECT_EQ(state["dfpcs"][0]["messages"], kLiveFrames) << state.dump();
+  EXPECT_EQ(state["dfpcs"][0]["ignored_messages"], 0) << state.dump();
+  // Only that browser's copy was decimated.
+  ASSERT_EQ(state["browsers"].size(), 1u) << state.dump();
+  EXPECT_GT(state["browsers"][0]["dropped"].get<int>(), 0) << state.dump();
 }
 
 }  // namespace

@@ -388,13 +388,20 @@ Status LiveHub::start(const LiveSpec& given, bool& conflict) {
 }
 
 json LiveHub::state() const {
-  std::lock_guard lock(run_mutex_);
-  if (!run_) {
-    json j = {{"active", false}};
-    if (!last_.is_null()) j["last"] = last_;
-    return j;
+  json j;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (run_) {
+      j = run_->state();
+    } else {
+      j = {{"active", false}};
+      if (!last_.is_null()) j["last"] = last_;
+    }
   }
-  return run_->state();
+  j["browsers"] = json::array();
+  std::lock_guard lock(listeners_mutex_);
+  for (const auto& [id, l] : listeners_) j["browsers"].push_back({{"dropped", l.second()}});
+  return j;
 }
 
 Status LiveHub::request(api::StateRequest request) {
@@ -442,13 +449,13 @@ Status LiveHub::remove() {
   return Status::ok();
 }
 
-std::uint64_t LiveHub::addListener(Listener listener) {
+std::uint64_t LiveHub::addListener(Listener listener, DroppedCount dropped) {
   json j = state();
   j["type"] = "state";
   listener({false, dump(j)});
   std::lock_guard lock(listeners_mutex_);
   const std::uint64_t id = next_listener_++;
-  listeners_.emplace(id, std::move(listener));
+  listeners_.emplace(id, std::pair(std::move(listener), std::move(dropped)));
   return id;
 }
 
@@ -466,7 +473,7 @@ void LiveHub::publish(const Frame& frame) const {
   std::vector<Listener> listeners;
   {
     std::lock_guard lock(listeners_mutex_);
-    for (const auto& [id, l] : listeners_) listeners.push_back(l);
+    for (const auto& [id, l] : listeners_) listeners.push_back(l.first);
   }
   for (const Listener& l : listeners) l(frame);
 }

@@ -43,6 +43,8 @@ Result<api::StateRequest> parseStateRequest(const std::string& text);
 class LiveHub {
  public:
   using Listener = std::function<void(Frame)>;
+  /// How many frames a browser's queue has dropped so far.
+  using DroppedCount = std::function<std::uint64_t()>;
 
   /// `graphs`: the graph files a run may use, as given (the only values "graph" may take).
   LiveHub(const std::vector<std::unique_ptr<Recording>>& recordings,
@@ -57,7 +59,8 @@ class LiveHub {
   /// {"active": false, "last": the removed run's last state} when no run exists, else the run's
   /// state: {"active", "run" (its number), "graph",
   /// "recording", "speed", "camera", "state" (getCDFFState), "input_ended", "t",
-  /// "dfpcs": [getDFPCStatus of each, with the latest DFN timings], "events": [the last ones]}.
+  /// "dfpcs": [getDFPCStatus of each, with the latest DFN timings], "events": [the last ones]};
+  /// both with "browsers": [{"dropped"}], one per watching browser.
   nlohmann::json state() const;
   /// setCDFFState(request); the API's own error when it refuses. kNotFound when no run exists.
   Status request(api::StateRequest request);
@@ -68,8 +71,9 @@ class LiveHub {
   Status remove();
 
   /// A browser: every frame of the run goes to `listener` from now on (first the current
-  /// state). Returns its id for removeListener().
-  std::uint64_t addListener(Listener listener);
+  /// state); `dropped` tells what its queue dropped (in the state's "browsers"). Returns its id
+  /// for removeListener().
+  std::uint64_t addListener(Listener listener, DroppedCount dropped);
   void removeListener(std::uint64_t id);
   std::size_t listeners() const;
 
@@ -87,7 +91,7 @@ class LiveHub {
   std::uint64_t runs_ =
       0;  // runs started so far  // the removed run's last state (null before the first)
   mutable std::mutex listeners_mutex_;
-  std::map<std::uint64_t, Listener> listeners_;
+  std::map<std::uint64_t, std::pair<Listener, DroppedCount>> listeners_;
   std::uint64_t next_listener_ = 1;
 };
 

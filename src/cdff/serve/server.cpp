@@ -93,7 +93,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     };
     if (stream_.live) {
       // The live run's threads hand their frames to this browser's queue (never waiting on it).
-      listener_ = live_->addListener(sink);
+      listener_ = live_->addListener(sink, [queue = queue_] { return queue->dropped(); });
       read();
       return;
     }
