@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <random>
 #include <thread>
 
@@ -105,6 +106,27 @@ class LiveClient {
   beast::error_code error_;
 };
 
+// pose_filtering's filter with its innovation's NIS as the only output: a graph with no pose.
+std::filesystem::path writeNisGraph(const Files& files) {
+  const std::filesystem::path path = files.dir / "nis_only.yaml";
+  std::ofstream(path) << R"(name: nis_only
+inputs:
+  - {name: pose, type: PoseWithCovariance, channel: /chaser/target_pose_measurement}
+outputs:
+  - {name: nis, type: Double}
+nodes:
+  ekf:
+    dfn: EstimationFilter
+    dfi: ExtendedKalman
+    parameters: {max_prediction_interval: 10}
+    trigger: {on: [pose_measurement]}
+connections:
+  - pose -> ekf.pose_measurement
+  - ekf.innovation_nis -> nis
+)";
+  return path;
+}
+
 // Recording 0: the live recording; 1: the fixture's, which has no pose measurement.
 std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesystem::path& rec,
                                         const std::string& token = {}) {
@@ -113,7 +135,7 @@ std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesyste
   options.token = token;
   options.app_dir = files.app_dir;
   options.recordings = {rec.string(), files.recording.string()};
-  options.graphs = {kGraph};
+  options.graphs = {kGraph, writeNisGraph(files).string()};
   Result<std::unique_ptr<Server>> server = Server::start(options);
   EXPECT_TRUE(server.isOk()) << server.status().message();
   return server ? std::move(*server) : nullptr;
@@ -132,7 +154,7 @@ TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
 
   Reply r = get(port, "/api/graphs");
   ASSERT_EQ(r.status, 200) << r.body;
-  EXPECT_EQ(r.json()["graphs"], json::array({kGraph}));
+  EXPECT_EQ(r.json()["graphs"], json::array({kGraph, (files.dir / "nis_only.yaml").string()}));
   r = get(port, "/api/live");
   ASSERT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(r.json()["active"], false);
@@ -327,6 +349,21 @@ TEST(LiveRun, RoutesNeedTheTokenWhenTheServerHasOne) {
   const Reply r = post(port, "/api/live?token=" + token, startBody());
   EXPECT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(r.json()["state"], "running");
+}
+
+// A graph without a pose output runs; its state says why no pose is streamed.
+TEST(LiveRun, AGraphWithoutAPoseRunsAndSaysSo) {
+  const Files files = makeFiles("live_nis");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const std::string graph = (files.dir / "nis_only.yaml").string();
+  const Reply r = post(server->port(), "/api/live",
+                       json{{"graph", graph}, {"recording", 0}, {"speed", 4}}.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+  EXPECT_NE(r.json().value("pose_error", "").find("has no pose output"), std::string::npos)
+      << r.body;
 }
 
 // A browser that connects and never reads: its socket's buffers fill with 640x480 noise JPEGs

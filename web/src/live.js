@@ -170,6 +170,7 @@ export class LivePage {
     $('live-stop').disabled = !active;
     if (!active) return;
     if (run.dfpcs) this.showDfpcs(run.dfpcs);
+    if (run.pose_error) $('live-pose').textContent = `no pose to plot: ${run.pose_error}`;
     const key = String(run.run);
     if (key !== this.runKey) this.beginRun(key);
     if (this.truthFor !== key) {  // the run's first state: its events so far, its truth

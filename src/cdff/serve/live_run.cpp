@@ -105,8 +105,12 @@ class LiveHub::Run final : public dfpc::Sink {
     Result<api::SubscriptionId> poses = cdff_->getDFPCPose(
         dfpc_, kPoseHz,
         [this](Timestamp, const Result<PoseWithCovariance>& pose) { onPose(pose); });
-    if (!poses) return poses.status();
-    subscriptions_.push_back(*poses);
+    // A graph without a pose output (a model, a haptic scan) runs too; the state says why no
+    // pose comes.
+    if (poses)
+      subscriptions_.push_back(*poses);
+    else
+      pose_error_ = poses.status().message();
     Result<api::SubscriptionId> status = cdff_->getDFPCStatus(
         dfpc_, kStatusHz, [this](Timestamp, const Result<dfpc::DfpcStatus>& s) { onStatus(s); });
     if (!status) return status.status();
@@ -124,6 +128,7 @@ class LiveHub::Run final : public dfpc::Sink {
               {"speed", spec_.speed},
               {"camera", spec_.camera},
               {"state", api::toString(cdff_->getCDFFState())}};
+    if (!pose_error_.empty()) j["pose_error"] = pose_error_;
     // The API is asked without mutex_ held: its input thread calls the sink (which takes
     // mutex_) under the API's own locks.
     Result<dfpc::DfpcStatus> s = cdff_->getDFPCStatus(dfpc_);
@@ -312,6 +317,7 @@ class LiveHub::Run final : public dfpc::Sink {
   const std::string dfpc_;
   std::unique_ptr<api::Cdff> cdff_;
   std::vector<api::SubscriptionId> subscriptions_;
+  std::string pose_error_;              // why there is no pose subscription ("" when there is one)
   std::optional<Timestamp> last_pose_;  // the subscription thread's only
 
   mutable std::mutex mutex_;  // what follows
