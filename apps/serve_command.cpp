@@ -1,8 +1,10 @@
-// cdff serve [RECORDING...] [--port N] [--listen ADDR] [--app-dir DIR]
+// cdff serve [RECORDING...] [--port N] [--listen ADDR] [--app-dir DIR] [--graph FILE...]
 //
 // The ground-station web application (docs/web-ui.md): replay of the given MCAP recordings in a
-// browser. Listens on 127.0.0.1 unless --listen names another address, and then every request
+// browser, and a live run of a DFPC graph on one of them (the graphs of ./dfpcs/ and those given
+// with --graph). Listens on 127.0.0.1 unless --listen names another address, and then every request
 // must carry the token printed at start. Stops on SIGINT or SIGTERM.
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 #include <memory>
@@ -21,7 +23,22 @@ struct ServeOptions {
   int port = 8765;
   std::string listen;
   std::string app_dir;
+  std::vector<std::string> graphs;
 };
+
+// The graphs a live run may use: dfpcs/*.yaml of the working directory (the repository's, whose
+// graphs name their model files relative to it), then those given, each once.
+std::vector<std::string> servedGraphs(const std::vector<std::string>& given) {
+  std::vector<std::string> graphs;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("dfpcs", ec))
+    if (entry.is_regular_file() && entry.path().extension() == ".yaml")
+      graphs.push_back("dfpcs/" + entry.path().filename().string());
+  std::sort(graphs.begin(), graphs.end());
+  for (const std::string& g : given)
+    if (std::find(graphs.begin(), graphs.end(), g) == graphs.end()) graphs.push_back(g);
+  return graphs;
+}
 
 // The bundle the build writes next to the command: <build>/web/dist for <build>/apps/cdff.
 std::filesystem::path defaultAppDir() {
@@ -33,6 +50,7 @@ std::filesystem::path defaultAppDir() {
 int serve(const ServeOptions& o) {
   serve::ServerOptions options;
   options.recordings = o.recordings;
+  options.graphs = servedGraphs(o.graphs);
   options.port = static_cast<unsigned short>(o.port);
   options.app_dir = o.app_dir.empty() ? defaultAppDir() : std::filesystem::path(o.app_dir);
   if (!o.listen.empty()) {
@@ -58,8 +76,9 @@ int serve(const ServeOptions& o) {
   for (const auto& r : (*server)->recordings())
     for (const std::string& d : r->damages())
       fmt::print(stderr, "warning: {} is damaged: {}\n", r->path(), d);
-  fmt::print("cdff serve: {} recording(s), the web application from {}\n",
-             (*server)->recordings().size(), options.app_dir.string());
+  fmt::print(
+      "cdff serve: {} recording(s), {} graph(s) for a live run, the web application from {}\n",
+      (*server)->recordings().size(), options.graphs.size(), options.app_dir.string());
   if (options.token.empty())
     fmt::print("cdff serve: listening on http://{}:{}/\n", host, (*server)->port());
   else
@@ -79,8 +98,10 @@ int serve(const ServeOptions& o) {
 void addServeCommand(CLI::App& root, int& exit_code) {
   auto options = std::make_shared<ServeOptions>();
   CLI::App* cmd = root.add_subcommand(
-      "serve", "The web application: replay MCAP recordings in a browser (docs/web-ui.md)");
-  cmd->add_option("RECORDING", options->recordings, "MCAP files to offer for replay")
+      "serve",
+      "The web application: replay MCAP recordings in a browser, run a DFPC graph live on one "
+      "(docs/web-ui.md)");
+  cmd->add_option("RECORDING", options->recordings, "MCAP files to offer for replay and live runs")
       ->check(CLI::ExistingFile);
   cmd->add_option("--port", options->port, "TCP port (0: any free port, printed at start)")
       ->check(CLI::Range(0, 65535))
@@ -90,6 +111,10 @@ void addServeCommand(CLI::App& root, int& exit_code) {
                   "token printed at start");
   cmd->add_option("--app-dir", options->app_dir,
                   "The bundled web application (default: web/dist of the build tree)");
+  cmd->add_option("--graph", options->graphs,
+                  "A DFPC graph a live run may use, besides dfpcs/*.yaml of the working directory "
+                  "(repeatable)")
+      ->check(CLI::ExistingFile);
   cmd->callback([options, &exit_code] { exit_code = serve(*options); });
 }
 

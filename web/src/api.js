@@ -21,6 +21,19 @@ export async function getJson(path, params) {
   return body;
 }
 
+/** A JSON request (POST, DELETE...) with an optional JSON body; throws the server's error. */
+export async function sendJson(method, path, body) {
+  const init = { method };
+  if (body !== undefined) {
+    init.headers = { 'Content-Type': 'application/json' };
+    init.body = JSON.stringify(body);
+  }
+  const response = await fetch(withToken(path), init);
+  const answer = await response.json();
+  if (!response.ok) throw new Error(`${method} ${path}: ${answer.error ?? response.statusText}`);
+  return answer;
+}
+
 export function url(path, params) {
   return withToken(path, params);
 }

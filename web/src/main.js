@@ -1,6 +1,7 @@
-// The ground-station web application (docs/web-ui.md). This phase: the Replay page.
+// The ground-station web application (docs/web-ui.md): the Replay and Live pages.
 import './style.css';
 import { getJson } from './api.js';
+import { LivePage } from './live.js';
 import { PositionPlot } from './plot.js';
 import { ReplayStream } from './replay.js';
 
@@ -137,7 +138,20 @@ function bindControls() {
   $('pose-channel').addEventListener('change', () => openStream().catch((e) => showError(e.message)));
 }
 
+// The page named by the URL's #hash (Replay by default); the Live page connects when first shown.
+const live = new LivePage();
+function showPage() {
+  const page = window.location.hash === '#live' ? 'live' : 'replay';
+  for (const name of ['replay', 'live']) {
+    $(name).hidden = name !== page;
+    $(`tab-${name}`).classList.toggle('active', name === page);
+  }
+  if (page === 'live') live.open().catch((e) => { $('live-error').textContent = e.message; });
+}
+
 async function main() {
+  window.addEventListener('hashchange', showPage);
+  showPage();
   bindControls();
   const recordings = await getJson('/api/recordings');
   $('recordings').replaceChildren(...recordings.map((r) => {

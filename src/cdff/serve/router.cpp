@@ -422,10 +422,11 @@ Response Router::api(const Request& req, const Target& target) const {
     res.set(http::field::allow, allowed);
     return res;
   };
+  if (seg.size() >= 2 && (seg[1] == "live" || seg[1] == "graphs")) return live(req, target);
   if (seg.size() < 2 || seg[1] != "recordings" || seg.size() > 4)
     return errorResponse(http::status::not_found,
                          fmt::format("no API route '{}'; expected /api/recordings[/<id>[/messages"
-                                     "|image|poses|stream]]",
+                                     "|image|poses|stream]], /api/graphs or /api/live[/state]",
                                      req.target()),
                          req.version(), req.keep_alive());
   if (seg.size() == 2) {
@@ -485,10 +486,12 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
   Target target;
   if (std::optional<Response> refused = admit(req, target)) return std::move(*refused);
   const auto& seg = target.segments;
-  if (seg.size() != 4 || seg[0] != "api" || seg[1] != "recordings" || seg[3] != "stream")
+  const bool is_live = seg.size() == 2 && seg[0] == "ws" && seg[1] == "live" && options_.live;
+  if (!is_live &&
+      (seg.size() != 4 || seg[0] != "api" || seg[1] != "recordings" || seg[3] != "stream"))
     return errorResponse(http::status::not_found,
                          fmt::format("no WebSocket endpoint '{}'; expected "
-                                     "/api/recordings/<id>/stream",
+                                     "/api/recordings/<id>/stream or /ws/live",
                                      req.target()),
                          req.version(), false);
   // A browser sends the page's origin: a page of another site must not open the stream
@@ -500,6 +503,12 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
         http::status::forbidden,
         fmt::format("Origin '{}' is not this server's; expected '{}'", origin, expected),
         req.version(), false);
+  if (is_live) {
+    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+    Stream out;
+    out.live = true;
+    return out;
+  }
   Result<const Recording*> rec = recording(seg[2]);
   if (!rec) return fromStatus(req, rec.status());
   if (Status s = expectParameters(target.query, {"image", "pose", "max_width"}, "pose"); !s.isOk())
@@ -514,6 +523,150 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
   out.spec.max_width = static_cast<int>(*width);
   if (Status s = validate(**rec, out.spec); !s.isOk()) return fromStatus(req, s);
   return out;
+}
+
+}  // namespace cdff::serve
+
+// ---- /api/live ---------------------------------------------------------------------------------
+
+namespace cdff::serve {
+
+namespace {
+
+// A JSON object body: the parsed object, or the error response (415 for the content type, 400
+// for text that does not parse or is not an object).
+std::variant<json, Response> objectBody(const Request& req, const char* expected) {
+  const std::string_view type = req[http::field::content_type];
+  if (!type.starts_with("application/json"))
+    return errorResponse(http::status::unsupported_media_type,
+                         fmt::format("Content-Type '{}': expected application/json", type),
+                         req.version(), req.keep_alive());
+  json body = json::parse(req.body(), nullptr, false);
+  if (body.is_discarded() || !body.is_object())
+    return errorResponse(http::status::bad_request,
+                         fmt::format("the body '{}' is not a JSON object; expected {}",
+                                     req.body().substr(0, 200), expected),
+                         req.version(), req.keep_alive());
+  return body;
+}
+
+Result<LiveSpec> liveSpec(const json& body) {
+  LiveSpec spec;
+  bool graph = false, recording = false;
+  for (const auto& [key, value] : body.items()) {
+    if (key == "graph" && value.is_string()) {
+      spec.graph = value.get<std::string>();
+      graph = true;
+    } else if (key == "recording" && value.is_number_unsigned()) {
+      spec.recording = value.get<std::size_t>();
+      recording = true;
+    } else if (key == "speed" && value.is_number()) {
+      spec.speed = value.get<double>();
+    } else if (key == "camera" && value.is_string()) {
+      spec.camera = value.get<std::string>();
+    } else if (key == "graph" || key == "recording" || key == "speed" || key == "camera") {
+      return invalidInput("\"{}\" = {}: expected {}", key, value.dump(),
+                          key == "graph"       ? "a graph of GET /api/graphs (a string)"
+                          : key == "recording" ? "a recording's id (an integer)"
+                          : key == "speed"     ? "a factor in [0.0625, 16] (a number)"
+                                               : "an Image channel's topic (a string)");
+    } else {
+      return invalidInput(
+          "key \"{}\" is unknown; expected one of {{graph, recording, speed, camera}}", key);
+    }
+  }
+  if (!graph) return invalidInput("\"graph\" is missing; expected a graph of GET /api/graphs");
+  if (!recording) return invalidInput("\"recording\" is missing; expected a recording's id");
+  return spec;
+}
+
+}  // namespace
+
+Response Router::live(const Request& req, const Target& target) const {
+  const auto& seg = target.segments;
+  const auto notAllowed = [&](const char* allowed) {
+    Response res = errorResponse(
+        http::status::method_not_allowed,
+        fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
+        req.version(), req.keep_alive());
+    res.set(http::field::allow, allowed);
+    return res;
+  };
+  const bool state_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "state";
+  const bool dfpc_route = seg.size() == 4 && seg[1] == "live" && seg[2] == "dfpcs";
+  if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route))
+    return errorResponse(http::status::not_found,
+                         fmt::format("no API route '{}'; expected /api/graphs, /api/live, "
+                                     "/api/live/state or /api/live/dfpcs/<dfpc>",
+                                     req.target()),
+                         req.version(), req.keep_alive());
+  if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+  LiveHub& hub = *options_.live;
+  if (seg[1] == "graphs") {
+    if (req.method() != http::verb::get) return notAllowed("GET");
+    return jsonResponse(req, json{{"graphs", hub.graphs()}});
+  }
+  // The API refuses what its state does not allow: a conflict with that state (409), with the
+  // API's message; no run, or an unknown DFPC, is 404.
+  const auto refused = [&](const Status& s) {
+    return errorResponse(
+        s.code() == StatusCode::kNotFound ? http::status::not_found : http::status::conflict,
+        s.message(), req.version(), req.keep_alive());
+  };
+  if (dfpc_route) {  // /api/live/dfpcs/<dfpc>: initDFPC, stopDFPC
+    if (req.method() != http::verb::post) return notAllowed("POST");
+    auto body = objectBody(req, "{\"request\": \"init\"|\"stop\"}");
+    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+    const json& b = std::get<json>(body);
+    for (const auto& [key, value] : b.items())
+      if (key != "request")
+        return fromStatus(req,
+                          invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
+    const json request = b.value("request", json());
+    if (request != "init" && request != "stop")
+      return fromStatus(req, invalidInput("\"request\" = {}: expected \"init\" (initDFPC) or "
+                                          "\"stop\" (stopDFPC)",
+                                          request.dump()));
+    Status s = hub.dfpcRequest(seg[3], request == "init");
+    if (!s.isOk()) return refused(s);
+    return jsonResponse(req, hub.state());
+  }
+  if (seg.size() == 3) {  // /api/live/state
+    if (req.method() != http::verb::post) return notAllowed("POST");
+    auto body = objectBody(req, "{\"request\": \"idle\"|\"initialize\"|\"reset\"|\"stop\"}");
+    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+    const json& b = std::get<json>(body);
+    for (const auto& [key, value] : b.items())
+      if (key != "request")
+        return fromStatus(req,
+                          invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
+    if (!b.contains("request") || !b["request"].is_string())
+      return fromStatus(req, invalidInput("\"request\" = {}: expected one of idle, initialize, "
+                                          "reset, stop (a string)",
+                                          b.value("request", json()).dump()));
+    Result<api::StateRequest> request = parseStateRequest(b["request"].get<std::string>());
+    if (!request) return fromStatus(req, request.status());
+    Status s = hub.request(*request);
+    if (!s.isOk()) return refused(s);
+    return jsonResponse(req, hub.state());
+  }
+  if (req.method() == http::verb::get) return jsonResponse(req, hub.state());
+  if (req.method() == http::verb::delete_) {
+    Status s = hub.remove();
+    if (!s.isOk()) return fromStatus(req, s);
+    return jsonResponse(req, hub.state());
+  }
+  if (req.method() != http::verb::post) return notAllowed("GET, POST, DELETE");
+  auto body = objectBody(req, "{\"graph\", \"recording\", \"speed\"}");
+  if (Response* refused = std::get_if<Response>(&body)) return std::move(*refused);
+  Result<LiveSpec> spec = liveSpec(std::get<json>(body));
+  if (!spec) return fromStatus(req, spec.status());
+  bool conflict = false;
+  Status s = hub.start(*spec, conflict);
+  if (conflict)
+    return errorResponse(http::status::conflict, s.message(), req.version(), req.keep_alive());
+  if (!s.isOk()) return fromStatus(req, s);
+  return jsonResponse(req, hub.state());
 }
 
 }  // namespace cdff::serve

@@ -18,6 +18,7 @@
 
 #include <boost/beast/http.hpp>
 
+#include "cdff/serve/live_run.hpp"
 #include "cdff/serve/recording.hpp"
 #include "cdff/serve/replay_stream.hpp"
 
@@ -32,6 +33,8 @@ struct RouterOptions {
   /// Required on every request when not empty (Authorization: Bearer <token>, or ?token=).
   /// Without one, the Host header must name the loopback interface.
   std::string token;
+  /// The live run and its graphs (/api/graphs, /api/live, /ws/live); none when null.
+  std::shared_ptr<LiveHub> live;
 };
 
 /// A request target split into its %-decoded path segments and query parameters.
@@ -55,11 +58,12 @@ class Router {
   /// The response to a request that is not a WebSocket upgrade.
   Response handle(const Request& request) const;
 
-  /// A WebSocket upgrade to /api/recordings/<id>/stream: the recording and what to stream, or
-  /// the error response to send instead of accepting it.
+  /// A WebSocket upgrade to /api/recordings/<id>/stream (the recording and what to stream) or
+  /// to /ws/live (`live`: the live run's frames), or the error response to send instead.
   struct Stream {
     const Recording* recording = nullptr;
     StreamSpec spec;
+    bool live = false;
   };
   std::variant<Stream, Response> stream(const Request& request) const;
 
@@ -68,6 +72,7 @@ class Router {
   std::optional<Response> admit(const Request& request, Target& target) const;
   Response api(const Request& request, const Target& target) const;
   Response file(const Request& request, const Target& target) const;
+  Response live(const Request& request, const Target& target) const;
   Result<const Recording*> recording(const std::string& id) const;
 
   const std::vector<std::unique_ptr<Recording>>& recordings_;

@@ -45,9 +45,11 @@ class WsSession;
 // What the sessions share: the router, the limits, and the live WebSocket sessions (stopped
 // before the io_context goes).
 struct Context {
-  Context(const Router& r, const ServerOptions& o) : router(r), options(o) {}
+  Context(const Router& r, const ServerOptions& o, std::shared_ptr<LiveHub> l)
+      : router(r), options(o), live(std::move(l)) {}
   const Router& router;
   const ServerOptions& options;
+  std::shared_ptr<LiveHub> live;
   std::mutex mutex;
   std::vector<std::weak_ptr<WsSession>> streams;
 };
@@ -59,10 +61,12 @@ std::string errorFrame(const std::string& message) {
 
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(tcp::socket&& socket, Context& context, Router::Stream stream)
+  WsSession(tcp::socket&& socket, Context& context, Router::Stream stream,
+            std::shared_ptr<LiveHub> live)
       : ws_(std::move(socket)),
         queue_(std::make_shared<FrameQueue>(context.options.client_queue_frames)),
-        stream_(std::move(stream)) {}
+        stream_(std::move(stream)),
+        live_(std::move(live)) {}
   ~WsSession() { stopReplay(); }
 
   void run(Request request) {
@@ -70,7 +74,11 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     ws_.read_message_max(16 * 1024);  // commands are small
     ws_.async_accept(request, beast::bind_front_handler(&WsSession::onAccept, shared_from_this()));
   }
-  void stopReplay() { replay_.reset(); }
+  void stopReplay() {
+    replay_.reset();
+    if (live_ && listener_) live_->removeListener(*listener_);
+    listener_.reset();
+  }
 
  private:
   void onAccept(beast::error_code ec) {
@@ -83,6 +91,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         if (auto self = weak.lock()) self->flush();
       });
     };
+    if (stream_.live) {
+      // The live run's threads hand their frames to this browser's queue (never waiting on it).
+      listener_ = live_->addListener(sink, [queue = queue_] { return queue->dropped(); });
+      read();
+      return;
+    }
     Result<std::unique_ptr<ReplayStream>> replay = ReplayStream::start(
         *stream_.recording, stream_.spec, sink, [queue = queue_] { return queue->dropped(); });
     if (!replay) {
@@ -103,12 +117,14 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     const std::string text = beast::buffers_to_string(buffer_.data());
     buffer_.consume(buffer_.size());
     const json command = json::parse(text, nullptr, false);
-    Status s = command.is_discarded()
-                   ? invalidInput(
-                         "command '{}' is not JSON; expected {{\"cmd\": \"play\"}} or "
-                         "the like",
-                         text.substr(0, 200))
-                   : replay_->command(command);
+    Status s =
+        !replay_ ? invalidInput("the live stream takes no commands; expected POST /api/live/state")
+        : command.is_discarded()
+            ? invalidInput(
+                  "command '{}' is not JSON; expected {{\"cmd\": \"play\"}} or "
+                  "the like",
+                  text.substr(0, 200))
+            : replay_->command(command);
     if (!s.isOk()) {
       queue_->push({false, errorFrame(s.message())});
       flush();
@@ -137,6 +153,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   std::shared_ptr<FrameQueue> queue_;
   Router::Stream stream_;
   std::unique_ptr<ReplayStream> replay_;
+  std::shared_ptr<LiveHub> live_;
+  std::optional<std::uint64_t> listener_;
   bool writing_ = false;
   std::string current_;
 };
@@ -184,8 +202,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       if (Response* refused = std::get_if<Response>(&routed))
         return reply(std::move(*refused), true);
       stream_.expires_never();
-      auto ws = std::make_shared<WsSession>(stream_.release_socket(), context_,
-                                            std::move(std::get<Router::Stream>(routed)));
+      auto ws =
+          std::make_shared<WsSession>(stream_.release_socket(), context_,
+                                      std::move(std::get<Router::Stream>(routed)), context_.live);
       {
         std::lock_guard lock(context_.mutex);
         std::erase_if(context_.streams, [](const auto& w) { return w.expired(); });
@@ -245,6 +264,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 struct Server::Impl {
   ServerOptions options;
   std::vector<std::unique_ptr<Recording>> recordings;
+  std::shared_ptr<LiveHub> live;
   std::unique_ptr<Router> router;
   std::unique_ptr<Context> context;
   net::io_context ioc;
@@ -288,9 +308,10 @@ Result<std::unique_ptr<Server>> Server::start(ServerOptions options) {
     if (!r) return r.status();
     impl->recordings.push_back(std::move(*r));
   }
+  impl->live = std::make_shared<LiveHub>(impl->recordings, impl->options.graphs);
   impl->router = std::make_unique<Router>(
-      impl->recordings, RouterOptions{impl->options.app_dir, impl->options.token});
-  impl->context = std::make_unique<Context>(*impl->router, impl->options);
+      impl->recordings, RouterOptions{impl->options.app_dir, impl->options.token, impl->live});
+  impl->context = std::make_unique<Context>(*impl->router, impl->options, impl->live);
   const tcp::endpoint endpoint(address, impl->options.port);
   auto& acceptor = impl->acceptor;
   acceptor.open(endpoint.protocol(), ec);
@@ -311,7 +332,9 @@ Server::Server(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Server::~Server() {
   impl_->ioc.stop();
   for (std::thread& t : impl_->threads) t.join();
-  // No handler runs now: stop the replay threads before the io_context destroys the sessions.
+  // No handler runs now: stop the live run's and the replays' threads (which post to the
+  // sessions) before the io_context destroys the sessions.
+  (void)impl_->live->remove();
   std::lock_guard lock(impl_->context->mutex);
   for (const auto& weak : impl_->context->streams)
     if (auto s = weak.lock()) s->stopReplay();

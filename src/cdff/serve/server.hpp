@@ -20,8 +20,11 @@ struct ServerOptions {
   /// Required by every request when not empty. A server on an address other than the loopback
   /// interface must have one.
   std::string token;
-  std::filesystem::path app_dir;            // the bundled web application
-  std::vector<std::string> recordings;      // the MCAP files it may serve
+  std::filesystem::path app_dir;        // the bundled web application
+  std::vector<std::string> recordings;  // the MCAP files it may serve
+  /// The DFPC graph files a live run may use, as the browser names them (no other path is
+  /// accepted).
+  std::vector<std::string> graphs;
   std::size_t max_header_bytes = 8 * 1024;  // larger headers: 431
   std::size_t max_body_bytes = 64 * 1024;   // larger bodies: 413
   std::size_t client_queue_frames = 8;      // frames waiting per WebSocket client

@@ -1,0 +1,487 @@
+#include "cdff/serve/live_run.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "cdff/dfpc/graph.hpp"
+#include "cdff/dfpc/recording_streams.hpp"
+#include "cdff/serve/replay_stream.hpp"
+
+namespace cdff::serve {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr double kPoseHz = 20;        // clock time: poses sent at most this often per DFPC
+constexpr double kStatusHz = 2;       // DFPC status frames
+constexpr std::size_t kEvents = 200;  // events kept for GET /api/live
+constexpr int kImageWidth = 640;      // camera frames downscaled to this width at most
+constexpr int kImageQuality = 80;
+
+// The steady clock run `speed` times faster: the API paces the recording and its subscriptions
+// on it, so a run at 4x plays 4 s of recording per second.
+class ScaledClock final : public dfpc::Clock {
+ public:
+  explicit ScaledClock(double speed) : speed_(speed), start_(steady_.now()) {}
+  Timestamp now() const override {
+    return static_cast<Timestamp>(static_cast<double>(steady_.now() - start_) * speed_);
+  }
+  std::uint64_t interrupts() const override { return steady_.interrupts(); }
+  using Clock::sleepUntil;
+  bool sleepUntil(Timestamp t, std::uint64_t since) override {
+    if (t >= dfpc::kForever / 2) return steady_.sleepUntil(dfpc::kForever, since);
+    const auto wall = start_ + static_cast<Timestamp>(std::ceil(static_cast<double>(t) / speed_));
+    return steady_.sleepUntil(wall, since);
+  }
+  void interrupt() override { steady_.interrupt(); }
+
+ private:
+  mutable dfpc::SteadyClock steady_;
+  double speed_;
+  Timestamp start_;
+};
+
+json poseJson(const Transform& p) {
+  return {{"frame", p.parent_frame},
+          {"child_frame", p.child_frame},
+          {"p", {p.translation.x(), p.translation.y(), p.translation.z()}},
+          {"q", {p.rotation.w(), p.rotation.x(), p.rotation.y(), p.rotation.z()}}};
+}
+
+std::string dump(const json& j) {
+  return j.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+}  // namespace
+
+Result<api::StateRequest> parseStateRequest(const std::string& text) {
+  if (text == "idle") return api::StateRequest::kIdle;
+  if (text == "initialize") return api::StateRequest::kInitialize;
+  if (text == "reset") return api::StateRequest::kReset;
+  if (text == "stop") return api::StateRequest::kStop;
+  return invalidInput("\"request\" = \"{}\": expected one of idle, initialize, reset, stop", text);
+}
+
+// ---- the run -----------------------------------------------------------------------------------
+
+class LiveHub::Run final : public dfpc::Sink {
+ public:
+  Run(LiveHub& hub, std::uint64_t id, LiveSpec spec, const Recording& recording, std::string dfpc)
+      : hub_(hub), id_(id), spec_(std::move(spec)), recording_(recording), dfpc_(std::move(dfpc)) {}
+
+  ~Run() override {
+    // The API's threads (input, subscriptions) call into this run. The subscriptions are
+    // cancelled first (their callbacks use cdff_, which is null while it is being destroyed);
+    // the input thread ends with the Cdff.
+    if (cdff_)
+      for (api::SubscriptionId id : subscriptions_) (void)cdff_->cancelSubscription(id);
+    cdff_.reset();
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    if (encoder_.joinable()) encoder_.join();
+  }
+
+  Status start(const std::string& graph_file) {
+    auto mcap = std::make_unique<dfpc::McapInputStream>();
+    CDFF_RETURN_IF_ERROR(mcap->open({recording_.path()}));
+    api::Config config;
+    config.graph_files = {graph_file};
+    config.input = std::make_shared<Tee>(std::move(mcap), *this);
+    config.realtime = true;
+    config.clock = std::make_shared<ScaledClock>(spec_.speed);
+    config.sink = this;
+    Result<std::unique_ptr<api::Cdff>> cdff = api::Cdff::create(std::move(config));
+    if (!cdff) return cdff.status();
+    cdff_ = std::move(*cdff);
+    encoder_ = std::thread([this] { encode(); });
+    Result<api::SubscriptionId> poses = cdff_->getDFPCPose(
+        dfpc_, kPoseHz,
+        [this](Timestamp, const Result<PoseWithCovariance>& pose) { onPose(pose); });
+    // A graph without a pose output (a model, a haptic scan) runs too; the state says why no
+    // pose comes.
+    if (poses)
+      subscriptions_.push_back(*poses);
+    else
+      pose_error_ = poses.status().message();
+    Result<api::SubscriptionId> status = cdff_->getDFPCStatus(
+        dfpc_, kStatusHz, [this](Timestamp, const Result<dfpc::DfpcStatus>& s) { onStatus(s); });
+    if (!status) return status.status();
+    subscriptions_.push_back(*status);
+    return cdff_->setCDFFState(api::StateRequest::kInitialize);
+  }
+
+  api::Cdff& cdff() { return *cdff_; }
+
+  json state() const {
+    json j = {{"active", true},
+              {"run", id_},
+              {"graph", spec_.graph},
+              {"recording", spec_.recording},
+              {"speed", spec_.speed},
+              {"camera", spec_.camera},
+              {"state", api::toString(cdff_->getCDFFState())}};
+    if (!pose_error_.empty()) j["pose_error"] = pose_error_;
+    // The API is asked without mutex_ held: its input thread calls the sink (which takes
+    // mutex_) under the API's own locks.
+    Result<dfpc::DfpcStatus> s = cdff_->getDFPCStatus(dfpc_);
+    j["dfpcs"] = json::array();
+    if (s)
+      j["dfpcs"].push_back(statusJson(*s));
+    else
+      j["dfpcs"].push_back({{"name", dfpc_}, {"error", s.status().message()}});
+    std::lock_guard lock(mutex_);
+    j["input_ended"] = input_ended_;
+    if (!input_error_.empty()) j["input_error"] = input_error_;
+    j["t"] = last_stamp_ ? seconds(*last_stamp_) : 0.0;
+    j["duration_s"] = recording_.secondsOf(recording_.endNs());
+    j["events"] = json(std::vector<json>(events_.begin(), events_.end()));
+    return j;
+  }
+
+  // ---- dfpc::Sink (the API's input thread) ----
+  Status writeMessage(const dfpc::Message&) override { return Status::ok(); }
+  Status writeEvent(const dfpc::Event& event) override {
+    // An event before the first message (a DFPC started) has no stream time yet.
+    const bool timed = static_cast<double>(event.stamp) * 1e3 >= recording_.startNs();
+    json e = {{"type", "event"},
+              {"t", timed ? json(seconds(event.stamp)) : json()},
+              {"event", dfpc::eventRecord(event)}};
+    {
+      std::lock_guard lock(mutex_);
+      events_.push_back(e);
+      if (events_.size() > kEvents) events_.pop_front();
+    }
+    hub_.publish({false, dump(e)});
+    return Status::ok();
+  }
+  Status writeTiming(const dfpc::TimingRecord& timing) override {
+    std::lock_guard lock(mutex_);
+    Timing& t = timings_[std::string(timing.instance)];
+    t.last_s = timing.wall_s;
+    t.total_s += timing.wall_s;
+    ++t.calls;
+    return Status::ok();
+  }
+
+ private:
+  struct Timing {
+    double last_s = 0, total_s = 0;
+    std::uint64_t calls = 0;
+  };
+
+  // The recording as the API reads it, with the camera's images kept for the encoder (the
+  // image's shared pointer: no copy, no work on the input thread).
+  class Tee final : public dfpc::InputStream {
+   public:
+    Tee(std::unique_ptr<dfpc::McapInputStream> input, Run& run)
+        : input_(std::move(input)), run_(run) {}
+    Result<std::optional<dfpc::Message>> next() override {
+      Result<std::optional<dfpc::Message>> m = input_->next();
+      run_.onInput(m);
+      return m;
+    }
+    std::vector<dfpc::ChannelInfo> channels() const override { return input_->channels(); }
+    std::optional<std::pair<Timestamp, Timestamp>> timeRange() const override {
+      return input_->timeRange();
+    }
+
+   private:
+    std::unique_ptr<dfpc::McapInputStream> input_;
+    Run& run_;
+  };
+
+  double seconds(Timestamp stamp) const {
+    return (static_cast<double>(stamp) * 1e3 - static_cast<double>(recording_.startNs())) * 1e-9;
+  }
+
+  void onInput(const Result<std::optional<dfpc::Message>>& m) {
+    std::lock_guard lock(mutex_);
+    if (!m || !m.value()) {
+      input_ended_ = true;
+      if (!m) input_error_ = m.status().message();
+      return;
+    }
+    const dfpc::Message& message = *m.value();
+    last_stamp_ = message.stamp;
+    if (message.channel != spec_.camera) return;
+    if (std::shared_ptr<const Image> image = message.value.as<Image>()) {
+      image_ = std::move(image);
+      image_stamp_ = message.stamp;
+      wake_.notify_all();
+    }
+  }
+
+  // The encoder thread: the latest image, when a browser watches (older ones are skipped).
+  void encode() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [&] { return stop_ || image_; });
+      if (stop_) return;
+      std::shared_ptr<const Image> image = std::move(image_);
+      image_.reset();
+      const Timestamp stamp = image_stamp_;
+      if (hub_.listeners() == 0) continue;
+      lock.unlock();
+      Result<EncodedImage> jpeg = encodeJpeg(*image, kImageWidth, kImageQuality);
+      if (jpeg) {
+        const json header = {{"type", "image"},
+                             {"channel", spec_.camera},
+                             {"t", seconds(stamp)},
+                             {"stamp_us", stamp},
+                             {"width", jpeg->width},
+                             {"height", jpeg->height},
+                             {"source_width", jpeg->source_width},
+                             {"source_height", jpeg->source_height}};
+        hub_.publish({true, binaryFrame(header, jpeg->jpeg)});
+      } else {
+        hub_.publish({false, dump({{"type", "error"}, {"error", jpeg.status().message()}})});
+      }
+      lock.lock();
+    }
+  }
+
+  // ---- the API's subscription thread ----
+  void onPose(const Result<PoseWithCovariance>& pose) {
+    if (!pose) return;  // no pose yet
+    if (last_pose_ && *last_pose_ == pose->pose.stamp) return;
+    last_pose_ = pose->pose.stamp;
+    json j = poseJson(pose->pose);
+    j["type"] = "pose";
+    j["run"] = id_;
+    j["dfpc"] = dfpc_;
+    j["t"] = seconds(pose->pose.stamp);
+    j["stamp_us"] = pose->pose.stamp;
+    std::vector<double> covariance(36);
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) covariance[r * 6 + c] = pose->covariance(r, c);
+    j["covariance"] = covariance;
+    hub_.publish({false, dump(j)});
+  }
+  void onStatus(const Result<dfpc::DfpcStatus>& status) {
+    json j =
+        status ? statusJson(*status) : json{{"name", dfpc_}, {"error", status.status().message()}};
+    j["type"] = "status";
+    j["cdff_state"] = api::toString(cdff_->getCDFFState());
+    {
+      std::lock_guard lock(mutex_);
+      j["input_ended"] = input_ended_;
+    }
+    hub_.publish({false, dump(j)});
+  }
+
+  // getDFPCStatus as JSON, with each instance's latest and mean DFN call time (mutex_ not held).
+  json statusJson(const dfpc::DfpcStatus& s) const {
+    json j = {{"name", s.name},
+              {"state", dfpc::toString(s.state)},
+              {"track_state", s.track_state ? json(std::string(toString(*s.track_state))) : json()},
+              {"t", seconds(s.stream_time)},
+              {"last_product_t", s.last_product ? json(seconds(*s.last_product)) : json()},
+              {"messages", s.messages},
+              {"ignored_messages", s.ignored_messages},
+              {"products", s.products},
+              {"faults", s.faults},
+              {"recoveries", s.recoveries},
+              {"last_fault", s.last_fault},
+              {"instances", json::array()}};
+    for (const dfpc::InstanceStatus& i : s.instances) {
+      json ij = {{"name", i.name},
+                 {"dfn", i.dfn},
+                 {"dfi", i.dfi},
+                 {"active", i.active},
+                 {"on_fallback", i.on_fallback},
+                 {"calls", i.calls},
+                 {"errors", i.errors},
+                 {"faults", i.faults}};
+      std::lock_guard lock(mutex_);
+      if (auto t = timings_.find(i.name); t != timings_.end() && t->second.calls > 0) {
+        ij["last_wall_s"] = t->second.last_s;
+        ij["mean_wall_s"] = t->second.total_s / static_cast<double>(t->second.calls);
+      }
+      j["instances"].push_back(std::move(ij));
+    }
+    return j;
+  }
+
+  LiveHub& hub_;
+  const std::uint64_t id_;  // the server's runs are numbered from 1
+  const LiveSpec spec_;
+  const Recording& recording_;
+  const std::string dfpc_;
+  std::unique_ptr<api::Cdff> cdff_;
+  std::vector<api::SubscriptionId> subscriptions_;
+  std::string pose_error_;              // why there is no pose subscription ("" when there is one)
+  std::optional<Timestamp> last_pose_;  // the subscription thread's only
+
+  mutable std::mutex mutex_;  // what follows
+  std::condition_variable wake_;
+  bool stop_ = false, input_ended_ = false;
+  std::string input_error_;
+  std::optional<Timestamp> last_stamp_;
+  std::shared_ptr<const Image> image_;
+  Timestamp image_stamp_ = 0;
+  std::deque<json> events_;
+  std::map<std::string, Timing> timings_;
+  std::thread encoder_;
+};
+
+// ---- the hub -----------------------------------------------------------------------------------
+
+LiveHub::LiveHub(const std::vector<std::unique_ptr<Recording>>& recordings,
+                 std::vector<std::string> graphs)
+    : recordings_(recordings), graphs_(std::move(graphs)) {}
+
+LiveHub::~LiveHub() {
+  (void)remove();
+}
+
+Status LiveHub::start(const LiveSpec& given, bool& conflict) {
+  conflict = false;
+  LiveSpec spec = given;
+  if (std::find(graphs_.begin(), graphs_.end(), spec.graph) == graphs_.end()) {
+    const std::string list = graphs_.empty() ? std::string("none (cdff serve --graph FILE)")
+                                             : fmt::format("one of {}", fmt::join(graphs_, ", "));
+    if (spec.graph.find("..") != std::string::npos || spec.graph.find('\\') != std::string::npos)
+      return invalidInput("\"graph\" = \"{}\" is a path, not a served graph; expected {}",
+                          spec.graph, list);
+    return notFound("\"graph\" = \"{}\" is not a served graph; expected {}", spec.graph, list);
+  }
+  if (spec.recording >= recordings_.size())
+    return notFound("\"recording\" = {} does not exist; expected an index in [0, {})",
+                    spec.recording, recordings_.size());
+  if (!(spec.speed >= 1.0 / 16 && spec.speed <= 16))
+    return invalidInput("\"speed\" = {}: expected a factor in [0.0625, 16]", spec.speed);
+  const Recording& recording = *recordings_[spec.recording];
+  if (spec.camera.empty()) {
+    for (const ChannelSummary& c : recording.channels())
+      if (c.type == "Image") {
+        spec.camera = c.topic;
+        break;
+      }
+  } else {
+    Result<const ChannelSummary*> c = recording.findChannel(spec.camera);
+    if (!c) return c.status();
+    if ((*c)->type != "Image")
+      return invalidInput("\"camera\" = \"{}\" holds {} messages; expected an Image channel",
+                          spec.camera, (*c)->type.empty() ? (*c)->schema : (*c)->type);
+  }
+  Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(spec.graph);
+  if (!graph) return graph.status();
+  {
+    std::lock_guard lock(run_mutex_);
+    if (run_) {
+      conflict = true;
+      return invalidInput(
+          "a live run is already there; expected DELETE /api/live before starting another");
+    }
+    auto run = std::make_unique<Run>(*this, ++runs_, spec, recording, graph->name);
+    CDFF_RETURN_IF_ERROR(run->start(spec.graph));
+    run_ = std::move(run);
+  }
+  publish({false, dump([&] {
+             json j = state();
+             j["type"] = "state";
+             return j;
+           }())});
+  return Status::ok();
+}
+
+json LiveHub::state() const {
+  json j;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (run_) {
+      j = run_->state();
+    } else {
+      j = {{"active", false}};
+      if (!last_.is_null()) j["last"] = last_;
+    }
+  }
+  j["browsers"] = json::array();
+  std::lock_guard lock(listeners_mutex_);
+  for (const auto& [id, l] : listeners_) j["browsers"].push_back({{"dropped", l.second()}});
+  return j;
+}
+
+Status LiveHub::request(api::StateRequest request) {
+  Status s;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (!run_) return notFound("no live run; expected POST /api/live first");
+    s = run_->cdff().setCDFFState(request);
+  }
+  json j = state();
+  j["type"] = "state";
+  publish({false, dump(j)});
+  return s;
+}
+
+Status LiveHub::dfpcRequest(const std::string& dfpc, bool init) {
+  Status s;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (!run_) return notFound("no live run; expected POST /api/live first");
+    s = init ? run_->cdff().initDFPC(dfpc) : run_->cdff().stopDFPC(dfpc);
+  }
+  json j = state();
+  j["type"] = "state";
+  publish({false, dump(j)});
+  return s;
+}
+
+Status LiveHub::remove() {
+  std::unique_ptr<Run> run;
+  {
+    std::lock_guard lock(run_mutex_);
+    if (!run_) return notFound("no live run; expected POST /api/live first");
+    const api::CdffState state = run_->cdff().getCDFFState();
+    if (state == api::CdffState::kRunning || state == api::CdffState::kIdle)
+      CDFF_RETURN_IF_ERROR(run_->cdff().setCDFFState(api::StateRequest::kStop));
+    last_ = run_->state();
+    last_["active"] = false;
+    run = std::move(run_);
+  }
+  run.reset();  // joins the API's threads, which publish (not under run_mutex_)
+  json j = state();
+  j["type"] = "state";
+  publish({false, dump(j)});
+  return Status::ok();
+}
+
+std::uint64_t LiveHub::addListener(Listener listener, DroppedCount dropped) {
+  json j = state();
+  j["type"] = "state";
+  listener({false, dump(j)});
+  std::lock_guard lock(listeners_mutex_);
+  const std::uint64_t id = next_listener_++;
+  listeners_.emplace(id, std::pair(std::move(listener), std::move(dropped)));
+  return id;
+}
+
+void LiveHub::removeListener(std::uint64_t id) {
+  std::lock_guard lock(listeners_mutex_);
+  listeners_.erase(id);
+}
+
+std::size_t LiveHub::listeners() const {
+  std::lock_guard lock(listeners_mutex_);
+  return listeners_.size();
+}
+
+void LiveHub::publish(const Frame& frame) const {
+  std::vector<Listener> listeners;
+  {
+    std::lock_guard lock(listeners_mutex_);
+    for (const auto& [id, l] : listeners_) listeners.push_back(l.first);
+  }
+  for (const Listener& l : listeners) l(frame);
+}
+
+}  // namespace cdff::serve

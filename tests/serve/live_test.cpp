@@ -1,0 +1,399 @@
+// The live run of `cdff serve`: dfpcs/pose_filtering.yaml started on a served recording through
+// POST /api/live, its poses and camera images over /ws/live, its state (RUNNING, IDLE, STOPPED)
+// through the external API's state machine, one run at a time (409), and the refusals of bad
+// graphs (path traversal), values and transitions.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "cdff/io/recorder.hpp"
+#include "serve_fixture.hpp"
+
+namespace cdff::serve::testing {
+namespace {
+
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using nlohmann::json;
+
+const std::string kGraph = std::string(CDFF_SOURCE_DIR) + "/dfpcs/pose_filtering.yaml";
+constexpr int kLiveFrames = 40;              // 4 s at 10 Hz
+constexpr Timestamp kLiveStart = 5'000'000;  // us
+
+// The target moves at 0.2 m/s along x, 10 m ahead; the measurements are exact (1 cm sigma).
+Eigen::Vector3d truthAt(Timestamp stamp) {
+  return {1.0 + 0.2 * toSeconds(stamp - kLiveStart), 0.5, 10.0};
+}
+
+// A camera at 10 Hz whose frame k is uniform with value 6 k (or, `noisy`, 640x480 of noise:
+// large JPEGs), the target's pose measured at 10 Hz on the graph's input channel, and its truth.
+std::filesystem::path writeLiveRecording(const Files& files, bool noisy = false) {
+  const std::filesystem::path path = files.dir / (noisy ? "noisy.mcap" : "live.mcap");
+  io::Recorder recorder;
+  EXPECT_TRUE(recorder.open(path.string()).isOk());
+  std::mt19937 random(7);
+  const int width = noisy ? 640 : 64, height = noisy ? 480 : 48;
+  for (int k = 0; k < kLiveFrames; ++k) {
+    const Timestamp stamp = kLiveStart + k * kPeriod;
+    std::vector<std::uint8_t> pixels(width * height, 6 * k);
+    if (noisy)
+      for (std::uint8_t& p : pixels) p = static_cast<std::uint8_t>(random());
+    Result<Image> image = Image::fromBytes(std::move(pixels), width, height, PixelFormat::kGray8);
+    EXPECT_TRUE(image.isOk());
+    image->stamp = stamp;
+    image->frame_id = "camera_optical";
+    EXPECT_TRUE(recorder.write("/camera/image", *image).isOk());
+    PoseWithCovariance pose;
+    pose.pose.stamp = stamp;
+    pose.pose.parent_frame = "servicer";
+    pose.pose.child_frame = "target";
+    pose.pose.translation = truthAt(stamp);
+    pose.covariance.diagonal() << Eigen::Vector3d::Constant(1e-4), Eigen::Vector3d::Constant(1e-6);
+    EXPECT_TRUE(recorder.write("/chaser/target_pose_measurement", pose).isOk());
+    EXPECT_TRUE(recorder.write("/truth/target_pose", pose).isOk());
+  }
+  EXPECT_TRUE(recorder.close().isOk());
+  return path;
+}
+
+struct Received {
+  json header;
+  bool image = false;
+  double mean = -1;  // of an image
+};
+
+class LiveClient {
+ public:
+  explicit LiveClient(unsigned short port) : ws_(ioc_) {
+    ws_.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+    ws_.handshake("127.0.0.1:" + std::to_string(port), "/ws/live", error_);
+  }
+  const beast::error_code& error() const { return error_; }
+  // The status frames come at 2 Hz of the run's clock while a run exists: reads never wait long.
+  Received next() {
+    beast::flat_buffer buffer;
+    ws_.read(buffer);
+    const std::string data = beast::buffers_to_string(buffer.data());
+    Received r;
+    if (ws_.got_text()) {
+      r.header = json::parse(data);
+      return r;
+    }
+    const std::uint32_t n = static_cast<std::uint8_t>(data[0]) |
+                            static_cast<std::uint8_t>(data[1]) << 8 |
+                            static_cast<std::uint8_t>(data[2]) << 16 |
+                            static_cast<std::uint32_t>(static_cast<std::uint8_t>(data[3])) << 24;
+    r.header = json::parse(data.substr(4, n));
+    r.image = true;
+    const std::vector<std::uint8_t> jpeg(data.begin() + 4 + n, data.end());
+    r.mean = cv::mean(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE))[0];
+    return r;
+  }
+
+ private:
+  net::io_context ioc_;
+  websocket::stream<tcp::socket> ws_;
+  beast::error_code error_;
+};
+
+// pose_filtering's filter with its innovation's NIS as the only output: a graph with no pose.
+std::filesystem::path writeNisGraph(const Files& files) {
+  const std::filesystem::path path = files.dir / "nis_only.yaml";
+  std::ofstream(path) << R"(name: nis_only
+inputs:
+  - {name: pose, type: PoseWithCovariance, channel: /chaser/target_pose_measurement}
+outputs:
+  - {name: nis, type: Double}
+nodes:
+  ekf:
+    dfn: EstimationFilter
+    dfi: ExtendedKalman
+    parameters: {max_prediction_interval: 10}
+    trigger: {on: [pose_measurement]}
+connections:
+  - pose -> ekf.pose_measurement
+  - ekf.innovation_nis -> nis
+)";
+  return path;
+}
+
+// Recording 0: the live recording; 1: the fixture's, which has no pose measurement.
+std::unique_ptr<Server> startLiveServer(const Files& files, const std::filesystem::path& rec,
+                                        const std::string& token = {}) {
+  ServerOptions options;
+  options.port = 0;
+  options.token = token;
+  options.app_dir = files.app_dir;
+  options.recordings = {rec.string(), files.recording.string()};
+  options.graphs = {kGraph, writeNisGraph(files).string()};
+  Result<std::unique_ptr<Server>> server = Server::start(options);
+  EXPECT_TRUE(server.isOk()) << server.status().message();
+  return server ? std::move(*server) : nullptr;
+}
+
+std::string startBody(double speed = 2.0) {
+  return json{{"graph", kGraph}, {"recording", 0}, {"speed", speed}}.dump();
+}
+
+TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
+  const Files files = makeFiles("live");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+
+  Reply r = get(port, "/api/graphs");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["graphs"], json::array({kGraph, (files.dir / "nis_only.yaml").string()}));
+  r = get(port, "/api/live");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["active"], false);
+
+  LiveClient client(port);
+  ASSERT_FALSE(client.error()) << client.error().message();
+  Received first = client.next();  // the state when the browser connects
+  EXPECT_EQ(first.header["type"], "state");
+  EXPECT_EQ(first.header["active"], false);
+
+  r = post(port, "/api/live", startBody());
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+  EXPECT_EQ(r.json()["camera"], "/camera/image");
+
+  // One run at a time.
+  Reply again = post(port, "/api/live", startBody());
+  EXPECT_EQ(again.status, 409) << again.body;
+  EXPECT_NE(again.json()["error"].get<std::string>().find("DELETE /api/live"), std::string::npos)
+      << again.body;
+
+  // Poses near the truth of their time (exact measurements: the filter's error stays within
+  // its 0.2 m/s velocity times a 0.1 s frame interval until its velocity converges), camera
+  // images of the frame of their time, the DFPC's status RUNNING.
+  int poses = 0, images = 0, statuses = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while ((poses < 3 || images < 1 || statuses < 1) && std::chrono::steady_clock::now() < deadline) {
+    const Received m = client.next();
+    const std::string type = m.header.value("type", "");
+    if (m.image) {
+      ++images;
+      EXPECT_EQ(m.header["channel"], "/camera/image");
+      EXPECT_EQ(m.header["width"], 64);
+      const Timestamp stamp = m.header["stamp_us"];
+      const int k = static_cast<int>((stamp - kLiveStart) / kPeriod);
+      EXPECT_NEAR(m.mean, 6.0 * k, 2.0) << m.header.dump();
+      EXPECT_NEAR(m.header["t"].get<double>(), toSeconds(stamp - kLiveStart), 1e-6);
+    } else if (type == "pose") {
+      ++poses;
+      EXPECT_EQ(m.header["dfpc"], "pose_filtering");
+      const Timestamp stamp = m.header["stamp_us"];
+      const Eigen::Vector3d p(m.header["p"][0], m.header["p"][1], m.header["p"][2]);
+      EXPECT_LT((p - truthAt(stamp)).norm(), 0.02 + 1e-3) << m.header.dump();
+      EXPECT_EQ(m.header["covariance"].size(), 36u);
+      EXPECT_GT(m.header["covariance"][0].get<double>(), 0.0);
+    } else if (type == "status") {
+      ++statuses;
+      EXPECT_EQ(m.header["name"], "pose_filtering");
+      EXPECT_EQ(m.header["cdff_state"], "running");
+    }
+  }
+  EXPECT_GE(poses, 3);
+  EXPECT_GE(images, 1);
+  EXPECT_GE(statuses, 1);
+
+  r = get(port, "/api/live");
+  ASSERT_EQ(r.status, 200) << r.body;
+  json state = r.json();
+  EXPECT_EQ(state["active"], true);
+  EXPECT_EQ(state["state"], "running");
+  ASSERT_EQ(state["dfpcs"].size(), 1u) << state.dump();
+  EXPECT_EQ(state["dfpcs"][0]["name"], "pose_filtering");
+  EXPECT_EQ(state["dfpcs"][0]["state"], "running");
+  EXPECT_GT(state["dfpcs"][0]["products"].get<int>(), 0);
+  ASSERT_FALSE(state["dfpcs"][0]["instances"].empty());
+  EXPECT_TRUE(state["dfpcs"][0]["instances"][0].contains("mean_wall_s")) << state.dump();
+  EXPECT_FALSE(state["events"].empty());  // the DFPC's lifecycle (initialised, started)
+
+  // One DFPC through stopDFPC and initDFPC; an unknown DFPC (the API's 404), a bad request.
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "stop"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["dfpcs"][0]["state"], "stopped");
+  EXPECT_EQ(r.json()["state"], "running");
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "init"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["dfpcs"][0]["state"], "running");
+  r = post(port, "/api/live/dfpcs/nope", R"({"request": "stop"})");
+  EXPECT_EQ(r.status, 404) << r.body;
+  EXPECT_NE(r.body.find("nope"), std::string::npos) << r.body;
+  r = post(port, "/api/live/dfpcs/pose_filtering", R"({"request": "start"})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_NE(r.body.find("initDFPC"), std::string::npos) << r.body;
+
+  // The state machine through setCDFFState: idle, a refused idle (the API's message), a bad
+  // value, stop.
+  r = post(port, "/api/live/state", R"({"request": "idle"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "idle");
+  r = post(port, "/api/live/state", R"({"request": "idle"})");
+  EXPECT_EQ(r.status, 409) << r.body;
+  EXPECT_NE(r.json()["error"].get<std::string>().find("in state idle"), std::string::npos)
+      << r.body;
+  r = post(port, "/api/live/state", R"({"request": "pause"})");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_NE(r.json()["error"].get<std::string>().find("pause"), std::string::npos) << r.body;
+  EXPECT_NE(r.json()["error"].get<std::string>().find("initialize"), std::string::npos) << r.body;
+  r = post(port, "/api/live/state", R"({"request": "initialize"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+  r = post(port, "/api/live/state", R"({"request": "stop"})");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "stopped");
+  r = get(port, "/api/live");
+  EXPECT_EQ(r.json()["state"], "stopped");
+  EXPECT_EQ(r.json()["dfpcs"][0]["state"], "stopped") << r.body;
+
+  // DELETE removes it; its last state stays visible; a new run may start.
+  r = sendRaw(port, "DELETE /api/live HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["active"], false);
+  EXPECT_EQ(r.json()["last"]["state"], "stopped");
+  r = sendRaw(port, "DELETE /api/live HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(r.status, 404) << r.body;
+  r = post(port, "/api/live/state", R"({"request": "idle"})");
+  EXPECT_EQ(r.status, 404) << r.body;
+  r = post(port, "/api/live", startBody(4.0));
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+  // The server stops a run that is still there when it stops.
+}
+
+TEST(LiveRun, RefusesGraphsOutsideTheServedOnesAndBadValues) {
+  const Files files = makeFiles("live_errors");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+  const auto start = [&](const json& body) { return post(port, "/api/live", body.dump()); };
+  const auto expectError = [](const Reply& r, int status, const std::string& fragment) {
+    EXPECT_EQ(r.status, status) << r.body;
+    ASSERT_TRUE(r.json().contains("error")) << r.body;
+    EXPECT_NE(r.json()["error"].get<std::string>().find(fragment), std::string::npos) << r.body;
+  };
+  // Path traversal, a file that exists but is not a served graph, an unknown graph.
+  expectError(
+      start({{"graph", std::string(CDFF_SOURCE_DIR) + "/dfpcs/../dfpcs/pose_filtering.yaml"},
+             {"recording", 0}}),
+      400, "is a path");
+  expectError(start({{"graph", "dfpcs/../../etc/passwd"}, {"recording", 0}}), 400, "is a path");
+  expectError(start({{"graph", files.secret.string()}, {"recording", 0}}), 404,
+              "not a served graph");
+  expectError(start({{"graph", std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml"},
+                     {"recording", 0}}),
+              404, kGraph);
+  // Bad values: recording, speed, types, unknown and missing keys, not JSON, wrong type.
+  expectError(start({{"graph", kGraph}, {"recording", 3}}), 404, "\"recording\" = 3");
+  // A recording without the graph's input: the API's own refusal.
+  const Reply lacking = start({{"graph", kGraph}, {"recording", 1}});
+  EXPECT_EQ(lacking.status, 404) << lacking.body;
+  EXPECT_NE(lacking.body.find("/chaser/target_pose_measurement"), std::string::npos)
+      << lacking.body;
+  expectError(start({{"graph", kGraph}, {"recording", 0}, {"speed", 100}}), 400, "[0.0625, 16]");
+  expectError(start({{"graph", kGraph}, {"recording", "0"}}), 400, "an integer");
+  expectError(start({{"graph", kGraph}, {"recording", 0}, {"colour", 1}}), 400, "colour");
+  expectError(start({{"recording", 0}}), 400, "\"graph\" is missing");
+  expectError(start({{"graph", kGraph}, {"recording", 0}, {"camera", "/truth/target_pose"}}), 400,
+              "expected an Image channel");
+  expectError(post(port, "/api/live", "{not json"), 400, "not a JSON object");
+  expectError(post(port, "/api/live", startBody(), "text/plain"), 415, "application/json");
+  expectError(sendRaw(port,
+                      "PUT /api/live HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: "
+                      "0\r\nConnection: close\r\n\r\n"),
+              405, "GET, POST, DELETE");
+  expectError(get(port, "/api/live/other"), 404, "/api/live/state");
+  // The live stream from another site's page (WebSockets are not bound by the same-origin
+  // policy).
+  const std::string upgrade =
+      "GET /ws/live HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+      "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n"
+      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n";
+  expectError(sendRaw(port, upgrade + "Origin: http://evil.example\r\n\r\n"), 403,
+              "Origin 'http://evil.example'");
+  expectError(sendRaw(port, upgrade.substr(0, 12) + "?x=1" + upgrade.substr(12) + "\r\n"), 400,
+              "'x'");
+  // Nothing was started by any of them.
+  EXPECT_EQ(get(port, "/api/live").json()["active"], false);
+}
+
+TEST(LiveRun, RoutesNeedTheTokenWhenTheServerHasOne) {
+  const Files files = makeFiles("live_token");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  const std::string token = "0123456789abcdef0123456789abcdef";
+  auto server = startLiveServer(files, rec, token);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+  EXPECT_EQ(post(port, "/api/live", startBody()).status, 401);
+  EXPECT_EQ(get(port, "/api/live").status, 401);
+  EXPECT_EQ(get(port, "/api/graphs").status, 401);
+  EXPECT_EQ(post(port, "/api/live/state", R"({"request": "idle"})").status, 401);
+  EXPECT_EQ(get(port, "/ws/live").status, 401);
+  EXPECT_EQ(get(port, "/api/live").json()["error"].is_string(), true);
+  const Reply r = post(port, "/api/live?token=" + token, startBody());
+  EXPECT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+}
+
+// A graph without a pose output runs; its state says why no pose is streamed.
+TEST(LiveRun, AGraphWithoutAPoseRunsAndSaysSo) {
+  const Files files = makeFiles("live_nis");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const std::string graph = (files.dir / "nis_only.yaml").string();
+  const Reply r = post(server->port(), "/api/live",
+                       json{{"graph", graph}, {"recording", 0}, {"speed", 4}}.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "running");
+  EXPECT_NE(r.json().value("pose_error", "").find("has no pose output"), std::string::npos)
+      << r.body;
+}
+
+// A browser that connects and never reads: its socket's buffers fill with 640x480 noise JPEGs
+// (about 300 kB each, 40 of them) and its queue drops frames, while the DFPC still gets every
+// message of the recording and the input reaches its end.
+TEST(LiveRun, ABrowserThatDoesNotReadNeverHoldsTheRunBack) {
+  const Files files = makeFiles("live_slow");
+  const std::filesystem::path rec = writeLiveRecording(files, true);
+  auto server = startLiveServer(files, rec);
+  ASSERT_TRUE(server);
+  const unsigned short port = server->port();
+  LiveClient idle(port);  // never reads
+  ASSERT_FALSE(idle.error()) << idle.error().message();
+  Reply r = post(port, "/api/live", startBody(4.0));
+  ASSERT_EQ(r.status, 200) << r.body;
+  json state;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    state = get(port, "/api/live").json();
+  } while (!state.value("input_ended", false) && std::chrono::steady_clock::now() < deadline);
+  ASSERT_TRUE(state.value("input_ended", false)) << state.dump();
+  // Every measurement reached the DFPC (processed before the input's end was seen).
+  ASSERT_EQ(state["dfpcs"].size(), 1u) << state.dump();
+  EXPECT_EQ(state["dfpcs"][0]["messages"], kLiveFrames) << state.dump();
+  EXPECT_EQ(state["dfpcs"][0]["ignored_messages"], 0) << state.dump();
+  // Only that browser's copy was decimated.
+  ASSERT_EQ(state["browsers"].size(), 1u) << state.dump();
+  EXPECT_GT(state["browsers"][0]["dropped"].get<int>(), 0) << state.dump();
+}
+
+}  // namespace
+}  // namespace cdff::serve::testing
