@@ -57,6 +57,84 @@ void visibleRows(const Eigen::Matrix3Xf& model, const Eigen::Matrix3f& rotation,
     }
 }
 
+// One draw of offsets(): an attitude and a phase of the rings.
+struct OffsetDraw {
+  Eigen::Vector3d offset;  // origin (0) - centroid of the rows hit
+  double spread;           // of the visible points along the rows hit (y), m
+  int attitude;
+};
+
+// The fewest attitudes (effective number, (sum w)^2 / sum w^2 of their weights) the weighed
+// draws must come from: the mean offset within about 1 / sqrt(30) = 18 % of its spread of the
+// mean over all such attitudes.
+constexpr double kMinEffectiveAttitudes = 30;
+
+// The draws' weights: 1 without the scan's spread; else a kernel on log(spread of the draw /
+// spread of the scan), both floored at a cell (a row one cell wide has no measurable spread),
+// as wide as the spread of n returns varies (relative standard deviation 1 / sqrt(2 (n - 1))),
+// widened by sqrt(2) until kMinEffectiveAttitudes attitudes count.
+std::vector<double> spreadWeights(const std::vector<OffsetDraw>& draws, const ScanShape& shape,
+                                  double cell, int attitudes) {
+  std::vector<double> weights(draws.size(), 1.0);
+  if (shape.returns <= 1) return weights;
+  const double observed = std::log(std::max(shape.along_ring_spread, cell));
+  std::vector<double> log_ratio_sq(draws.size());
+  for (std::size_t i = 0; i < draws.size(); ++i)
+    log_ratio_sq[i] = std::pow(std::log(std::max(draws[i].spread, cell)) - observed, 2);
+  double width = 1.0 / std::sqrt(2.0 * (shape.returns - 1));
+  std::vector<double> per_attitude(static_cast<std::size_t>(attitudes));
+  for (int round = 0; round < 32; ++round, width *= std::sqrt(2.0)) {
+    std::fill(per_attitude.begin(), per_attitude.end(), 0.0);
+    for (std::size_t i = 0; i < draws.size(); ++i) {
+      weights[i] = std::exp(-0.5 * log_ratio_sq[i] / (width * width));
+      per_attitude[static_cast<std::size_t>(draws[i].attitude)] += weights[i];
+    }
+    double sum = 0, sum_sq = 0;
+    for (const double w : per_attitude) {
+      sum += w;
+      sum_sq += w * w;
+    }
+    if (sum_sq > 0 && sum * sum / sum_sq >= kMinEffectiveAttitudes) break;
+  }
+  return weights;
+}
+
+// The weighed moments of the draws (attitude-major); the attitude's part (law of total
+// covariance) from each attitude's weighed mean over its phases. samples == 0 when every weight
+// underflowed (no draw resembles the scan).
+OffsetStatistics weighedStatistics(const std::vector<OffsetDraw>& draws,
+                                   const std::vector<double>& weights) {
+  double total = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero(), sum_attitude_sq = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < draws.size();) {
+    Eigen::Vector3d attitude_sum = Eigen::Vector3d::Zero();
+    double attitude_weight = 0;
+    const int a = draws[i].attitude;
+    for (; i < draws.size() && draws[i].attitude == a; ++i) {
+      const double w = weights[i];
+      const Eigen::Vector3d& o = draws[i].offset;
+      sum += w * o;
+      sum_sq += w * o * o.transpose();
+      attitude_sum += w * o;
+      attitude_weight += w;
+    }
+    total += attitude_weight;
+    if (attitude_weight > 0)
+      sum_attitude_sq += attitude_sum * attitude_sum.transpose() / attitude_weight;
+  }
+  OffsetStatistics out;
+  if (!(total > 0)) return out;
+  out.samples = draws.size();
+  out.mean = sum / total;
+  const Eigen::Matrix3d mean_sq = out.mean * out.mean.transpose();
+  out.covariance = sum_sq / total - mean_sq;
+  out.attitude = sum_attitude_sq / total - mean_sq;
+  out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
+  out.attitude = 0.5 * (out.attitude + out.attitude.transpose());
+  return out;
+}
+
 }  // namespace
 
 Result<ViewableModel> ViewableModel::of(const PointCloud& model) {
@@ -129,12 +207,7 @@ OffsetStatistics VisibleRows::offsets(std::span<const double> rings, double phas
   std::vector<double> near;  // the lasers that can reach the model at some phase
   for (const double z : rings)
     if (std::abs(z) <= extent_ + 0.5 * phase_span + cell_) near.push_back(z);
-  struct Draw {
-    Eigen::Vector3d offset;  // origin (0) - centroid of the rows hit
-    double spread;           // of the visible points along the rows hit (y), m
-    int attitude;
-  };
-  std::vector<Draw> draws;
+  std::vector<OffsetDraw> draws;
   for (int a = 0; a < attitudes_; ++a)
     for (int e = 0; e < phases; ++e) {
       const double shift = phase_span * ((e + 0.5) / phases - 0.5);
@@ -155,69 +228,8 @@ OffsetStatistics VisibleRows::offsets(std::span<const double> rings, double phas
       const double variance = std::max(yy / count - centroid.y() * centroid.y(), 0.0);
       draws.push_back({-centroid, std::sqrt(variance), a});
     }
-  OffsetStatistics out;
-  out.samples = draws.size();
-  if (draws.empty()) return out;
-
-  // The weights: 1 without the scan's spread; else a kernel on log(spread of the draw / spread
-  // of the scan), both floored at a cell (a row one cell wide has no measurable spread), as
-  // wide as the spread of n returns varies (relative standard deviation 1 / sqrt(2 (n - 1))),
-  // widened by sqrt(2) until kMinEffectiveAttitudes attitudes count.
-  std::vector<double> weights(draws.size(), 1.0);
-  if (shape.returns > 1) {
-    const double observed = std::log(std::max(shape.along_ring_spread, cell_));
-    std::vector<double> log_ratio_sq(draws.size());
-    for (std::size_t i = 0; i < draws.size(); ++i)
-      log_ratio_sq[i] = std::pow(std::log(std::max(draws[i].spread, cell_)) - observed, 2);
-    double width = 1.0 / std::sqrt(2.0 * (shape.returns - 1));
-    std::vector<double> per_attitude(static_cast<std::size_t>(attitudes_));
-    for (int round = 0; round < 32; ++round, width *= std::sqrt(2.0)) {
-      std::fill(per_attitude.begin(), per_attitude.end(), 0.0);
-      for (std::size_t i = 0; i < draws.size(); ++i) {
-        weights[i] = std::exp(-0.5 * log_ratio_sq[i] / (width * width));
-        per_attitude[static_cast<std::size_t>(draws[i].attitude)] += weights[i];
-      }
-      double sum = 0, sum_sq = 0;
-      for (const double w : per_attitude) {
-        sum += w;
-        sum_sq += w * w;
-      }
-      if (sum_sq > 0 && sum * sum / sum_sq >= kMinEffectiveAttitudes) break;
-    }
-  }
-
-  // Weighted moments; the attitude's part (law of total covariance) from each attitude's
-  // weighted mean over its phases.
-  double total = 0;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero(), sum_attitude_sq = Eigen::Matrix3d::Zero();
-  for (std::size_t i = 0; i < draws.size();) {
-    Eigen::Vector3d attitude_sum = Eigen::Vector3d::Zero();
-    double attitude_weight = 0;
-    const int a = draws[i].attitude;
-    for (; i < draws.size() && draws[i].attitude == a; ++i) {
-      const double w = weights[i];
-      const Eigen::Vector3d& o = draws[i].offset;
-      sum += w * o;
-      sum_sq += w * o * o.transpose();
-      attitude_sum += w * o;
-      attitude_weight += w;
-    }
-    total += attitude_weight;
-    if (attitude_weight > 0)
-      sum_attitude_sq += attitude_sum * attitude_sum.transpose() / attitude_weight;
-  }
-  if (!(total > 0)) {  // every weight underflowed: no draw resembles the scan
-    out.samples = 0;
-    return out;
-  }
-  out.mean = sum / total;
-  const Eigen::Matrix3d mean_sq = out.mean * out.mean.transpose();
-  out.covariance = sum_sq / total - mean_sq;
-  out.attitude = sum_attitude_sq / total - mean_sq;
-  out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
-  out.attitude = 0.5 * (out.attitude + out.attitude.transpose());
-  return out;
+  if (draws.empty()) return {};
+  return weighedStatistics(draws, spreadWeights(draws, shape, cell_, attitudes_));
 }
 
 }  // namespace cdff::dfn::scan_position

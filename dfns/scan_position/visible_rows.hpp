@@ -90,7 +90,7 @@ class VisibleRows {
   /// With the scan's spread along the rings known, each draw is weighed by how well its own
   /// spread matches it (a Gaussian kernel on the logarithm of the ratio, as wide as the
   /// standard deviation of n returns' spread, 1 / sqrt(2 (n - 1)), widened until the draws that
-  /// count come from at least kMinEffectiveAttitudes attitudes): the statistics are then those
+  /// count come from at least 30 attitudes): the statistics are then those
   /// of the attitudes that look like the scan. A satellite whose wings face the sensor spreads
   /// a ring's returns over metres and puts their centroid far from the origin; one seen
   /// edge-on does not: over every attitude alike, the first is a rare draw and its covariance
@@ -106,11 +106,6 @@ class VisibleRows {
   const VisibleRow& row(int attitude, int index) const {
     return rows_[static_cast<std::size_t>(attitude) * grid_ + index];
   }
-
-  /// The fewest attitudes (effective number, (sum w)^2 / sum w^2 of their weights) the
-  /// weighed draws must come from: the mean offset within about 1 / sqrt(30) = 18 % of its
-  /// spread of the mean over all such attitudes.
-  static constexpr double kMinEffectiveAttitudes = 30;
 
   double extent_ = 0, cell_ = 0, view_distance_ = 0;
   int attitudes_ = 0, grid_ = 0;  // grid_ rows of cell_ from z = -extent_
