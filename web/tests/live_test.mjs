@@ -5,55 +5,14 @@
 // Stop and Init (stopDFPC, initDFPC), Idle, Resume and Stop move the states; no console error.
 // Screenshots go to OUT_DIR.
 // usage: node live_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
-import { spawn, spawnSync } from 'node:child_process';
-import { existsSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
-import { createRequire } from 'node:module';
+import { readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { check, finish, launchChromium, simulate, startServer, testArguments } from './harness.mjs';
 
-const [cdff, out] = process.argv.slice(2);
-if (!cdff || !out) {
-  console.error('usage: node live_test.mjs CDFF OUT_DIR');
-  process.exit(2);
-}
-// playwright-core is in the build tree's node_modules (NODE_PATH, set by CTest), not beside this
-// file; ES modules do not search NODE_PATH, so it is required from there.
-if (!process.env.NODE_PATH) {
-  console.error('FAIL: NODE_PATH must name the build\'s web/node_modules (CTest sets it)');
-  process.exit(2);
-}
-const require = createRequire(path.join(path.resolve(process.env.NODE_PATH), 'noop.js'));
-const { chromium } = require('playwright-core');
-
-const browserPath = process.env.CDFF_CHROMIUM ?? '/usr/bin/chromium';
-if (!existsSync(browserPath)) {
-  console.error(`FAIL: no Chromium at ${browserPath}. This test drives Debian's Chromium; install `
-    + "it with 'sudo bash scripts/install-deps.sh' (package chromium), or set CDFF_CHROMIUM.");
-  process.exit(1);
-}
-
-let failures = 0;
-function check(name, ok, detail = '') {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${name}${detail ? `: ${detail}` : ''}`);
-  if (!ok) failures += 1;
-}
-
-rmSync(out, { recursive: true, force: true });
-mkdirSync(out, { recursive: true });
-
-// A short approach with small cameras: two seconds of frames and truth poses.
+const { cdff, out } = testArguments('live_test.mjs');
 const recording = path.join(out, 'live.mcap');
-const small = [];
-for (const camera of ['camera_left', 'camera_right']) {
-  small.push('--set', `sensors.${camera}.width=320`, '--set', `sensors.${camera}.height=240`,
-             '--set', `sensors.${camera}.fx=300`, '--set', `sensors.${camera}.fy=300`);
-}
-const sim = spawnSync(cdff, ['sim', 'mid_range_approach', '-o', recording, '--duration', '2',
-                             '--seed', '1', '-q', ...small], { encoding: 'utf8' });
-if (sim.status !== 0) {
-  console.error(`FAIL: cdff sim exited with ${sim.status}: ${sim.stderr}`);
-  process.exit(1);
-}
+simulate(cdff, recording);
 
 // The pose filter of dfpcs/pose_filtering.yaml fed with the simulator's truth (a graph that
 // runs on what `cdff sim` records, in the truth's frame so that the plot compares like with like).
@@ -62,32 +21,9 @@ const graph = path.join(out, 'truth_filtering.yaml');
 writeFileSync(graph, readFileSync(path.join(root, 'dfpcs/pose_filtering.yaml'), 'utf8')
   .replaceAll('/chaser/target_pose_measurement', '/truth/target_pose'));
 
-function startServer() {
-  return new Promise((resolve, reject) => {
-    // From the repository's root: its dfpcs/ are offered too.
-    const server = spawn(cdff, ['serve', recording, '--port', '0', '--graph', graph],
-                         { cwd: root, stdio: ['ignore', 'pipe', 'inherit'] });
-    let text = '';
-    const timer = setTimeout(() => reject(new Error(`cdff serve printed no address: ${text}`)), 30000);
-    server.stdout.on('data', (chunk) => {
-      text += chunk;
-      const m = text.match(/listening on (http:\/\/\S+)/);
-      if (m) {
-        clearTimeout(timer);
-        resolve({ server, url: m[1] });
-      }
-    });
-    server.on('exit', (code) => reject(new Error(`cdff serve exited with ${code}: ${text}`)));
-  });
-}
-
-const { server, url } = await startServer();
-const browser = await chromium.launch({
-  executablePath: browserPath,
-  headless: true,
-  // Chromium's sandbox cannot run as root (CI's user); containers often have a small /dev/shm.
-  args: ['--disable-dev-shm-usage', ...(process.getuid?.() === 0 ? ['--no-sandbox'] : [])],
-});
+// From the repository's root: its dfpcs/ are offered too.
+const { server, url } = await startServer(cdff, [recording, '--graph', graph], { cwd: root });
+const browser = await launchChromium();
 const consoleErrors = [];
 const waitFor = (page, fn, arg, timeout = 30000) =>
   page.waitForFunction(fn, arg, { timeout }).then(() => true, () => false);
@@ -155,4 +91,4 @@ try {
 check('no-console-error', consoleErrors.length === 0, consoleErrors.join(' | '));
 const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
 check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
-process.exit(failures ? 1 : 0);
+finish();

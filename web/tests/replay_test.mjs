@@ -4,79 +4,15 @@
 // same JPEG as the server's image of that frame); playing advances the frame; the pose plot has
 // the channel's points. Screenshots go to OUT_DIR.
 // usage: node replay_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
-import { spawn, spawnSync } from 'node:child_process';
-import { existsSync, mkdirSync, rmSync } from 'node:fs';
-import { createRequire } from 'node:module';
 import path from 'node:path';
+import { check, finish, launchChromium, simulate, startServer, testArguments } from './harness.mjs';
 
-const [cdff, out] = process.argv.slice(2);
-if (!cdff || !out) {
-  console.error('usage: node replay_test.mjs CDFF OUT_DIR');
-  process.exit(2);
-}
-// playwright-core is in the build tree's node_modules (NODE_PATH, set by CTest), not beside this
-// file; ES modules do not search NODE_PATH, so it is required from there.
-if (!process.env.NODE_PATH) {
-  console.error('FAIL: NODE_PATH must name the build\'s web/node_modules (CTest sets it)');
-  process.exit(2);
-}
-const require = createRequire(path.join(path.resolve(process.env.NODE_PATH), 'noop.js'));
-const { chromium } = require('playwright-core');
-
-const browserPath = process.env.CDFF_CHROMIUM ?? '/usr/bin/chromium';
-if (!existsSync(browserPath)) {
-  console.error(`FAIL: no Chromium at ${browserPath}. This test drives Debian's Chromium; install `
-    + "it with 'sudo bash scripts/install-deps.sh' (package chromium), or set CDFF_CHROMIUM.");
-  process.exit(1);
-}
-
-let failures = 0;
-function check(name, ok, detail = '') {
-  console.log(`${ok ? 'ok  ' : 'FAIL'} ${name}${detail ? `: ${detail}` : ''}`);
-  if (!ok) failures += 1;
-}
-
-rmSync(out, { recursive: true, force: true });
-mkdirSync(out, { recursive: true });
-
-// A short approach with small cameras: a few seconds of frames and truth poses.
+const { cdff, out } = testArguments('replay_test.mjs');
 const recording = path.join(out, 'replay.mcap');
-const small = [];
-for (const camera of ['camera_left', 'camera_right']) {
-  small.push('--set', `sensors.${camera}.width=320`, '--set', `sensors.${camera}.height=240`,
-             '--set', `sensors.${camera}.fx=300`, '--set', `sensors.${camera}.fy=300`);
-}
-const sim = spawnSync(cdff, ['sim', 'mid_range_approach', '-o', recording, '--duration', '2',
-                             '--seed', '1', '-q', ...small], { encoding: 'utf8' });
-if (sim.status !== 0) {
-  console.error(`FAIL: cdff sim exited with ${sim.status}: ${sim.stderr}`);
-  process.exit(1);
-}
+simulate(cdff, recording);
 
-function startServer() {
-  return new Promise((resolve, reject) => {
-    const server = spawn(cdff, ['serve', recording, '--port', '0'], { stdio: ['ignore', 'pipe', 'inherit'] });
-    let text = '';
-    const timer = setTimeout(() => reject(new Error(`cdff serve printed no address: ${text}`)), 30000);
-    server.stdout.on('data', (chunk) => {
-      text += chunk;
-      const m = text.match(/listening on (http:\/\/\S+)/);
-      if (m) {
-        clearTimeout(timer);
-        resolve({ server, url: m[1] });
-      }
-    });
-    server.on('exit', (code) => reject(new Error(`cdff serve exited with ${code}: ${text}`)));
-  });
-}
-
-const { server, url } = await startServer();
-const browser = await chromium.launch({
-  executablePath: browserPath,
-  headless: true,
-  // Chromium's sandbox cannot run as root (CI's user); containers often have a small /dev/shm.
-  args: ['--disable-dev-shm-usage', ...(process.getuid?.() === 0 ? ['--no-sandbox'] : [])],
-});
+const { server, url } = await startServer(cdff, [recording]);
+const browser = await launchChromium();
 const consoleErrors = [];
 try {
   const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
@@ -172,4 +108,4 @@ try {
 check('no-console-error', consoleErrors.length === 0, consoleErrors.join(' | '));
 const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
 check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
-process.exit(failures ? 1 : 0);
+finish();

@@ -582,16 +582,71 @@ Result<LiveSpec> liveSpec(const json& body) {
 
 }  // namespace
 
+namespace {
+
+Response methodNotAllowed(const Request& req, const char* allowed) {
+  Response res = errorResponse(
+      http::status::method_not_allowed,
+      fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
+      req.version(), req.keep_alive());
+  res.set(http::field::allow, allowed);
+  return res;
+}
+
+// The API refuses what its state does not allow: a conflict with that state (409), with the
+// API's message; no run, or an unknown DFPC, is 404.
+Response refusedByApi(const Request& req, const Status& s) {
+  return errorResponse(
+      s.code() == StatusCode::kNotFound ? http::status::not_found : http::status::conflict,
+      s.message(), req.version(), req.keep_alive());
+}
+
+// A body {"request": ...} with no other key, or the error response.
+std::variant<json, Response> requestBody(const Request& req, const char* expected) {
+  auto body = objectBody(req, expected);
+  if (std::holds_alternative<Response>(body)) return body;
+  for (const auto& [key, value] : std::get<json>(body).items())
+    if (key != "request")
+      return fromStatus(req, invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
+  return body;
+}
+
+// POST /api/live/dfpcs/<dfpc> {"request": "init" | "stop"}: initDFPC, stopDFPC.
+Response liveDfpcRoute(const Request& req, LiveHub& hub, const std::string& dfpc) {
+  if (req.method() != http::verb::post) return methodNotAllowed(req, "POST");
+  auto body = requestBody(req, "{\"request\": \"init\"|\"stop\"}");
+  if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+  const json request = std::get<json>(body).value("request", json());
+  if (request != "init" && request != "stop")
+    return fromStatus(req, invalidInput("\"request\" = {}: expected \"init\" (initDFPC) or "
+                                        "\"stop\" (stopDFPC)",
+                                        request.dump()));
+  Status s = hub.dfpcRequest(dfpc, request == "init");
+  if (!s.isOk()) return refusedByApi(req, s);
+  return jsonResponse(req, hub.state());
+}
+
+// POST /api/live/state {"request": "idle" | "initialize" | "reset" | "stop"}: setCDFFState.
+Response liveStateRoute(const Request& req, LiveHub& hub) {
+  if (req.method() != http::verb::post) return methodNotAllowed(req, "POST");
+  auto body = requestBody(req, "{\"request\": \"idle\"|\"initialize\"|\"reset\"|\"stop\"}");
+  if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+  const json& b = std::get<json>(body);
+  if (!b.contains("request") || !b["request"].is_string())
+    return fromStatus(req, invalidInput("\"request\" = {}: expected one of idle, initialize, "
+                                        "reset, stop (a string)",
+                                        b.value("request", json()).dump()));
+  Result<api::StateRequest> request = parseStateRequest(b["request"].get<std::string>());
+  if (!request) return fromStatus(req, request.status());
+  Status s = hub.request(*request);
+  if (!s.isOk()) return refusedByApi(req, s);
+  return jsonResponse(req, hub.state());
+}
+
+}  // namespace
+
 Response Router::live(const Request& req, const Target& target) const {
   const auto& seg = target.segments;
-  const auto notAllowed = [&](const char* allowed) {
-    Response res = errorResponse(
-        http::status::method_not_allowed,
-        fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
-        req.version(), req.keep_alive());
-    res.set(http::field::allow, allowed);
-    return res;
-  };
   const bool state_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "state";
   const bool dfpc_route = seg.size() == 4 && seg[1] == "live" && seg[2] == "dfpcs";
   if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route))
@@ -603,60 +658,18 @@ Response Router::live(const Request& req, const Target& target) const {
   if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
   LiveHub& hub = *options_.live;
   if (seg[1] == "graphs") {
-    if (req.method() != http::verb::get) return notAllowed("GET");
+    if (req.method() != http::verb::get) return methodNotAllowed(req, "GET");
     return jsonResponse(req, json{{"graphs", hub.graphs()}});
   }
-  // The API refuses what its state does not allow: a conflict with that state (409), with the
-  // API's message; no run, or an unknown DFPC, is 404.
-  const auto refused = [&](const Status& s) {
-    return errorResponse(
-        s.code() == StatusCode::kNotFound ? http::status::not_found : http::status::conflict,
-        s.message(), req.version(), req.keep_alive());
-  };
-  if (dfpc_route) {  // /api/live/dfpcs/<dfpc>: initDFPC, stopDFPC
-    if (req.method() != http::verb::post) return notAllowed("POST");
-    auto body = objectBody(req, "{\"request\": \"init\"|\"stop\"}");
-    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
-    const json& b = std::get<json>(body);
-    for (const auto& [key, value] : b.items())
-      if (key != "request")
-        return fromStatus(req,
-                          invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
-    const json request = b.value("request", json());
-    if (request != "init" && request != "stop")
-      return fromStatus(req, invalidInput("\"request\" = {}: expected \"init\" (initDFPC) or "
-                                          "\"stop\" (stopDFPC)",
-                                          request.dump()));
-    Status s = hub.dfpcRequest(seg[3], request == "init");
-    if (!s.isOk()) return refused(s);
-    return jsonResponse(req, hub.state());
-  }
-  if (seg.size() == 3) {  // /api/live/state
-    if (req.method() != http::verb::post) return notAllowed("POST");
-    auto body = objectBody(req, "{\"request\": \"idle\"|\"initialize\"|\"reset\"|\"stop\"}");
-    if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
-    const json& b = std::get<json>(body);
-    for (const auto& [key, value] : b.items())
-      if (key != "request")
-        return fromStatus(req,
-                          invalidInput("key \"{}\" is unknown; expected only \"request\"", key));
-    if (!b.contains("request") || !b["request"].is_string())
-      return fromStatus(req, invalidInput("\"request\" = {}: expected one of idle, initialize, "
-                                          "reset, stop (a string)",
-                                          b.value("request", json()).dump()));
-    Result<api::StateRequest> request = parseStateRequest(b["request"].get<std::string>());
-    if (!request) return fromStatus(req, request.status());
-    Status s = hub.request(*request);
-    if (!s.isOk()) return refused(s);
-    return jsonResponse(req, hub.state());
-  }
+  if (dfpc_route) return liveDfpcRoute(req, hub, seg[3]);
+  if (state_route) return liveStateRoute(req, hub);
   if (req.method() == http::verb::get) return jsonResponse(req, hub.state());
   if (req.method() == http::verb::delete_) {
     Status s = hub.remove();
     if (!s.isOk()) return fromStatus(req, s);
     return jsonResponse(req, hub.state());
   }
-  if (req.method() != http::verb::post) return notAllowed("GET, POST, DELETE");
+  if (req.method() != http::verb::post) return methodNotAllowed(req, "GET, POST, DELETE");
   auto body = objectBody(req, "{\"graph\", \"recording\", \"speed\"}");
   if (Response* refused = std::get_if<Response>(&body)) return std::move(*refused);
   Result<LiveSpec> spec = liveSpec(std::get<json>(body));
