@@ -66,12 +66,6 @@ std::filesystem::path writeLiveRecording(const Files& files, bool noisy = false)
   return path;
 }
 
-struct Received {
-  json header;
-  bool image = false;
-  double mean = -1;  // of an image
-};
-
 class LiveClient {
  public:
   explicit LiveClient(unsigned short port) : ws_(ioc_) {
@@ -84,20 +78,7 @@ class LiveClient {
     beast::flat_buffer buffer;
     ws_.read(buffer);
     const std::string data = beast::buffers_to_string(buffer.data());
-    Received r;
-    if (ws_.got_text()) {
-      r.header = json::parse(data);
-      return r;
-    }
-    const std::uint32_t n = static_cast<std::uint8_t>(data[0]) |
-                            static_cast<std::uint8_t>(data[1]) << 8 |
-                            static_cast<std::uint8_t>(data[2]) << 16 |
-                            static_cast<std::uint32_t>(static_cast<std::uint8_t>(data[3])) << 24;
-    r.header = json::parse(data.substr(4, n));
-    r.image = true;
-    const std::vector<std::uint8_t> jpeg(data.begin() + 4 + n, data.end());
-    r.mean = cv::mean(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE))[0];
-    return r;
+    return decodeFrame(data, ws_.got_text());
   }
 
  private:

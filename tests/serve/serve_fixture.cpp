@@ -10,6 +10,9 @@
 #include <boost/asio/write.hpp>
 #include <boost/beast/core.hpp>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "cdff/io/recorder.hpp"
 
 namespace cdff::serve::testing {
@@ -125,6 +128,23 @@ std::unique_ptr<Server> startServer(const Files& files, const std::string& token
   Result<std::unique_ptr<Server>> server = Server::start(options);
   EXPECT_TRUE(server.isOk()) << server.status().message();
   return server ? std::move(*server) : nullptr;
+}
+
+Received decodeFrame(const std::string& data, bool text) {
+  Received r;
+  if (text) {
+    r.header = nlohmann::json::parse(data);
+    return r;
+  }
+  const std::uint32_t n = static_cast<std::uint8_t>(data[0]) |
+                          static_cast<std::uint8_t>(data[1]) << 8 |
+                          static_cast<std::uint8_t>(data[2]) << 16 |
+                          static_cast<std::uint32_t>(static_cast<std::uint8_t>(data[3])) << 24;
+  r.header = nlohmann::json::parse(data.substr(4, n));
+  r.image = true;
+  const std::vector<std::uint8_t> jpeg(data.begin() + 4 + n, data.end());
+  r.mean = cv::mean(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE))[0];
+  return r;
 }
 
 }  // namespace cdff::serve::testing

@@ -42,6 +42,15 @@ Reply get(unsigned short port, const std::string& target,
 Reply post(unsigned short port, const std::string& target, const std::string& body,
            const std::string& content_type = "application/json");
 
+/// One WebSocket frame of a stream: a text frame's JSON, or a binary frame's header (4 bytes of
+/// little-endian length, then its JSON) and the mean grey level of its JPEG.
+struct Received {
+  nlohmann::json header;
+  bool image = false;
+  double mean = -1;  // of an image
+};
+Received decodeFrame(const std::string& data, bool text);
+
 /// A server on 127.0.0.1, any free port, over the files (and a token when not empty).
 std::unique_ptr<Server> startServer(const Files& files, const std::string& token = {});
 

@@ -22,12 +22,6 @@ namespace net = boost::asio;
 using tcp = net::ip::tcp;
 using nlohmann::json;
 
-struct Received {
-  json header;  // an image's header, or the JSON of a text frame
-  bool image = false;
-  double mean = -1;  // of an image
-};
-
 class Client {
  public:
   Client(unsigned short port, const std::string& target, const std::string& origin = {})
@@ -49,20 +43,7 @@ class Client {
     beast::flat_buffer buffer;
     ws_.read(buffer);
     const std::string data = beast::buffers_to_string(buffer.data());
-    Received r;
-    if (ws_.got_text()) {
-      r.header = json::parse(data);
-      return r;
-    }
-    const std::uint32_t n = static_cast<std::uint8_t>(data[0]) |
-                            static_cast<std::uint8_t>(data[1]) << 8 |
-                            static_cast<std::uint8_t>(data[2]) << 16 |
-                            static_cast<std::uint32_t>(static_cast<std::uint8_t>(data[3])) << 24;
-    r.header = json::parse(data.substr(4, n));
-    r.image = true;
-    const std::vector<std::uint8_t> jpeg(data.begin() + 4 + n, data.end());
-    r.mean = cv::mean(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE))[0];
-    return r;
+    return decodeFrame(data, ws_.got_text());
   }
   // Frames up to and including the next state message.
   std::vector<Received> untilState() {
