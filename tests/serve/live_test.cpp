@@ -12,7 +12,6 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "cdff/io/recorder.hpp"
 #include "serve_fixture.hpp"

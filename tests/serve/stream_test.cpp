@@ -7,7 +7,6 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "cdff/serve/frame_queue.hpp"
 #include "cdff/serve/replay_stream.hpp"
