@@ -1,10 +1,12 @@
 // TemplateDetection/Linemod on views of the procedural target rendered with known poses.
 //
-// The templates are trained once for the suite on a coarse grid (30 degree view and in-plane
-// steps, two ranges) so that training stays a few seconds; the test views are then drawn off
-// that grid, so a correct detection is within the grid's reach of the truth: half a view step
-// plus half an in-plane step (22.5 degrees, as the angles add at worst), and, once checked
-// against the depth, within a few percent of the range.
+// The detection tests train their templates once per test program on a coarse grid (30 degree
+// view and in-plane steps, two ranges) so that training stays seconds; the test views are then
+// drawn off that grid, so a correct detection is within the grid's reach of the truth: half a
+// view step plus half an in-plane step (22.5 degrees, as the angles add at worst), and, once
+// checked against the depth, within a few percent of the range. The tests of the template file
+// and of bad input need only some trained views: they train a sparse grid (90 degrees, one range)
+// in a fraction of that time.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -43,37 +45,55 @@ double angleBetween(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return Eigen::AngleAxisd(a.transpose() * b).angle();
 }
 
+const egse::TargetModel& targetModel() {
+  static const egse::TargetModel model = egse::makeTargetSatellite().value();
+  return model;
+}
+
+const TrainingOptions& defaultOptions() {
+  static const TrainingOptions options = defaultTrainingOptions(targetModel(), prosilica());
+  return options;
+}
+
+/// The template grid a test needs: the detection tests' (kDetection), or a sparse one for the
+/// tests of the file and of bad input (kSparse).
+enum class Grid { kDetection, kSparse };
+
 struct Suite {
-  egse::TargetModel model;
   TemplateSet set;
   std::filesystem::path dir, templates, model_file, other_model_file;
   double training_seconds = 0;
 };
 
-Suite& suite() {
-  static Suite* s = [] {
-    auto* out = new Suite;
-    out->model = egse::makeTargetSatellite().value();
-    TrainingOptions o = defaultTrainingOptions(out->model, prosilica());
-    o.view_step = o.in_plane_step = kStep;
-    o.ranges = {6.0, 7.5};
-    const auto t0 = std::chrono::steady_clock::now();
-    out->set = trainTemplates(out->model, prosilica(), o).value();
-    out->training_seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    out->dir = std::filesystem::temp_directory_path() /
-               fmt::format("cdff_template_detection_{}", ::getpid());
-    std::filesystem::create_directories(out->dir);
-    out->templates = out->dir / "templates.yml.gz";
-    EXPECT_TRUE(writeTemplateSet(out->set, out->templates).isOk());
-    out->model_file = out->dir / "target.ply";
-    EXPECT_TRUE(egse::writePly(out->model, out->model_file).isOk());
-    out->other_model_file = out->dir / "hexagonal.ply";
-    EXPECT_TRUE(
-        egse::writePly(egse::makeHexagonalSatellite().value(), out->other_model_file).isOk());
-    return out;
-  }();
-  return *s;
+Suite train(Grid grid) {
+  Suite out;
+  TrainingOptions o = defaultOptions();
+  o.view_step = o.in_plane_step = grid == Grid::kDetection ? kStep : 3 * kStep;
+  o.ranges = grid == Grid::kDetection ? std::vector<double>{6.0, 7.5} : std::vector<double>{6.0};
+  const auto t0 = std::chrono::steady_clock::now();
+  out.set = trainTemplates(targetModel(), prosilica(), o).value();
+  out.training_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.dir = std::filesystem::temp_directory_path() /
+            fmt::format("cdff_template_detection_{}_{}", ::getpid(), static_cast<int>(grid));
+  std::filesystem::create_directories(out.dir);
+  out.templates = out.dir / "templates.yml.gz";
+  EXPECT_TRUE(writeTemplateSet(out.set, out.templates).isOk());
+  out.model_file = out.dir / "target.ply";
+  EXPECT_TRUE(egse::writePly(targetModel(), out.model_file).isOk());
+  out.other_model_file = out.dir / "hexagonal.ply";
+  EXPECT_TRUE(egse::writePly(egse::makeHexagonalSatellite().value(), out.other_model_file).isOk());
+  return out;
+}
+
+/// Trained once per test program and grid.
+const Suite& suite(Grid grid = Grid::kDetection) {
+  if (grid == Grid::kSparse) {
+    static const Suite sparse = train(Grid::kSparse);
+    return sparse;
+  }
+  static const Suite detection = train(Grid::kDetection);
+  return detection;
 }
 
 /// A rendered test view as the DFN's inputs (matching resolution, its camera).
@@ -84,10 +104,10 @@ struct TestView {
 };
 
 TestView renderView(const Eigen::Isometry3d& truth, const Eigen::Vector3d& sun) {
-  const Suite& s = suite();
-  ViewRenderer renderer = ViewRenderer::create(s.model, prosilica(), s.set.pyramid_level,
-                                               egse::RendererBackend::kCpu, sun)
-                              .value();
+  ViewRenderer renderer =
+      ViewRenderer::create(targetModel(), prosilica(), defaultOptions().pyramid_level,
+                           egse::RendererBackend::kCpu, sun)
+          .value();
   RenderedView view = renderer.render(truth).value();
   TestView t;
   t.truth = truth;
@@ -105,14 +125,14 @@ TestView renderView(const Eigen::Isometry3d& truth, const Eigen::Vector3d& sun) 
 Eigen::Isometry3d poseAt(const Eigen::Quaterniond& q, const Eigen::Vector3d& centre) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = q.toRotationMatrix();
-  pose.translation() = centre - pose.linear() * suite().model.boundingCentre();
+  pose.translation() = centre - pose.linear() * targetModel().boundingCentre();
   return pose;
 }
 
-std::unique_ptr<TemplateDetection> make(const std::string& extra = "") {
+std::unique_ptr<TemplateDetection> make(Grid grid, const std::string& extra = "") {
   return testing::makeDfn<TemplateDetection>(
       "TemplateDetection", "Linemod",
-      fmt::format("{{template_file: '{}'{}}}", suite().templates.string(), extra));
+      fmt::format("{{template_file: '{}'{}}}", suite(grid).templates.string(), extra));
 }
 
 struct Errors {
@@ -122,7 +142,7 @@ struct Errors {
 
 Errors errorsOf(const Detection& d, const Eigen::Isometry3d& truth) {
   const Eigen::Isometry3d pose = d.pose.isometry();
-  const Eigen::Vector3d centre = suite().model.boundingCentre();
+  const Eigen::Vector3d centre = targetModel().boundingCentre();
   const Eigen::Vector3d c_true = truth * centre;
   return {angleBetween(pose.linear(), truth.linear()) / kDeg,
           ((pose * centre) - c_true).norm() / c_true.norm()};
@@ -132,9 +152,10 @@ const Eigen::Vector3d kFrontSun = TrainingOptions{}.sun_direction;
 const Eigen::Vector3d kSideSun = Eigen::Vector3d(1.0, -0.2, -0.3).normalized();
 
 TEST(TemplateDetectionLinemod, FindsATrainedViewAtItsPose) {
-  const TemplateView& t = suite().set.templates[suite().set.templates.size() / 3];
+  const Suite& sparse = suite(Grid::kSparse);
+  const TemplateView& t = sparse.set.templates[sparse.set.templates.size() / 3];
   const TestView view = renderView(t.camera_T_object, kFrontSun);
-  auto dfn = make();
+  auto dfn = make(Grid::kSparse);
   dfn->in.image.set(view.image);
   ASSERT_TRUE(dfn->process().isOk());
   ASSERT_TRUE(*dfn->out.detected);
@@ -152,7 +173,7 @@ TEST(TemplateDetectionLinemod, DetectsViewsOffTheGridWithDepth) {
   std::mt19937 rng(11);
   std::normal_distribution<double> g;
   std::uniform_real_distribution<double> u(-1, 1);
-  auto dfn = make();
+  auto dfn = make(Grid::kDetection);
   const int n = 24;
   int correct = 0, placed = 0, detected = 0;
   for (int i = 0; i < n; ++i) {
@@ -189,7 +210,7 @@ TEST(TemplateDetectionLinemod, DetectsViewsFromTheirDepthAlone) {
   std::mt19937 rng(12);
   std::normal_distribution<double> g;
   std::uniform_real_distribution<double> u(-1, 1);
-  auto dfn = make();
+  auto dfn = make(Grid::kDetection);
   const int n = 24;
   int correct = 0, placed = 0, detected = 0;
   for (int i = 0; i < n; ++i) {
@@ -218,7 +239,7 @@ TEST(TemplateDetectionLinemod, DetectsViewsFromTheirDepthAlone) {
 }
 
 TEST(TemplateDetectionLinemod, AnEmptySkyIsNotDetected) {
-  auto dfn = make();
+  auto dfn = make(Grid::kDetection);
   TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
   // Stars: isolated bright pixels on black, and no depth.
   cv::Mat sky = cv::Mat::zeros(view.image.height, view.image.width, CV_8UC1);
@@ -235,18 +256,19 @@ TEST(TemplateDetectionLinemod, AnEmptySkyIsNotDetected) {
 }
 
 TEST(TemplateDetectionLinemod, TemplateFileRoundTrips) {
-  Result<TemplateSet> read = readTemplateSet(suite().templates);
+  const Suite& sparse = suite(Grid::kSparse);
+  Result<TemplateSet> read = readTemplateSet(sparse.templates);
   ASSERT_TRUE(read) << read.status().toString();
-  EXPECT_EQ(read->mesh_hash, suite().set.mesh_hash);
-  EXPECT_EQ(read->templates.size(), suite().set.templates.size());
-  EXPECT_EQ(read->detector->numTemplates(), suite().set.detector->numTemplates());
-  EXPECT_EQ(read->model_points.size(), suite().set.model_points.size());
+  EXPECT_EQ(read->mesh_hash, sparse.set.mesh_hash);
+  EXPECT_EQ(read->templates.size(), sparse.set.templates.size());
+  EXPECT_EQ(read->detector->numTemplates(), sparse.set.detector->numTemplates());
+  EXPECT_EQ(read->model_points.size(), sparse.set.model_points.size());
   const TemplateView& a = read->templates.back();
-  const TemplateView& b = suite().set.templates.back();
+  const TemplateView& b = sparse.set.templates.back();
   EXPECT_LT((a.camera_T_object.matrix() - b.camera_T_object.matrix()).norm(), 1e-9);
   EXPECT_EQ(a.centre_offset, b.centre_offset);
   // The exported model has the same hash as the one trained on.
-  EXPECT_EQ(meshHash(egse::loadModel(suite().model_file).value().mesh), suite().set.mesh_hash);
+  EXPECT_EQ(meshHash(egse::loadModel(sparse.model_file).value().mesh), sparse.set.mesh_hash);
 }
 
 // ---- Bad input ---------------------------------------------------------------------------
@@ -268,7 +290,7 @@ TEST(TemplateDetectionLinemodBadInput, MissingOrCorruptTemplateFile) {
   EXPECT_EQ(s.code(), StatusCode::kNotFound);
   EXPECT_NE(s.message().find("/nonexistent/templates.yml.gz"), std::string::npos) << s.message();
   // A truncated file.
-  const std::filesystem::path cut = suite().dir / "truncated.yml";
+  const std::filesystem::path cut = suite(Grid::kSparse).dir / "truncated.yml";
   {
     cv::FileStorage fs(cut.string(), cv::FileStorage::WRITE);
     fs << "format"
@@ -279,7 +301,7 @@ TEST(TemplateDetectionLinemodBadInput, MissingOrCorruptTemplateFile) {
   EXPECT_EQ(s.code(), StatusCode::kCorruptData);
   EXPECT_NE(s.message().find("truncated.yml"), std::string::npos) << s.message();
   // Not a template file at all.
-  const std::filesystem::path junk = suite().dir / "junk.yml";
+  const std::filesystem::path junk = suite(Grid::kSparse).dir / "junk.yml";
   std::ofstream(junk) << "this: [is, not\n";
   s = configureWith(fmt::format("{{template_file: '{}'}}", junk.string()));
   EXPECT_EQ(s.code(), StatusCode::kCorruptData);
@@ -287,19 +309,20 @@ TEST(TemplateDetectionLinemodBadInput, MissingOrCorruptTemplateFile) {
 }
 
 TEST(TemplateDetectionLinemodBadInput, TemplatesOfAnotherMeshAreRefused) {
+  const Suite& sparse = suite(Grid::kSparse);
   Status s =
       configureWith(fmt::format("{{template_file: '{}', model_file: '{}'}}",
-                                suite().templates.string(), suite().other_model_file.string()));
+                                sparse.templates.string(), sparse.other_model_file.string()));
   EXPECT_EQ(s.code(), StatusCode::kInvalidParameter);
   EXPECT_NE(s.message().find("hash"), std::string::npos) << s.message();
   EXPECT_NE(s.message().find("hexagonal.ply"), std::string::npos) << s.message();
   s = configureWith(fmt::format("{{template_file: '{}', model_file: '{}'}}",
-                                suite().templates.string(), suite().model_file.string()));
+                                sparse.templates.string(), sparse.model_file.string()));
   EXPECT_TRUE(s.isOk()) << s.toString();
 }
 
 TEST(TemplateDetectionLinemodBadInput, ImagesOfAnotherCameraOrWithoutOneAreRefused) {
-  auto dfn = make();
+  auto dfn = make(Grid::kSparse);
   TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
   Image image = view.image;
   image.camera.reset();
@@ -326,7 +349,7 @@ TEST(TemplateDetectionLinemodBadInput, ImagesOfAnotherCameraOrWithoutOneAreRefus
 }
 
 TEST(TemplateDetectionLinemodBadInput, ADepthAloneMustBeInTheTemplatesCamera) {
-  auto dfn = make();
+  auto dfn = make(Grid::kSparse);
   testing::expectRejected(*dfn, "neither input 'image' nor input 'depth' has a value");
   TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
   DepthMap depth = view.depth;
@@ -343,7 +366,7 @@ TEST(TemplateDetectionLinemodBadInput, ADepthAloneMustBeInTheTemplatesCamera) {
 }
 
 TEST(TemplateDetectionLinemodBadInput, DepthNormalsNeedADepth) {
-  auto dfn = make(", depth_normals: true");
+  auto dfn = make(Grid::kSparse, ", depth_normals: true");
   TestView view = renderView(poseAt(Eigen::Quaterniond::Identity(), {0, 0, 6}), kFrontSun);
   dfn->in.image.set(view.image);
   testing::expectRejected(*dfn, "input 'depth' has no value");

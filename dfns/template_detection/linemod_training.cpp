@@ -36,6 +36,22 @@ struct TrainingItem {
   TemplateView view;
 };
 
+/// The part of a view that LINEMOD needs to extract the template of the object in `mask`: its
+/// bounding box widened by kCropMargin pixels (more than the 7x7 blur, the gradient's hysteresis,
+/// the normals' window and two pyramid levels reach), its corner on a multiple of kCropAlignment
+/// so that every pyramid level downsamples the same pixels, clipped to the view.
+constexpr int kCropMargin = 32;
+constexpr int kCropAlignment = 16;
+
+cv::Rect templateCrop(const cv::Mat& mask) {
+  const cv::Rect object = cv::boundingRect(mask);
+  const int x0 = std::max(0, (object.x - kCropMargin) / kCropAlignment * kCropAlignment);
+  const int y0 = std::max(0, (object.y - kCropMargin) / kCropAlignment * kCropAlignment);
+  const int x1 = std::min(mask.cols, object.br().x + kCropMargin);
+  const int y1 = std::min(mask.rows, object.br().y + kCropMargin);
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
 /// What the training threads share (read-only but for the progress count).
 struct TrainingShared {
   const TrainingOptions& options;
@@ -68,10 +84,19 @@ Status trainShare(ViewRenderer& views, TrainingShared& shared, int begin, int en
       shared.progress(n, shared.total);
     }
     if (cv::countNonZero(view->mask) < kMinimumViewPixels) continue;
+    // LINEMOD extracts a template from the whole image it is given (eight distance transforms
+    // of it for the normals alone), so it is given the view's bounding box with a margin: the
+    // blur, gradient, normal and pyramid windows then see the same pixels as in the full image
+    // (the margin is wider than they reach and the crop starts on the coarsest level's grid),
+    // and the template is the same, its box moved back by the crop's corner.
+    const cv::Rect crop = templateCrop(view->mask);
     cv::Rect box;
+    // (LINEMOD reads its images as continuous rows: the crops are copied.)
     const int id =
-        detector->addTemplate({asColour(view->image), view->depth}, "view", view->mask, &box);
+        detector->addTemplate({asColour(view->image(crop).clone()), view->depth(crop).clone()},
+                              "view", view->mask(crop).clone(), &box);
     if (id < 0) continue;
+    box += crop.tl();
     depths.clear();
     for (int r = 0; r < view->depth.rows; ++r)
       for (int c = 0; c < view->depth.cols; ++c)

@@ -18,37 +18,9 @@
 namespace cdff::python {
 namespace {
 
+/// getDFPCStatus as a dict with the keys of every other interface (dfpc::statusRecord).
 py::dict statusDict(const dfpc::DfpcStatus& s) {
-  py::dict d;
-  d["name"] = s.name;
-  d["state"] = dfpc::toString(s.state);
-  d["track_state"] = s.track_state ? py::cast(*s.track_state) : py::none();
-  d["stream_time"] = s.stream_time;
-  d["last_product"] = s.last_product ? py::cast(*s.last_product) : py::none();
-  d["messages"] = s.messages;
-  d["ignored_messages"] = s.ignored_messages;
-  d["products"] = s.products;
-  d["faults"] = s.faults;
-  d["recoveries"] = s.recoveries;
-  d["last_fault"] = s.last_fault;
-  py::list instances;
-  for (const dfpc::InstanceStatus& i : s.instances) {
-    py::dict n;
-    n["name"] = i.name;
-    n["dfn"] = i.dfn;
-    n["dfi"] = i.dfi;
-    n["active"] = i.active;
-    n["on_fallback"] = i.on_fallback;
-    n["calls"] = i.calls;
-    n["errors"] = i.errors;
-    n["faults"] = i.faults;
-    n["mean_wall_s"] = i.mean_wall_s;
-    n["max_wall_s"] = i.max_wall_s;
-    n["last_error"] = i.last_error;
-    instances.append(n);
-  }
-  d["instances"] = instances;
-  return d;
+  return py::module_::import("json").attr("loads")(dfpc::statusRecord(s).dump());
 }
 
 py::dict runGraphs(const std::vector<std::string>& graphs, const std::vector<std::string>& inputs,

@@ -8,6 +8,7 @@
 #include <optional>
 #include <thread>
 
+#include "cdff/dfpc/recording_streams.hpp"
 #include "cdff/types/codec/codec.hpp"
 #include "cdff_msgs.h"
 
@@ -27,34 +28,6 @@ json matrixJson(const Matrix6d& m) {
   for (int r = 0; r < 6; ++r)
     for (int c = 0; c < 6; ++c) rows.push_back(m(r, c));
   return rows;
-}
-
-json statusJson(const dfpc::DfpcStatus& s) {
-  json instances = json::array();
-  for (const dfpc::InstanceStatus& i : s.instances)
-    instances.push_back({{"name", i.name},
-                         {"dfn", i.dfn},
-                         {"dfi", i.dfi},
-                         {"active", i.active},
-                         {"on_fallback", i.on_fallback},
-                         {"calls", i.calls},
-                         {"errors", i.errors},
-                         {"faults", i.faults},
-                         {"mean_wall_s", i.mean_wall_s},
-                         {"max_wall_s", i.max_wall_s},
-                         {"last_error", i.last_error}});
-  return {{"name", s.name},
-          {"state", dfpc::toString(s.state)},
-          {"track_state", s.track_state ? json(std::string(toString(*s.track_state))) : json()},
-          {"stream_time_us", s.stream_time},
-          {"last_product_us", s.last_product ? json(*s.last_product) : json()},
-          {"messages", s.messages},
-          {"ignored_messages", s.ignored_messages},
-          {"products", s.products},
-          {"faults", s.faults},
-          {"recoveries", s.recoveries},
-          {"last_fault", s.last_fault},
-          {"instances", instances}};
 }
 
 ApiReply failed(const Status& status) {
@@ -119,7 +92,7 @@ ApiReply dispatch(api::Cdff& cdff, const std::string& method, const std::string&
   }
   if (method == "getDFPCStatus") {
     Result<dfpc::DfpcStatus> s = cdff.getDFPCStatus(argument);
-    return s ? answer(statusJson(*s)) : failed(s.status());
+    return s ? answer(dfpc::statusRecord(*s)) : failed(s.status());
   }
   if (method == "initDFPC" || method == "stopDFPC") {
     const Status s = method == "initDFPC" ? cdff.initDFPC(argument) : cdff.stopDFPC(argument);

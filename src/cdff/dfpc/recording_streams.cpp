@@ -109,6 +109,37 @@ nlohmann::json eventRecord(const Event& event) {
           {"message", event.message}};
 }
 
+nlohmann::json statusRecord(const DfpcStatus& s) {
+  nlohmann::json instances = nlohmann::json::array();
+  for (const InstanceStatus& i : s.instances)
+    instances.push_back({{"name", i.name},
+                         {"dfn", i.dfn},
+                         {"dfi", i.dfi},
+                         {"active", i.active},
+                         {"on_fallback", i.on_fallback},
+                         {"calls", i.calls},
+                         {"errors", i.errors},
+                         {"faults", i.faults},
+                         {"skipped", i.skipped},
+                         {"sync_dropped", i.sync_dropped},
+                         {"mean_wall_s", i.mean_wall_s},
+                         {"max_wall_s", i.max_wall_s},
+                         {"last_error", i.last_error}});
+  return {{"name", s.name},
+          {"state", toString(s.state)},
+          {"track_state",
+           s.track_state ? nlohmann::json(std::string(toString(*s.track_state))) : nullptr},
+          {"stream_time_us", s.stream_time},
+          {"last_product_us", s.last_product ? nlohmann::json(*s.last_product) : nullptr},
+          {"messages", s.messages},
+          {"ignored_messages", s.ignored_messages},
+          {"products", s.products},
+          {"faults", s.faults},
+          {"recoveries", s.recoveries},
+          {"last_fault", s.last_fault},
+          {"instances", std::move(instances)}};
+}
+
 nlohmann::json timingRecord(const TimingRecord& timing) {
   return {{"dfn", std::string(timing.instance)},
           {"dfn_type", std::string(timing.dfn)},

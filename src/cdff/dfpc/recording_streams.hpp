@@ -89,6 +89,10 @@ const char* eventLevel(EventType type);
 /// An event as recordings hold it on /cdff/events: level, source, kind, type, dfpc, instance,
 /// message (docs/recording.md).
 nlohmann::json eventRecord(const Event& event);
+/// A DFPC's status (getDFPCStatus) as every external interface gives it: the DDS service, the
+/// web UI and Python read the same keys (times in int64 microseconds, `*_us`; null where the
+/// DFPC has no track state or no product yet; docs/external-api.md).
+nlohmann::json statusRecord(const DfpcStatus& status);
 /// A DFN call's timing record, as recorded on timingChannel(dfpc).
 nlohmann::json timingRecord(const TimingRecord& timing);
 /// "/cdff/<dfpc>/timing".

@@ -166,14 +166,13 @@ class LiveHub::Run final : public dfpc::Sink {
     std::lock_guard lock(mutex_);
     Timing& t = timings_[std::string(timing.instance)];
     t.last_s = timing.wall_s;
-    t.total_s += timing.wall_s;
     ++t.calls;
     return Status::ok();
   }
 
  private:
   struct Timing {
-    double last_s = 0, total_s = 0;
+    double last_s = 0;
     std::uint64_t calls = 0;
   };
 
@@ -277,36 +276,15 @@ class LiveHub::Run final : public dfpc::Sink {
     hub_.publish({false, dump(j)});
   }
 
-  // getDFPCStatus as JSON, with each instance's latest and mean DFN call time (mutex_ not held).
+  // getDFPCStatus as JSON (dfpc::statusRecord), with each instance's latest DFN call time
+  // (mutex_ not held).
   json statusJson(const dfpc::DfpcStatus& s) const {
-    json j = {{"name", s.name},
-              {"state", dfpc::toString(s.state)},
-              {"track_state", s.track_state ? json(std::string(toString(*s.track_state))) : json()},
-              {"t", seconds(s.stream_time)},
-              {"last_product_t", s.last_product ? json(seconds(*s.last_product)) : json()},
-              {"messages", s.messages},
-              {"ignored_messages", s.ignored_messages},
-              {"products", s.products},
-              {"faults", s.faults},
-              {"recoveries", s.recoveries},
-              {"last_fault", s.last_fault},
-              {"instances", json::array()}};
-    for (const dfpc::InstanceStatus& i : s.instances) {
-      json ij = {{"name", i.name},
-                 {"dfn", i.dfn},
-                 {"dfi", i.dfi},
-                 {"active", i.active},
-                 {"on_fallback", i.on_fallback},
-                 {"calls", i.calls},
-                 {"errors", i.errors},
-                 {"faults", i.faults}};
-      std::lock_guard lock(mutex_);
-      if (auto t = timings_.find(i.name); t != timings_.end() && t->second.calls > 0) {
-        ij["last_wall_s"] = t->second.last_s;
-        ij["mean_wall_s"] = t->second.total_s / static_cast<double>(t->second.calls);
-      }
-      j["instances"].push_back(std::move(ij));
-    }
+    json j = dfpc::statusRecord(s);
+    std::lock_guard lock(mutex_);
+    for (json& instance : j["instances"])
+      if (auto t = timings_.find(instance["name"].get<std::string>());
+          t != timings_.end() && t->second.calls > 0)
+        instance["last_wall_s"] = t->second.last_s;
     return j;
   }
 
