@@ -38,6 +38,7 @@ demo: build stereo-templates
 	@bash scripts/demo.sh $(BUILD_DIR) out/demo
 
 bench: build templates
+	@cmake --build $(BUILD_DIR) --target benchmarks -j $(JOBS)
 	@bash scripts/run-benchmarks.sh $(BUILD_DIR)
 
 # The LINEMOD templates of the detection graphs, for the procedural target (data/models/target.ply)
