@@ -440,7 +440,7 @@ TEST(LiveRun, ADesignationReachesTheGraphThroughTheExternalApi) {
 
   LiveClient client(port);
   ASSERT_FALSE(client.error()) << client.error().message();
-  r = post(port, "/api/live", json{{"graph", graph}, {"recording", 0}, {"speed", 1}}.dump());
+  r = post(port, "/api/live", json{{"graph", graph}, {"recording", 0}, {"speed", 0.5}}.dump());
   ASSERT_EQ(r.status, 200) << r.body;
   // Once an image was processed (the stream shows it), the box goes in.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -464,6 +464,19 @@ TEST(LiveRun, ADesignationReachesTheGraphThroughTheExternalApi) {
       "\r\nConnection: close\r\n";
   expectError(sendRaw(port, raw_post + "Origin: http://evil.example\r\n\r\n" + box), 403,
               "Origin 'http://evil.example'");
+  // Nor may another site's page stop the run; the page's own origin may.
+  expectError(sendRaw(port, "DELETE /api/live HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                                "\r\nOrigin: http://evil.example\r\nConnection: close\r\n\r\n"),
+              403, "is not this server's");
+  EXPECT_EQ(get(port, "/api/live").json()["active"], true);
+  const std::string tall = R"({"x": 0, "y": 0, "w": 64, "h": 49})";
+  const Reply own = sendRaw(
+      port, "POST /api/live/designation HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                "\r\nOrigin: http://127.0.0.1:" + std::to_string(port) +
+                "\r\nContent-Type: application/json\r\nContent-Length: " +
+                std::to_string(tall.size()) + "\r\nConnection: close\r\n\r\n" + tall);
+  // Past the Origin check: the box is refused for its height (49 > 48).
+  expectError(own, 400, "leaves the 64x48 image");
 
   r = designate(box);
   ASSERT_EQ(r.status, 200) << r.body;
