@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include "cdff/dfpc/api.hpp"
+#include "cdff/dfpc/designation.hpp"
 #include "test_helpers.hpp"
 
 namespace cdff::api {
@@ -249,6 +250,111 @@ TEST(ExternalApi, AGivenRecordingIsConsumedOnceRunningAndIdlePausesLiveInput) {
   EXPECT_EQ(status.state, dfpc::DfpcState::kRunning);
   EXPECT_EQ(status.messages, 6u);
   EXPECT_EQ(status.instances[0].calls, 6u + 10u);  // 6 measurements, 10 predictions between
+}
+
+// A DFPC that reads designations the way dfpcs/far_range_tracking.yaml does: an image, the user's
+// region on /cdff/designation, TargetDesignation passing it on with the next image (no automatic
+// designation).
+constexpr const char* kDesignationGraph = R"(
+name: designation_probe
+inputs:
+  - {name: image, type: Image, channel: /camera/image}
+  - {name: designation, type: ImageRegion, channel: /cdff/designation, optional: true}
+outputs:
+  - {name: designated, type: ImageRegion}
+nodes:
+  designate:
+    dfn: TargetDesignation
+    dfi: FixedBlob
+    parameters: {automatic: false}
+    trigger: {on: [image]}
+connections:
+  - image -> designate.image
+  - designation -> designate.user
+  - designate.designation -> designated
+)";
+
+dfpc::Message cameraImage(double t, int width = 64, int height = 48) {
+  Result<Image> image = Image::fromBytes(std::vector<std::uint8_t>(width * height, 20), width,
+                                         height, PixelFormat::kGray8);
+  EXPECT_TRUE(image.isOk());
+  image->stamp = fromSeconds(t);
+  image->frame_id = "camera_optical";
+  return dfpc::Message::of("/camera/image", fromSeconds(t), *image);
+}
+
+TEST(ExternalApi, DesignateTargetDeliversTheUsersBoxAtTheStreamTime) {
+  Result<dfpc::GraphSpec> spec = dfpc::parseGraph(kDesignationGraph, "designation_probe.yaml");
+  ASSERT_OK(spec.status());
+  Config config;
+  config.graphs = {*spec};
+  Result<std::unique_ptr<Cdff>> created = Cdff::create(std::move(config));
+  ASSERT_OK(created.status());
+  Cdff& cdff = **created;
+
+  // Not running yet; then running without an image.
+  EXPECT_CONTAINS(cdff.designateTarget(10, 10, 8, 8).status().message(),
+                  "no running DFPC reads designations (designation_probe is initialised)");
+  ASSERT_OK(cdff.setCDFFState(StateRequest::kInitialize));
+  Result<Designated> none = cdff.designateTarget(10, 10, 8, 8);
+  EXPECT_EQ(none.status().code(), StatusCode::kNotFound);
+  EXPECT_CONTAINS(none.status().message(), "no image on /camera/image yet");
+
+  ASSERT_OK(cdff.push(cameraImage(1.0)));
+  ASSERT_OK(cdff.flush(30.0));
+  // Bad boxes: not finite, empty, leaving the 64x48 image (the message names the bounds).
+  EXPECT_CONTAINS(cdff.designateTarget(std::nan(""), 10, 8, 8).status().message(),
+                  "the box's corner (nan, 10) is not finite");
+  EXPECT_CONTAINS(cdff.designateTarget(10, 10, 0, 8).status().message(),
+                  "the box's size 0x8 px; expected at least 1x1 px");
+  Result<Designated> outside = cdff.designateTarget(60, 10, 8, 8);
+  EXPECT_EQ(outside.status().code(), StatusCode::kInvalidInput);
+  EXPECT_CONTAINS(outside.status().message(),
+                  "the box [60, 68) x [10, 18) leaves the 64x48 image of /camera/image");
+  EXPECT_FALSE(cdff.designateTarget(-0.5, 10, 8, 8).isOk());
+  EXPECT_FALSE(cdff.designateTarget(10, 41, 8, 8).isOk());
+  EXPECT_FALSE(cdff.products()->contains("designation_probe/designated"));
+
+  // A box that fits: delivered at the stream time (the latest message, 1 s), taken up by the
+  // designation node with the next image (1.5 s), the box unchanged.
+  ASSERT_OK(cdff.push(dfpc::testing::number("/unrelated", 1.2, 0)));
+  ASSERT_OK(cdff.flush(30.0));
+  Result<Designated> d = cdff.designateTarget(20.5, 10, 8, 6);
+  ASSERT_OK(d.status());
+  EXPECT_EQ(d->region.stamp, fromSeconds(1.2));
+  EXPECT_EQ(d->region.source, "user");
+  EXPECT_EQ(d->region.frame_id, "camera_optical");
+  EXPECT_EQ(d->dfpcs, std::vector<std::string>{"designation_probe"});
+  EXPECT_EQ(d->image_channel, "/camera/image");
+  EXPECT_EQ(d->image_width, 64);
+  EXPECT_EQ(d->image_height, 48);
+  EXPECT_EQ(d->image_stamp, fromSeconds(1.0));
+  ASSERT_OK(cdff.push(cameraImage(1.5)));
+  ASSERT_OK(cdff.flush(30.0));
+  Result<dfpc::Product> product = cdff.products()->latest("designation_probe/designated");
+  ASSERT_OK(product.status());
+  std::shared_ptr<const ImageRegion> region = product->as<ImageRegion>();
+  ASSERT_TRUE(region);
+  EXPECT_EQ(product->stamp, fromSeconds(1.5));
+  EXPECT_EQ(region->source, "user");
+  EXPECT_EQ(region->width, 8);
+  EXPECT_EQ(region->height, 6);
+  EXPECT_LT((region->centre() - Eigen::Vector2d(20.5 + 3.5, 10 + 2.5)).norm(), 1e-12);
+
+  // A stopped reader: refused, naming its state.
+  ASSERT_OK(cdff.stopDFPC("designation_probe"));
+  EXPECT_CONTAINS(cdff.designateTarget(10, 10, 8, 8).status().message(),
+                  "designation_probe is stopped");
+
+  // A graph without a designation input.
+  auto filtering = makeCdff();
+  ASSERT_TRUE(filtering);
+  ASSERT_OK(filtering->setCDFFState(StateRequest::kInitialize));
+  Result<Designated> unread = filtering->designateTarget(10, 10, 8, 8);
+  EXPECT_EQ(unread.status().code(), StatusCode::kNotFound);
+  EXPECT_CONTAINS(unread.status().message(),
+                  "no DFPC reads designations (an ImageRegion input on /cdff/designation); the "
+                  "DFPCs are {pose_filtering}");
 }
 
 }  // namespace

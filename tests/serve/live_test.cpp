@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -328,6 +329,7 @@ TEST(LiveRun, RoutesNeedTheTokenWhenTheServerHasOne) {
   EXPECT_EQ(get(port, "/api/live").status, 401);
   EXPECT_EQ(get(port, "/api/graphs").status, 401);
   EXPECT_EQ(post(port, "/api/live/state", R"({"request": "idle"})").status, 401);
+  EXPECT_EQ(post(port, "/api/live/designation", R"({"x": 1, "y": 1, "w": 8, "h": 8})").status, 401);
   EXPECT_EQ(get(port, "/ws/live").status, 401);
   EXPECT_EQ(get(port, "/api/live").json()["error"].is_string(), true);
   const Reply r = post(port, "/api/live?token=" + token, startBody());
@@ -377,6 +379,139 @@ TEST(LiveRun, ABrowserThatDoesNotReadNeverHoldsTheRunBack) {
   // Only that browser's copy was decimated.
   ASSERT_EQ(state["browsers"].size(), 1u) << state.dump();
   EXPECT_GT(state["browsers"][0]["dropped"].get<int>(), 0) << state.dump();
+}
+
+// A DFPC that reads designations as dfpcs/far_range_tracking.yaml does (TargetDesignation passing
+// the user's region on with the next image), on the live recording's camera.
+std::filesystem::path writeDesignationGraph(const Files& files) {
+  const std::filesystem::path path = files.dir / "designation_probe.yaml";
+  std::ofstream(path) << R"(name: designation_probe
+inputs:
+  - {name: image, type: Image, channel: /camera/image}
+  - {name: designation, type: ImageRegion, channel: /cdff/designation, optional: true}
+outputs:
+  - {name: designated, type: ImageRegion}
+nodes:
+  designate:
+    dfn: TargetDesignation
+    dfi: FixedBlob
+    parameters: {automatic: false}
+    trigger: {on: [image]}
+connections:
+  - image -> designate.image
+  - designation -> designate.user
+  - designate.designation -> designated
+)";
+  return path;
+}
+
+// POST /api/live/designation: the box (full-resolution pixels) goes through the external API's
+// designateTarget to the DFPC, which passes it on with the next image (a "region" frame on the
+// stream, its corners the box's edges); every watching browser gets the "designation" frame.
+// Malformed and out-of-image boxes are 400 with what was wrong; a run whose graph reads no
+// designation is 409; no run is 404; another site's page is 403.
+TEST(LiveRun, ADesignationReachesTheGraphThroughTheExternalApi) {
+  const Files files = makeFiles("live_designation");
+  const std::filesystem::path rec = writeLiveRecording(files);
+  ServerOptions options;
+  options.port = 0;
+  options.app_dir = files.app_dir;
+  options.recordings = {rec.string()};
+  const std::string graph = writeDesignationGraph(files).string();
+  options.graphs = {graph, kGraph};
+  Result<std::unique_ptr<Server>> server = Server::start(options);
+  ASSERT_TRUE(server.isOk()) << server.status().message();
+  const unsigned short port = (*server)->port();
+  const auto designate = [&](const std::string& body) {
+    return post(port, "/api/live/designation", body);
+  };
+  const auto expectError = [](const Reply& r, int status, const std::string& fragment) {
+    EXPECT_EQ(r.status, status) << r.body;
+    ASSERT_TRUE(r.json().contains("error")) << r.body;
+    EXPECT_NE(r.json()["error"].get<std::string>().find(fragment), std::string::npos) << r.body;
+  };
+  const std::string box = R"({"x": 20.5, "y": 10, "w": 8, "h": 6})";
+  expectError(designate(box), 404, "no live run");
+
+  // A graph that reads no designation: the API's refusal, a conflict with the run.
+  Reply r = post(port, "/api/live", json{{"graph", kGraph}, {"recording", 0}, {"speed", 4}}.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  expectError(designate(box), 409, "no DFPC reads designations");
+  ASSERT_EQ(
+      sendRaw(port, "DELETE /api/live HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n")
+          .status,
+      200);
+
+  LiveClient client(port);
+  ASSERT_FALSE(client.error()) << client.error().message();
+  r = post(port, "/api/live", json{{"graph", graph}, {"recording", 0}, {"speed", 0.5}}.dump());
+  ASSERT_EQ(r.status, 200) << r.body;
+  // Once an image was processed (the stream shows it), the box goes in.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline && !client.next().image) {
+  }
+  // Malformed boxes and ones that leave the 64x48 image, each naming the value.
+  expectError(designate(R"({"x": 20, "y": 10, "w": 8})"), 400, "\"h\" is missing");
+  expectError(designate(R"({"x": "20", "y": 10, "w": 8, "h": 6})"), 400, "\"x\" = \"20\"");
+  expectError(designate(R"({"x": 20, "y": 10, "w": 0, "h": 6})"), 400,
+              "\"w\" = 0: expected a whole number of pixels");
+  expectError(designate(R"({"x": 20, "y": 10, "w": 2.5, "h": 6})"), 400, "\"w\" = 2.5");
+  expectError(designate(R"({"x": 20, "y": 10, "w": 8, "h": 6, "t": 1})"), 400,
+              "key \"t\" is unknown");
+  expectError(designate("[1, 2, 3, 4]"), 400, "not a JSON object");
+  expectError(designate(R"({"x": 60, "y": 10, "w": 8, "h": 6})"), 400,
+              "leaves the 64x48 image of /camera/image");
+  expectError(designate(R"({"x": -1, "y": 10, "w": 8, "h": 6})"), 400, "leaves the 64x48 image");
+  const std::string raw_post =
+      "POST /api/live/designation HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+      "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(box.size()) +
+      "\r\nConnection: close\r\n";
+  expectError(sendRaw(port, raw_post + "Origin: http://evil.example\r\n\r\n" + box), 403,
+              "Origin 'http://evil.example'");
+  // Nor may another site's page stop the run; the page's own origin may.
+  expectError(sendRaw(port, "DELETE /api/live HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                                "\r\nOrigin: http://evil.example\r\nConnection: close\r\n\r\n"),
+              403, "is not this server's");
+  EXPECT_EQ(get(port, "/api/live").json()["active"], true);
+  const std::string tall = R"({"x": 0, "y": 0, "w": 64, "h": 49})";
+  const Reply own = sendRaw(
+      port, "POST /api/live/designation HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                "\r\nOrigin: http://127.0.0.1:" + std::to_string(port) +
+                "\r\nContent-Type: application/json\r\nContent-Length: " +
+                std::to_string(tall.size()) + "\r\nConnection: close\r\n\r\n" + tall);
+  // Past the Origin check: the box is refused for its height (49 > 48).
+  expectError(own, 400, "leaves the 64x48 image");
+
+  r = designate(box);
+  ASSERT_EQ(r.status, 200) << r.body;
+  const json d = r.json()["designation"];
+  EXPECT_EQ(d["x"], 20.5);
+  EXPECT_EQ(d["width"], 8);
+  EXPECT_EQ(d["dfpcs"], json::array({"designation_probe"}));
+  EXPECT_EQ(d["image"]["channel"], "/camera/image");
+  EXPECT_EQ(d["image"]["width"], 64);
+  EXPECT_EQ(d["image"]["height"], 48);
+  EXPECT_GE(d["t"].get<double>(), d["image"]["t"].get<double>());
+  // The stream: the designation, then the DFPC's region of the next image with the box's edges.
+  bool announced = false;
+  std::optional<json> region;
+  while (std::chrono::steady_clock::now() < deadline && !region) {
+    const Received m = client.next();
+    const std::string type = m.header.value("type", "");
+    if (type == "designation") announced = true;
+    if (type == "region" && m.header["output"] == "designated") region = m.header;
+  }
+  EXPECT_TRUE(announced);
+  ASSERT_TRUE(region);
+  EXPECT_EQ((*region)["source"], "user");
+  EXPECT_EQ((*region)["dfpc"], "designation_probe");
+  EXPECT_GT((*region)["t"].get<double>(), d["t"].get<double>());
+  const json& corners = (*region)["corners"];
+  ASSERT_EQ(corners.size(), 4u);
+  EXPECT_NEAR(corners[0][0].get<double>(), 20.5 - 0.5, 1e-9);
+  EXPECT_NEAR(corners[0][1].get<double>(), 10 - 0.5, 1e-9);
+  EXPECT_NEAR(corners[2][0].get<double>(), 20.5 + 8 - 0.5, 1e-9);
+  EXPECT_NEAR(corners[2][1].get<double>(), 10 + 6 - 0.5, 1e-9);
 }
 
 }  // namespace

@@ -1,8 +1,9 @@
 // The Live page (docs/web-ui.md#the-live-run): a DFPC graph run on a served recording through
-// the server's /api/live routes (the §7.3 external API: setCDFFState, initDFPC, stopDFPC),
-// watched over /ws/live: the camera image
-// being processed, the estimated position against the truth, each DFPC's state and faults, the
-// events log.
+// the server's /api/live routes (the §7.3 external API: setCDFFState, initDFPC, stopDFPC,
+// designateTarget), watched over /ws/live: the camera image being processed, with the regions the
+// DFPC designated and matched drawn on it; a box dragged on it designates the target
+// (far-range tracking starts from it); the bearing against the truth; the estimated position
+// against the truth, each DFPC's state and faults, the events log.
 import uPlot from 'uplot';
 import { getJson, sendJson, openSocket, splitFrame } from './api.js';
 
@@ -11,6 +12,8 @@ const POSE_TYPES = ['PoseWithCovariance', 'RigidBodyState', 'Transform'];
 const AXES = ['x', 'y', 'z'];
 const COLOURS = ['#c0392b', '#27ae60', '#2980b9'];
 const MAX_EVENTS = 200;
+const SVG = 'http://www.w3.org/2000/svg';
+const mrad = (radians) => (radians * 1e3).toFixed(2);
 
 // The estimated position (solid) against the truth (dashed), x, y, z against time.
 class LivePlot {
@@ -89,6 +92,11 @@ export class LivePage {
     this.truthFor = '';  // the run whose truth and events are shown
     this.imageUrl = null;
     this.recordings = [];
+    this.frameSize = null;  // the camera's full resolution {width, height}, once an image came
+    this.drag = null;  // the box being dragged: {from, to} in full-resolution edge coordinates
+    this.plotTruthFrames = '';  // "frame/child" of the plot's truth
+    this.bearingTruth = null;  // {name, poses}: the target's truth in the bearings' frame
+    this.bearings = 0;
   }
 
   async open() {
@@ -111,6 +119,159 @@ export class LivePage {
     $('live-idle').addEventListener('click', () => this.command(() => sendJson('POST', '/api/live/state', { request: 'idle' })));
     $('live-resume').addEventListener('click', () => this.command(() => sendJson('POST', '/api/live/state', { request: 'initialize' })));
     $('live-stop').addEventListener('click', () => this.command(() => sendJson('DELETE', '/api/live')));
+    this.bindOverlay();
+  }
+
+  // ---- designation: a box dragged on the image --------------------------------------------------
+  // The overlay's coordinates are the camera's full-resolution pixels with the image's left edge
+  // at 0 (pixel i spans [i, i + 1]; the server's pixel centres are at integer coordinates, i.e.
+  // at i + 0.5 here): the image shown may be decimated, the box sent never is.
+
+  bindOverlay() {
+    const overlay = $('live-overlay');
+    overlay.addEventListener('pointerdown', (e) => {
+      if (e.button !== 0 || !this.frameSize || !this.run?.active) return;
+      e.preventDefault();
+      overlay.setPointerCapture(e.pointerId);
+      const at = this.toImage(e);
+      this.drag = { from: at, to: at };
+      this.showDrag();
+    });
+    overlay.addEventListener('pointermove', (e) => {
+      if (!this.drag) return;
+      this.drag.to = this.toImage(e);
+      this.showDrag();
+    });
+    const end = (e, send) => {
+      if (!this.drag) return;
+      this.drag.to = this.toImage(e);
+      const box = this.dragBox();
+      this.drag = null;
+      $('live-drag').setAttribute('visibility', 'hidden');
+      if (send && box) this.designate(box);
+    };
+    overlay.addEventListener('pointerup', (e) => end(e, true));
+    overlay.addEventListener('pointercancel', (e) => end(e, false));
+  }
+
+  /** A pointer's position in full-resolution pixels (edge coordinates), clamped to the image. */
+  toImage(e) {
+    const r = $('live-overlay').getBoundingClientRect();
+    const { width, height } = this.frameSize;
+    const clamp = (v, hi) => Math.min(Math.max(v, 0), hi);
+    return {
+      u: clamp(((e.clientX - r.left) / r.width) * width, width),
+      v: clamp(((e.clientY - r.top) / r.height) * height, height),
+    };
+  }
+
+  /** The pixels the drag covers as {x, y, w, h} (x, y: the first pixel); null for a click. */
+  dragBox() {
+    const { from, to } = this.drag;
+    const x = Math.floor(Math.min(from.u, to.u));
+    const y = Math.floor(Math.min(from.v, to.v));
+    const w = Math.ceil(Math.max(from.u, to.u)) - x;
+    const h = Math.ceil(Math.max(from.v, to.v)) - y;
+    return w >= 2 && h >= 2 ? { x, y, w, h } : null;
+  }
+
+  showDrag() {
+    const box = this.dragBox();
+    const rect = $('live-drag');
+    if (!box) {
+      rect.setAttribute('visibility', 'hidden');
+      return;
+    }
+    setAttributes(rect, { x: box.x, y: box.y, width: box.w, height: box.h, visibility: 'visible' });
+  }
+
+  async designate(box) {
+    try {
+      const answer = await sendJson('POST', '/api/live/designation', box);
+      this.showDesignation(answer.designation);
+      $('live-error').textContent = '';
+    } catch (e) {
+      $('live-error').textContent = e.message;
+    }
+  }
+
+  /** A designation (this page's or another browser's): its box, and what received it. */
+  showDesignation(d) {
+    const rect = this.shape('designation', 'rect', 'designation');
+    setAttributes(rect, { x: d.x, y: d.y, width: d.width, height: d.height });
+    const shown = $('live-view').dataset.camera;
+    $('live-designation').textContent = `designated ${d.width}×${d.height} px at (${d.x}, ${d.y}) of `
+      + `${d.image.channel} (${d.image.width}×${d.image.height}, the image of ${d.image.t.toFixed(2)} s) `
+      + `at ${d.t.toFixed(2)} s, to ${d.dfpcs.join(', ')}`
+      + (shown && shown !== d.image.channel ? `; the image shown is ${shown}, not that one` : '');
+    $('live-designation').dataset.t = String(d.t);
+  }
+
+  /** A region product (a designation, a match): its outline, one per output. */
+  showRegion(frame) {
+    const kind = ['match', 'designated'].includes(frame.output) ? frame.output : 'other';
+    const polygon = this.shape(`region-${frame.output}`, 'polygon', `region ${kind}`);
+    polygon.setAttribute('points', frame.corners.map(([x, y]) => `${x + 0.5},${y + 0.5}`).join(' '));
+    const title = polygon.querySelector('title') ?? polygon.appendChild(document.createElementNS(SVG, 'title'));
+    title.textContent = `${frame.output} (${frame.source}${frame.score === null ? '' : `, score ${frame.score.toFixed(2)}`}) at ${frame.t.toFixed(2)} s`;
+    $('live-overlay').dataset[`${kind}T`] = String(frame.t);
+  }
+
+  /** The overlay's element `id` (created once). */
+  shape(id, tag, className) {
+    let element = document.getElementById(`live-shape-${id}`);
+    if (!element) {
+      element = document.createElementNS(SVG, tag);
+      element.id = `live-shape-${id}`;
+      element.setAttribute('class', className);
+      $('live-overlay').insertBefore(element, $('live-drag'));
+    }
+    return element;
+  }
+
+  clearOverlay() {
+    for (const e of [...$('live-overlay').querySelectorAll('[id^="live-shape-"]')]) e.remove();
+    for (const key of Object.keys($('live-overlay').dataset)) delete $('live-overlay').dataset[key];
+    $('live-designation').textContent = '';
+    $('live-bearing').textContent = '';
+    delete $('live-bearing').dataset.count;
+    this.bearings = 0;
+    this.bearingTruth = null;
+  }
+
+  /** A bearing product: its angles, and its angle to the truth when the recording has one. */
+  showBearing(frame) {
+    this.loadBearingTruth(frame);
+    this.bearings += 1;
+    let text = `${frame.dfpc}: bearing at ${frame.t.toFixed(2)} s, azimuth ${mrad(frame.azimuth)} mrad, `
+      + `elevation ${mrad(frame.elevation)} mrad (σ ${mrad(frame.sigma)} mrad) in ${frame.frame}`;
+    if (frame.range !== null) text += `, range ${frame.range.toFixed(1)} m`;
+    if (frame.designation) text += `, designated by ${frame.designation}`;
+    const error = this.bearingError(frame);
+    if (error !== null) text += `; ${mrad(error)} mrad from ${this.bearingTruth.name}`;
+    const p = $('live-bearing');
+    p.textContent = text;
+    p.dataset.count = String(this.bearings);
+    p.dataset.designation = frame.designation ?? '';
+  }
+
+  /** The angle (rad) between a bearing and the truth's direction to the target at its time. */
+  bearingError(frame) {
+    const truth = this.bearingTruth?.poses;
+    if (!truth || truth.frame !== frame.frame || truth.t.length === 0) return null;
+    let lo = 0;
+    let hi = truth.t.length - 1;
+    while (lo < hi) {  // the first sample at or after the bearing
+      const mid = (lo + hi) >> 1;
+      if (truth.t[mid] < frame.t) lo = mid + 1; else hi = mid;
+    }
+    const i = lo > 0 && Math.abs(truth.t[lo - 1] - frame.t) < Math.abs(truth.t[lo] - frame.t) ? lo - 1 : lo;
+    if (Math.abs(truth.t[i] - frame.t) > 0.2) return null;
+    const p = [truth.x[i], truth.y[i], truth.z[i]];
+    const d = frame.direction;
+    const dot = p[0] * d[0] + p[1] * d[1] + p[2] * d[2];
+    const cross = Math.hypot(p[1] * d[2] - p[2] * d[1], p[2] * d[0] - p[0] * d[2], p[0] * d[1] - p[1] * d[0]);
+    return Math.atan2(cross, dot);
   }
 
   async command(request) {
@@ -141,6 +302,7 @@ export class LivePage {
       // A run's first poses may come before its state.
       if (String(frame.run) !== this.runKey) this.beginRun(String(frame.run));
       this.plot.add(frame);
+      this.followPoseFrames(frame);
       $('live-pose').textContent = `${frame.dfpc}: ${frame.child_frame} in ${frame.frame} at ${frame.t.toFixed(2)} s: `
         + `(${frame.p.map((v) => v.toFixed(3)).join(', ')}) m, σ (${[0, 7, 14].map((i) => Math.sqrt(frame.covariance[i]).toFixed(3)).join(', ')}) m`;
     } else if (frame.type === 'status') {
@@ -151,6 +313,12 @@ export class LivePage {
       this.addEvent(frame);
     } else if (frame.type === 'state') {
       this.showState(frame);
+    } else if (frame.type === 'bearing') {
+      if (String(frame.run) === this.runKey) this.showBearing(frame);
+    } else if (frame.type === 'region') {
+      if (String(frame.run) === this.runKey) this.showRegion(frame);
+    } else if (frame.type === 'designation') {
+      if (String(frame.run) === this.runKey) this.showDesignation(frame);
     } else if (frame.type === 'error') {
       $('live-error').textContent = frame.error;
     }
@@ -184,18 +352,65 @@ export class LivePage {
   beginRun(key) {
     this.runKey = key;
     this.plot.reset('estimated position (m)');
+    this.clearOverlay();
   }
 
-  async loadTruth(recordingId) {
+  /**
+   * A /truth/ pose channel of a recording, as columns with its name: /truth/target_pose or the
+   * first, or, given `frame` and `child`, the first whose poses are frame_T_child; null if none.
+   */
+  async findTruth(recordingId, frame, child) {
     const info = await getJson(`/api/recordings/${recordingId}`);
-    const truth = info.channels.filter((c) => c.topic.startsWith('/truth/') && POSE_TYPES.includes(c.type) && c.messages > 0);
-    const pick = truth.find((c) => c.topic === '/truth/target_pose') ?? truth[0];
-    if (!pick) {
-      this.plot.setTruth(null, 'estimated position (m); the recording has no /truth/ pose channel');
+    const channels = info.channels.filter((c) => c.topic.startsWith('/truth/') && POSE_TYPES.includes(c.type) && c.messages > 0);
+    channels.sort((a, b) => Number(b.topic === '/truth/target_pose') - Number(a.topic === '/truth/target_pose'));
+    for (const c of channels) {
+      if (frame) {
+        const head = await getJson(`/api/recordings/${recordingId}/poses`, { channel: c.topic, max_points: 2 });
+        if (head.frame !== frame || head.child_frame !== child) continue;
+      }
+      const poses = await getJson(`/api/recordings/${recordingId}/poses`, { channel: c.topic, max_points: 4000 });
+      return { name: c.topic, poses };
+    }
+    return null;
+  }
+
+  /**
+   * The plot's truth: first the recording's /truth/target_pose (or first /truth/ pose channel);
+   * once the DFPC's first pose tells its frames, the truth channel in those frames, so that the
+   * plot compares like with like (none: no truth, and the title says why).
+   */
+  async loadTruth(recordingId, pose) {
+    this.truthRequest = (this.truthRequest ?? 0) + 1;
+    const request = this.truthRequest;
+    const found = await this.findTruth(recordingId, pose?.frame, pose?.child_frame);
+    if (request !== this.truthRequest) return;  // a newer request replaced it
+    if (!found) {
+      this.plotTruthFrames = pose ? `${pose.frame}/${pose.child_frame}` : '';
+      this.plot.setTruth(null, pose
+        ? `estimated position of ${pose.child_frame} in ${pose.frame} (m); the recording has no /truth/ pose channel in these frames`
+        : 'estimated position (m); the recording has no /truth/ pose channel');
       return;
     }
-    const poses = await getJson(`/api/recordings/${recordingId}/poses`, { channel: pick.topic, max_points: 4000 });
-    this.plot.setTruth(poses, `estimated position (solid) and ${pick.topic} (dashed, ${poses.child_frame} in ${poses.frame}), m`);
+    this.plotTruthFrames = `${found.poses.frame}/${found.poses.child_frame}`;
+    this.plot.setTruth(found.poses, `estimated position (solid) and ${found.name} (dashed, ${found.poses.child_frame} in ${found.poses.frame}), m`);
+  }
+
+  /** The run's first pose: the plot's truth follows its frames. */
+  followPoseFrames(frame) {
+    if (this.poseFramesFor === this.runKey || String(this.run?.run) !== this.runKey) return;
+    this.poseFramesFor = this.runKey;
+    if (this.plotTruthFrames === `${frame.frame}/${frame.child_frame}`) return;
+    this.loadTruth(this.run.recording, frame).catch((e) => { $('live-error').textContent = e.message; });
+  }
+
+  /** The run's first bearing: the truth channel of the target in the bearing's frame. */
+  loadBearingTruth(frame) {
+    if (this.bearingTruthFor === this.runKey || String(this.run?.run) !== this.runKey) return;
+    this.bearingTruthFor = this.runKey;
+    const key = this.runKey;
+    this.findTruth(this.run.recording, frame.frame, 'target')
+      .then((found) => { if (key === this.runKey) this.bearingTruth = found; })
+      .catch((e) => { $('live-error').textContent = e.message; });
   }
 
   showDfpcs(dfpcs) {
@@ -223,6 +438,7 @@ export class LivePage {
                      String(d.faults ?? '-'), d.last_fault || '-', step > 0 ? `${(step * 1e3).toFixed(2)} ms` : '-'];
       cells.forEach((text, i) => { row.cells[i].textContent = text; });
       row.dataset.state = d.state ?? '';
+      row.dataset.track = d.track_state ?? '';
     }
   }
 
@@ -243,7 +459,17 @@ export class LivePage {
     img.src = this.imageUrl;
     if (previous) URL.revokeObjectURL(previous);
     img.dataset.t = header.t.toFixed(6);
+    // The overlay draws in the camera's full-resolution pixels, whatever the image's decimation.
+    if (this.frameSize?.width !== header.source_width || this.frameSize?.height !== header.source_height) {
+      this.frameSize = { width: header.source_width, height: header.source_height };
+      setAttributes($('live-overlay'), { viewBox: `0 0 ${header.source_width} ${header.source_height}`, preserveAspectRatio: 'none' });
+    }
+    $('live-view').dataset.camera = header.channel;
     $('live-frame-caption').textContent = `${header.channel}: frame at ${header.t.toFixed(3)} s `
       + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`;
   }
+}
+
+function setAttributes(element, attributes) {
+  for (const [key, value] of Object.entries(attributes)) element.setAttribute(key, String(value));
 }

@@ -1,6 +1,8 @@
 #include "cdff/dfpc/api.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <exception>
 #include <map>
@@ -10,6 +12,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "cdff/dfpc/designation.hpp"
 #include "cdff/dfpc/orchestrator.hpp"
 
 namespace cdff::api {
@@ -90,6 +93,17 @@ struct Cdff::Impl {
   CdffState state = CdffState::kUninitialised;
   bool shutting_down = false;
   std::uint64_t pushed = 0, processed = 0;
+  // What the input has shown so far, for designations: the stream time (the latest message's
+  // stamp) and each channel's latest image. The mutex is held while a message is processed, so
+  // that a designation goes in at the stream time of the images it was drawn on.
+  struct ImageSeen {
+    int width = 0, height = 0;
+    Timestamp stamp = 0;
+    std::string frame_id;
+  };
+  std::mutex process_mutex;
+  std::optional<Timestamp> stream_time;
+  std::map<std::string, ImageSeen> images;
   bool input_ended = false;
   Status input_error;
   std::thread input_thread;
@@ -148,12 +162,20 @@ struct Cdff::Impl {
           clock->sleepUntil(due, interrupts);
         }
       }
-      // Faults are events; an error here is a message that fits no input (also an event).
-      (void)orchestrator->process(m);
+      processInput(m);
       std::lock_guard lock(mutex);
       ++processed;
       changed.notify_all();
     }
+  }
+
+  void processInput(const dfpc::Message& m) {
+    std::lock_guard lock(process_mutex);
+    if (const Image* image = m.as<Image>())
+      images[m.channel] = {image->width, image->height, m.stamp, image->frame_id};
+    stream_time = stream_time ? std::max(*stream_time, m.stamp) : m.stamp;
+    // Faults are events; an error here is a message that fits no input (also an event).
+    (void)orchestrator->process(m);
   }
 
   bool isShuttingDown() {
@@ -535,6 +557,88 @@ Status Cdff::flush(double timeout_s) noexcept {
                     fmt::format("flush: {} of {} messages processed after {} s (CDFF {})",
                                 d.processed, d.pushed, timeout_s, toString(d.state)));
     return Status::ok();
+  });
+}
+
+Result<Designated> Cdff::designateTarget(double x, double y, int width, int height) noexcept {
+  return guarded<Result<Designated>>("designateTarget", [&]() -> Result<Designated> {
+    Impl& d = *impl_;
+    if (!std::isfinite(x) || !std::isfinite(y))
+      return invalidInput(
+          "designateTarget: the box's corner ({}, {}) is not finite; expected pixel coordinates "
+          "of the image",
+          x, y);
+    if (width < 1 || height < 1)
+      return invalidInput("designateTarget: the box's size {}x{} px; expected at least 1x1 px",
+                          width, height);
+    // The readers: DFPCs with an ImageRegion input on the designation channel; the running ones
+    // and their Image inputs (what the box is drawn on).
+    std::vector<std::string> readers, idle, image_channels;
+    Designated out;
+    for (const std::string& name : d.orchestrator->dfpcNames()) {
+      const std::vector<dfpc::DfpcInputSpec> inputs = d.orchestrator->inputsOf(name);
+      if (std::none_of(inputs.begin(), inputs.end(), [](const dfpc::DfpcInputSpec& i) {
+            return i.channel == dfpc::kDesignationChannel && i.type == "ImageRegion";
+          }))
+        continue;
+      readers.push_back(name);
+      Result<dfpc::DfpcStatus> status = d.orchestrator->status(name);
+      if (!status) return status.status();
+      if (status->state != dfpc::DfpcState::kRunning) {
+        idle.push_back(fmt::format("{} is {}", name, dfpc::toString(status->state)));
+        continue;
+      }
+      out.dfpcs.push_back(name);
+      for (const dfpc::DfpcInputSpec& i : inputs)
+        if (i.type == "Image" && std::find(image_channels.begin(), image_channels.end(),
+                                           i.channel) == image_channels.end())
+          image_channels.push_back(i.channel);
+    }
+    if (readers.empty())
+      return notFound(
+          "designateTarget: no DFPC reads designations (an ImageRegion input on {}); the DFPCs "
+          "are {{{}}}",
+          dfpc::kDesignationChannel, fmt::join(d.orchestrator->dfpcNames(), ", "));
+    if (out.dfpcs.empty())
+      return notFound(
+          "designateTarget: no running DFPC reads designations ({}); expected one running "
+          "(setCDFFState(initialize) or initDFPC)",
+          fmt::join(idle, ", "));
+    if (image_channels.empty())
+      return notFound(
+          "designateTarget: {} read designations but have no Image input; a designation is a "
+          "box of an image",
+          fmt::join(out.dfpcs, ", "));
+
+    std::lock_guard lock(d.process_mutex);
+    const Impl::ImageSeen* image = nullptr;
+    for (const std::string& channel : image_channels)
+      if (auto it = d.images.find(channel); it != d.images.end())
+        if (!image || it->second.stamp > image->stamp) {
+          image = &it->second;
+          out.image_channel = channel;
+        }
+    if (!image || !d.stream_time)
+      return notFound(
+          "designateTarget: no image on {} yet (the Image input of {}); a designation is a box "
+          "of an image: expected one first",
+          fmt::join(image_channels, ", "), fmt::join(out.dfpcs, ", "));
+    if (x < 0 || y < 0 || x + width > image->width || y + height > image->height)
+      return invalidInput(
+          "designateTarget: the box [{}, {}) x [{}, {}) leaves the {}x{} image of {}; expected "
+          "0 <= x, x + width <= {}, 0 <= y, y + height <= {} (full-resolution pixels)",
+          x, x + width, y, y + height, image->width, image->height, out.image_channel, image->width,
+          image->height);
+    out.image_width = image->width;
+    out.image_height = image->height;
+    out.image_stamp = image->stamp;
+    out.region = ImageRegion::box(x, y, width, height);
+    out.region.stamp = *d.stream_time;
+    out.region.frame_id = image->frame_id;
+    out.region.source = "user";
+    CDFF_RETURN_IF_ERROR(d.orchestrator->process(
+        dfpc::Message::of(dfpc::kDesignationChannel, out.region.stamp, out.region)));
+    return out;
   });
 }
 

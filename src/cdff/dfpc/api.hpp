@@ -8,6 +8,7 @@
 //   getTargetRelativePose(frame)   getTargetRelativeVelocity(frame)   getModelOfTarget()
 //   getDFPCPose(dfpc, hz, callback)   getDFPCStatus(dfpc, hz, callback)   (asynchronous)
 //   push(message)   (sensor data, when the input is live)
+//   designateTarget(x, y, width, height)   (the user's region of interest, seed §4.1.1)
 //
 // The state machine (docs/external-api.md):
 //   uninitialised --initialize--> running   (DFPCs started; input consumed)
@@ -32,6 +33,7 @@
 #include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/orchestrator.hpp"
 #include "cdff/dfpc/stream.hpp"
+#include "cdff/types/image_region.hpp"
 #include "cdff/types/types.hpp"
 
 namespace cdff::api {
@@ -77,6 +79,18 @@ struct TargetModel {
   Timestamp stamp = 0;
   std::shared_ptr<const TriangleMesh> mesh;
   std::shared_ptr<const PointCloud> cloud;
+};
+
+/// A designation as delivered by designateTarget(): the region, the DFPCs that read it and the
+/// image it is a box of.
+struct Designated {
+  /// The box as an ImageRegion: stamp = the stream time it was delivered at, frame_id = the
+  /// image's, source "user".
+  ImageRegion region;
+  std::vector<std::string> dfpcs;  // the running DFPCs whose designation input reads it
+  std::string image_channel;       // their Image input
+  int image_width = 0, image_height = 0;
+  Timestamp image_stamp = 0;  // the latest image on image_channel when it was designated
 };
 
 using SubscriptionId = std::uint64_t;
@@ -126,6 +140,18 @@ class Cdff {
   /// Waits (up to timeout_s of steady time) until every pushed message has been processed, or a
   /// given input has been consumed to its end.
   Status flush(double timeout_s) noexcept;
+
+  /// The user designates the target (seed §4.1.1: "the user initialises the position of the
+  /// target by selecting a ROI"): the box [x, x + width) x [y, y + height), in pixels of the
+  /// latest image the designation's readers were given (full resolution, pixel centres at
+  /// integer coordinates), goes as an ImageRegion on dfpc::kDesignationChannel to every running
+  /// DFPC with an ImageRegion input on that channel, at the current stream time (the stamp of
+  /// the latest message processed): what `cdff run --roi` does from the command line, here while
+  /// the input runs (a given recording or live input). Far-range tracking takes its template
+  /// from the next image. Errors: a coordinate that is not finite, a size below one pixel, a box
+  /// that leaves the image (kInvalidInput, naming the value and the image's size); no running
+  /// DFPC that reads designations, or no image on its Image input yet (kNotFound, naming them).
+  Result<Designated> designateTarget(double x, double y, int width, int height) noexcept;
 
   /// The products (shared, thread-safe).
   std::shared_ptr<const dfpc::DataProductManager> products() const noexcept;

@@ -596,6 +596,12 @@ std::vector<std::string> Orchestrator::productsWithRole(const std::string& role,
   return out;
 }
 
+std::vector<DfpcInputSpec> Orchestrator::inputsOf(const std::string& dfpc) const {
+  std::lock_guard lock(mutex_);
+  const Entry* e = find(dfpc);
+  return e ? e->dfpc->spec().inputs : std::vector<DfpcInputSpec>{};
+}
+
 std::optional<std::string> Orchestrator::productOfType(
     const std::string& dfpc, const std::vector<std::string>& types) const {
   std::lock_guard lock(mutex_);

@@ -147,6 +147,8 @@ class Orchestrator final : private DfpcObserver {
   /// restricts the search to one DFPC.
   std::vector<std::string> productsWithRole(const std::string& role,
                                             const std::string& dfpc = "") const;
+  /// The inputs of `dfpc` as its graph declares them (empty when there is no such DFPC).
+  std::vector<DfpcInputSpec> inputsOf(const std::string& dfpc) const;
   /// The first output of `dfpc` whose type is one of `types` (by name), as a DPM name.
   std::optional<std::string> productOfType(const std::string& dfpc,
                                            const std::vector<std::string>& types) const;

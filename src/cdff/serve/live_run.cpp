@@ -146,8 +146,73 @@ class LiveHub::Run final : public dfpc::Sink {
     return j;
   }
 
+  Result<json> designate(double x, double y, int width, int height) {
+    Result<api::Designated> d = cdff_->designateTarget(x, y, width, height);
+    if (!d) return d.status();
+    json j = {{"type", "designation"},
+              {"run", id_},
+              {"x", x},
+              {"y", y},
+              {"width", width},
+              {"height", height},
+              {"t", seconds(d->region.stamp)},
+              {"stamp_us", d->region.stamp},
+              {"frame_id", d->region.frame_id},
+              {"dfpcs", d->dfpcs},
+              {"image",
+               {{"channel", d->image_channel},
+                {"width", d->image_width},
+                {"height", d->image_height},
+                {"t", seconds(d->image_stamp)}}}};
+    return j;
+  }
+
   // ---- dfpc::Sink (the API's input thread) ----
-  Status writeMessage(const dfpc::Message&) override { return Status::ok(); }
+  // The products the page draws: bearings (far-range tracking) and image regions (a designation,
+  // a match), each as a small frame.
+  Status writeMessage(const dfpc::Message& m) override {
+    if (const Bearing* b = m.as<Bearing>()) {
+      const double variance = b->covariance.trace() / 2;  // rank 2: across the direction
+      json j = {{"type", "bearing"},
+                {"run", id_},
+                {"dfpc", dfpc_},
+                {"channel", m.channel},
+                {"t", seconds(m.stamp)},
+                {"stamp_us", m.stamp},
+                {"frame", b->frame_id},
+                {"direction", {b->direction.x(), b->direction.y(), b->direction.z()}},
+                {"azimuth", b->azimuth()},
+                {"elevation", b->elevation()},
+                {"sigma", std::sqrt(std::max(0.0, variance))},
+                {"range", b->range},
+                {"range_sigma", std::sqrt(b->range_variance)},
+                {"designation", b->designation}};
+      hub_.publish({false, dump(j)});
+    } else if (const ImageRegion* r = m.as<ImageRegion>()) {
+      // The template's outer edges in the image (pixel centres at integer coordinates).
+      const double w = r->width - 0.5, h = r->height - 0.5;
+      json corners = json::array();
+      const double edges[4][2] = {{-0.5, -0.5}, {w, -0.5}, {w, h}, {-0.5, h}};
+      for (const auto& e : edges) {
+        const Eigen::Vector2d p = r->map(e[0], e[1]);
+        corners.push_back({p.x(), p.y()});
+      }
+      const Eigen::Vector2d c = r->centre();
+      json j = {{"type", "region"},
+                {"run", id_},
+                {"dfpc", dfpc_},
+                {"channel", m.channel},
+                {"output", m.channel.substr(m.channel.rfind('/') + 1)},
+                {"t", seconds(m.stamp)},
+                {"stamp_us", m.stamp},
+                {"source", r->source},
+                {"score", r->score},
+                {"centre", {c.x(), c.y()}},
+                {"corners", corners}};
+      hub_.publish({false, dump(j)});
+    }
+    return Status::ok();
+  }
   Status writeEvent(const dfpc::Event& event) override {
     // An event before the first message (a DFPC started) has no stream time yet.
     const bool timed = static_cast<double>(event.stamp) * 1e3 >= recording_.startNs();
@@ -412,6 +477,17 @@ Status LiveHub::dfpcRequest(const std::string& dfpc, bool init) {
   j["type"] = "state";
   publish({false, dump(j)});
   return s;
+}
+
+Result<json> LiveHub::designate(double x, double y, int width, int height, bool& no_run) {
+  Result<json> d = [&]() -> Result<json> {
+    std::lock_guard lock(run_mutex_);
+    no_run = !run_;
+    if (!run_) return notFound("no live run; expected POST /api/live first");
+    return run_->designate(x, y, width, height);
+  }();
+  if (d) publish({false, dump(*d)});  // every browser draws it
+  return d;
 }
 
 Status LiveHub::remove() {

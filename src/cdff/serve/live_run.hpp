@@ -67,6 +67,13 @@ class LiveHub {
   /// initDFPC(dfpc) (`init`) or stopDFPC(dfpc); the API's own error when it refuses (an unknown
   /// DFPC, a CDFF that is not running or idle). kNotFound when no run exists.
   Status dfpcRequest(const std::string& dfpc, bool init);
+  /// designateTarget(x, y, width, height) (the box in full-resolution pixels of the run's
+  /// camera image): the designation as JSON {"x", "y", "width", "height", "t", "stamp_us",
+  /// "frame_id", "dfpcs", "image": {"channel", "width", "height", "t"}}, also sent to every
+  /// browser as a "designation" frame; the API's own error when it refuses (a box that leaves the
+  /// image, no running DFPC that reads designations, no image yet). `no_run` is set (and an error
+  /// returned) when no run exists.
+  Result<nlohmann::json> designate(double x, double y, int width, int height, bool& no_run);
   /// Stops the run (setCDFFState(stop) when the state allows it) and removes it.
   Status remove();
 

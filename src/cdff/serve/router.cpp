@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -643,25 +644,81 @@ Response liveStateRoute(const Request& req, LiveHub& hub) {
   return jsonResponse(req, hub.state());
 }
 
+// POST /api/live/designation {"x", "y", "w", "h"}: designateTarget, the box in full-resolution
+// pixels of the run's camera image (the page converts from the decimated image it shows).
+Response liveDesignationRoute(const Request& req, LiveHub& hub) {
+  if (req.method() != http::verb::post) return methodNotAllowed(req, "POST");
+  constexpr const char* kExpected =
+      "{\"x\", \"y\", \"w\", \"h\"}: the box's corner and size in full-resolution pixels of "
+      "the camera image";
+  auto body = objectBody(req, kExpected);
+  if (Response* r = std::get_if<Response>(&body)) return std::move(*r);
+  const json& b = std::get<json>(body);
+  for (const auto& [key, value] : b.items())
+    if (key != "x" && key != "y" && key != "w" && key != "h")
+      return fromStatus(req, invalidInput("key \"{}\" is unknown; expected {}", key, kExpected));
+  double box[4] = {0, 0, 0, 0};
+  const char* keys[4] = {"x", "y", "w", "h"};
+  for (int i = 0; i < 4; ++i) {
+    if (!b.contains(keys[i]))
+      return fromStatus(req, invalidInput("\"{}\" is missing; expected {}", keys[i], kExpected));
+    const json& v = b[keys[i]];
+    const bool size = i >= 2;
+    // A size is a whole number of pixels, at least one; the corner may be sub-pixel.
+    if (!v.is_number() || (size && !(v.get<double>() >= 1 && v.get<double>() <= 1e6 &&
+                                     v.get<double>() == std::floor(v.get<double>()))))
+      return fromStatus(req,
+                        invalidInput("\"{}\" = {}: expected {}", keys[i], v.dump(),
+                                     size ? "a whole number of pixels in [1, 1e6]"
+                                          : "a pixel coordinate (a number) in the camera image"));
+    box[i] = v.get<double>();
+  }
+  bool no_run = false;
+  Result<json> d =
+      hub.designate(box[0], box[1], static_cast<int>(box[2]), static_cast<int>(box[3]), no_run);
+  if (no_run) return fromStatus(req, d.status());
+  // The API's refusals: a box that leaves the image is the request's fault (400); no DFPC that
+  // reads designations, or no image yet, is the run's state (409).
+  if (!d)
+    return errorResponse(d.status().code() == StatusCode::kInvalidInput ? http::status::bad_request
+                                                                        : http::status::conflict,
+                         d.status().message(), req.version(), req.keep_alive());
+  return jsonResponse(req, json{{"designation", *d}});
+}
+
 }  // namespace
 
 Response Router::live(const Request& req, const Target& target) const {
   const auto& seg = target.segments;
   const bool state_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "state";
   const bool dfpc_route = seg.size() == 4 && seg[1] == "live" && seg[2] == "dfpcs";
-  if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route))
+  const bool designation_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "designation";
+  if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route && !designation_route))
     return errorResponse(http::status::not_found,
                          fmt::format("no API route '{}'; expected /api/graphs, /api/live, "
-                                     "/api/live/state or /api/live/dfpcs/<dfpc>",
+                                     "/api/live/state, /api/live/designation or "
+                                     "/api/live/dfpcs/<dfpc>",
                                      req.target()),
                          req.version(), req.keep_alive());
   if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+  // A command (anything but GET) from a page of another site is refused, as the stream is: a
+  // browser names the page's origin.
+  if (req.method() != http::verb::get) {
+    const std::string_view origin = req[http::field::origin];
+    const std::string expected = fmt::format("http://{}", req[http::field::host]);
+    if (!origin.empty() && origin != expected)
+      return errorResponse(
+          http::status::forbidden,
+          fmt::format("Origin '{}' is not this server's; expected '{}'", origin, expected),
+          req.version(), req.keep_alive());
+  }
   LiveHub& hub = *options_.live;
   if (seg[1] == "graphs") {
     if (req.method() != http::verb::get) return methodNotAllowed(req, "GET");
     return jsonResponse(req, json{{"graphs", hub.graphs()}});
   }
   if (dfpc_route) return liveDfpcRoute(req, hub, seg[3]);
+  if (designation_route) return liveDesignationRoute(req, hub);
   if (state_route) return liveStateRoute(req, hub);
   if (req.method() == http::verb::get) return jsonResponse(req, hub.state());
   if (req.method() == http::verb::delete_) {
