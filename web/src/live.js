@@ -4,7 +4,10 @@
 // being processed, the estimated position against the truth, each DFPC's state and faults, the
 // events log.
 import uPlot from 'uplot';
-import { getJson, sendJson, openSocket, splitFrame } from './api.js';
+import { getBinary, getJson, sendJson, openSocket, splitFrame } from './api.js';
+import { ErrorPlot } from './errorplot.js';
+import { ContourOverlay } from './overlay.js';
+import { SceneView, meshGeometry, recordingScene } from './scene.js';
 
 const $ = (id) => document.getElementById(id);
 const POSE_TYPES = ['PoseWithCovariance', 'RigidBodyState', 'Transform'];
@@ -83,6 +86,9 @@ class LivePlot {
 export class LivePage {
   constructor() {
     this.plot = new LivePlot($('live-plot'));
+    this.scene = new SceneView($('live-scene'), $('live-scene-caption'));
+    this.errors = new ErrorPlot($('live-error-plot'));
+    this.overlay = new ContourOverlay($('live-frame'), $('live-frame-overlay'));
     this.socket = null;
     this.run = null;  // the server's state of the run
     this.runKey = '';  // the number of the run the plot shows
@@ -133,7 +139,8 @@ export class LivePage {
   receive(data) {
     if (typeof data !== 'string') {
       const { header, payload } = splitFrame(data);
-      this.showImage(header, new Blob([payload], { type: 'image/jpeg' }));
+      if (header.type === 'points') this.scene.setPoints(header, data, payload.byteOffset);
+      else this.showImage(header, new Blob([payload], { type: 'image/jpeg' }));
       return;
     }
     const frame = JSON.parse(data);
@@ -141,6 +148,9 @@ export class LivePage {
       // A run's first poses may come before its state.
       if (String(frame.run) !== this.runKey) this.beginRun(String(frame.run));
       this.plot.add(frame);
+      this.scene.setEstimate({ ...frame, source: frame.dfpc });
+      this.scene.setTruth(frame.truth ? { ...frame.truth, source: frame.truth.channel } : null);
+      if (frame.error) this.errors.add(frame.t, frame.error);
       $('live-pose').textContent = `${frame.dfpc}: ${frame.child_frame} in ${frame.frame} at ${frame.t.toFixed(2)} s: `
         + `(${frame.p.map((v) => v.toFixed(3)).join(', ')}) m, σ (${[0, 7, 14].map((i) => Math.sqrt(frame.covariance[i]).toFixed(3)).join(', ')}) m`;
     } else if (frame.type === 'status') {
@@ -178,12 +188,29 @@ export class LivePage {
       $('live-events').replaceChildren();
       for (const e of run.events ?? []) this.addEvent(e);
       this.loadTruth(run.recording).catch((e) => { $('live-error').textContent = e.message; });
+      this.loadScene(run).catch((e) => { $('live-error').textContent = e.message; });
     }
   }
 
   beginRun(key) {
     this.runKey = key;
     this.plot.reset('estimated position (m)');
+    this.errors.clear();
+    this.errors.title = 'error of the estimate against the recording\'s truth, and the requirement thresholds';
+  }
+
+  // The 3D view of a run: the recording's mountings, and the graph's model (its mesh_file), or
+  // the recording's TriangleMesh channel when the graph names none (the caption says which).
+  async loadScene(run) {
+    const info = await getJson(`/api/recordings/${run.recording}`);
+    const resources = await recordingScene(info);
+    this.scene.setMountings(resources.mountings);
+    if (run.model_file) {
+      const { header, geometry } = meshGeometry(await getBinary('/api/graphs/model', { graph: run.graph }));
+      this.scene.setModel(geometry, `${header.source} (the graph's mesh_file)`);
+    } else if (resources.mesh) {
+      this.scene.setModel(resources.mesh.geometry, `${resources.meshChannel} of the recording (the graph names no mesh_file)`);
+    }
   }
 
   async loadTruth(recordingId) {
@@ -243,7 +270,14 @@ export class LivePage {
     img.src = this.imageUrl;
     if (previous) URL.revokeObjectURL(previous);
     img.dataset.t = header.t.toFixed(6);
+    if (header.contour?.segments) {
+      this.overlay.show(header.contour, header.source_width, header.source_height,
+                        `model at the estimate of ${header.contour.pose_t.toFixed(2)} s`);
+    } else {
+      this.overlay.clear();
+    }
     $('live-frame-caption').textContent = `${header.channel}: frame at ${header.t.toFixed(3)} s `
-      + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`;
+      + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`
+      + (header.contour?.error ? ` — no contour: ${header.contour.error}` : '');
   }
 }
