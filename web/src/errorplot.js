@@ -6,6 +6,10 @@
 // metre show together (an error of exactly 0 has no place on them and is left out).
 import uPlot from 'uplot';
 
+// A log axis's tick: 0.05, 1, 10, or 1e-4 below a hundredth.
+const tick = (v) => (v === null ? '' : v >= 0.01 ? String(Number(v.toPrecision(2))) : v.toExponential(0));
+const ticks = (u, splits) => splits.map(tick);
+
 const COLUMNS = ['t', 'position_error_m', 'position_threshold_m', 'angle_error_deg', 'angle_threshold_deg'];
 
 export class ErrorPlot {
@@ -76,8 +80,8 @@ export class ErrorPlot {
         width: Math.max(320, this.element.clientWidth),
         height: 240,
         scales: { x: { time: false }, m: { distr: 3, log: 10 }, deg: { distr: 3, log: 10 } },
-        axes: [{ label: 't (s)' }, { scale: 'm', label: 'position error (m)' },
-               { scale: 'deg', side: 1, label: 'attitude error (deg)', grid: { show: false } }],
+        axes: [{ label: 't (s)' }, { scale: 'm', label: 'position error (m)', values: ticks, size: 60 },
+               { scale: 'deg', side: 1, label: 'attitude error (deg)', grid: { show: false }, values: ticks, size: 60 }],
         series: [
           { label: 't (s)' },
           { label: 'position error (m)', scale: 'm', stroke: '#c0392b', width: 2 },

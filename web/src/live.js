@@ -149,6 +149,7 @@ export class LivePage {
       if (String(frame.run) !== this.runKey) this.beginRun(String(frame.run));
       this.plot.add(frame);
       this.scene.setEstimate({ ...frame, source: frame.dfpc });
+      this.scene.extendTrack('estimate', frame);
       this.scene.setTruth(frame.truth ? { ...frame.truth, source: frame.truth.channel } : null);
       if (frame.error) this.errors.add(frame.t, frame.error);
       $('live-pose').textContent = `${frame.dfpc}: ${frame.child_frame} in ${frame.frame} at ${frame.t.toFixed(2)} s: `
@@ -196,6 +197,8 @@ export class LivePage {
     this.runKey = key;
     this.plot.reset('estimated position (m)');
     this.errors.clear();
+    this.scene.setTrack('estimate', null);
+    this.scene.setTrack('truth', null);
     this.errors.title = 'error of the estimate against the recording\'s truth, and the requirement thresholds';
   }
 
@@ -223,6 +226,7 @@ export class LivePage {
     }
     const poses = await getJson(`/api/recordings/${recordingId}/poses`, { channel: pick.topic, max_points: 4000 });
     this.plot.setTruth(poses, `estimated position (solid) and ${pick.topic} (dashed, ${poses.child_frame} in ${poses.frame}), m`);
+    this.scene.setTrack('truth', poses);
   }
 
   showDfpcs(dfpcs) {

@@ -179,6 +179,12 @@ async function chooseEstimate(estimate) {
   }
   scene.setEstimate(null);
   scene.setTruth(null);
+  // The trajectories, truth and estimate, in 3D.
+  const track = (channel) => (channel
+    ? getJson(`/api/recordings/${state.recording.id}/poses`, { channel, max_points: 4000 }) : null);
+  const [truthTrack, estimateTrack] = await Promise.all([track(state.truth), track(estimate)]);
+  scene.setTrack('truth', truthTrack);
+  scene.setTrack('estimate', estimateTrack);
   if (!estimate) {
     errorPlot.clear('No estimate chosen: the recording of a run (cdff run ... -o OUT.mcap) has the DFPCs\' pose products.');
     return;

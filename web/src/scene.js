@@ -74,6 +74,8 @@ export class SceneView {
     this.mountings = [];  // {parent, child, matrix}: parent_T_child
     this.framed = false;
     this.poses = { estimate: null, truth: null };  // the latest, placed again when the frame changes
+    this.tracks = { estimate: null, truth: null };  // trajectories {frame, x, y, z} and their lines
+    this.trackLines = { estimate: null, truth: null };
     this.notes = { points: 'no scan', model: 'no model', estimate: '', truth: '' };
     this.pending = false;
     this.warmUp();
@@ -107,6 +109,59 @@ export class SceneView {
   /** The recording's mounting transforms ({frame, child_frame, p, q} each). */
   setMountings(list) {
     this.mountings = list.map((m) => ({ parent: m.frame, child: m.child_frame, matrix: poseMatrix(m.p, m.q) }));
+    this.drawTrack('estimate');
+    this.drawTrack('truth');
+  }
+
+  /**
+   * The trajectory of the target's origin, truth or estimate: {frame, x: [], y: [], z: []} in
+   * `frame` (a pose channel's columns), drawn as a line in the scan's frame; null removes it.
+   */
+  setTrack(which, track) {
+    this.tracks[which] = track && { frame: track.frame, x: [...track.x], y: [...track.y], z: [...track.z] };
+    this.drawTrack(which);
+  }
+
+  /** One more estimated position (a live pose {frame, p}). */
+  extendTrack(which, pose) {
+    const track = this.tracks[which];
+    if (!track || track.frame !== pose.frame) {
+      this.setTrack(which, { frame: pose.frame, x: [pose.p[0]], y: [pose.p[1]], z: [pose.p[2]] });
+      return;
+    }
+    track.x.push(pose.p[0]);
+    track.y.push(pose.p[1]);
+    track.z.push(pose.p[2]);
+    this.drawTrack(which);
+  }
+
+  drawTrack(which) {
+    const old = this.trackLines[which];
+    if (old) {
+      this.scene.remove(old);
+      old.geometry.dispose();
+      this.trackLines[which] = null;
+    }
+    const track = this.tracks[which];
+    const sensorTParent = track && this.fromFrame(track.frame);
+    this.canvas.dataset[`${which}Track`] = String(sensorTParent ? track.x.length : 0);
+    if (!sensorTParent) {
+      this.requestDraw();
+      return;
+    }
+    const xyz = new Float32Array(3 * track.x.length);
+    const v = new THREE.Vector3();
+    for (let i = 0; i < track.x.length; i += 1) {
+      v.set(track.x[i], track.y[i], track.z[i]).applyMatrix4(sensorTParent);
+      xyz.set([v.x, v.y, v.z], 3 * i);
+    }
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
+    const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: which === 'truth' ? 0x2ecc71 : 0x5dade2 }));
+    line.frustumCulled = false;
+    this.trackLines[which] = line;
+    this.scene.add(line);
+    this.requestDraw();
   }
 
   /** The model's mesh (meshGeometry) and where it came from. */
@@ -136,6 +191,8 @@ export class SceneView {
     this.sensorFrame = header.frame;
     if (moved) {
       this.framed = false;
+      this.drawTrack('estimate');
+      this.drawTrack('truth');
       this.place(this.estimate, 'estimate', this.poses.estimate);
       this.place(this.truth, 'truth', this.poses.truth);
     }

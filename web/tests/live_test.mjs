@@ -57,7 +57,7 @@ try {
   // The whole recording played: the plot holds the run from start to end.
   check('recording-consumed', await waitFor(page, () => /consumed/.test(document.getElementById('live-state').textContent)),
         await page.$eval('#live-state', (p) => p.textContent));
-  await page.screenshot({ path: path.join(out, 'live-running.png') });
+  await page.screenshot({ path: path.join(out, 'live-running.png'), fullPage: true });
 
   // The 3D view: the latest LIDAR scan (thinned by the server), the model (the recording's
   // /truth/target_mesh: this graph names no mesh_file) at the estimated pose and the truth's
@@ -66,6 +66,8 @@ try {
   check('3d-points', Number(scene.points) > 0 && Number(scene.points) <= 20000
         && (await page.$eval('#live-scene-caption', (c) => c.textContent)).includes(`${scene.points} of `),
         `${scene.points} points; ${await page.$eval('#live-scene-caption', (c) => c.textContent)}`);
+  check('3d-trajectories', Number(scene.estimateTrack) >= 10 && Number(scene.truthTrack) === truth?.messages,
+        `${scene.estimateTrack} estimated positions, ${scene.truthTrack} true ones of ${truth?.messages}`);
   check('3d-model-at-estimate-and-truth', Number(scene.model) > 0 && scene.estimate === 'true' && scene.truth === 'true',
         JSON.stringify(scene));
   const pixels = await scenePixels(page, 'live-scene');

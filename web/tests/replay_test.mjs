@@ -117,6 +117,9 @@ try {
   check('3d-points', Number(scene.points) > 0 && Number(scene.points) <= 20000 && caption.includes(`${scene.points} of `),
         `${scene.points} points; ${caption}`);
   check('3d-truth-wireframe', Number(scene.model) > 0 && scene.truth === 'true' && scene.estimate !== 'true', JSON.stringify(scene));
+  const truthChannel = info.channels.find((c) => c.topic === '/truth/target_pose');
+  check('3d-truth-trajectory', Number(scene.truthTrack) === truthChannel.messages,
+        `${scene.truthTrack} positions of ${truthChannel.messages}`);
   let pixels = await scenePixels(page, 'scene');
   check('3d-webgl-pixels', pixels.lit > 1000 && pixels.points > 20 && pixels.truth > 50,
         JSON.stringify(pixels));
@@ -139,6 +142,10 @@ try {
   check('estimate-chosen', estimated && estimate === '/cdff/pose_filtering/state', estimate);
   scene = await sceneOf();
   pixels = await scenePixels(page, 'scene');
+  const runInfo = await page.evaluate(() => fetch('/api/recordings/1').then((r) => r.json()));
+  const estimateChannel = runInfo.channels.find((c) => c.topic === estimate);
+  check('3d-estimate-trajectory', Number(scene.estimateTrack) === estimateChannel?.messages && Number(scene.truthTrack) > 0,
+        `${scene.estimateTrack} estimated positions of ${estimateChannel?.messages}, ${scene.truthTrack} true ones`);
   check('3d-estimate-and-truth', scene.estimate === 'true' && scene.truth === 'true' && pixels.model > 200 && pixels.truth > 50,
         `${JSON.stringify(scene)} ${JSON.stringify(pixels)}`);
   const errors = await page.evaluate((channel) => fetch(`/api/recordings/1/errors?${new URLSearchParams({ estimate: channel, max_points: '4000' })}`)
