@@ -149,8 +149,11 @@ async function openStream() {
   state.stream = new ReplayStream(state.recording.id, { image, pose: poses, points }, handlers);
   state.stream.send({ cmd: 'speed', value: Number($('speed').value) });
   if (pose) {
-    plot.show(pose, await getJson(`/api/recordings/${state.recording.id}/poses`,
-                                  { channel: pose, max_points: 4000 }));
+    const poses = await getJson(`/api/recordings/${state.recording.id}/poses`, { channel: pose, max_points: 4000 });
+    // The estimate beside the channel when both are the same transform (truth against estimate).
+    const e = state.estimateTrack;
+    const same = e && pose !== state.estimate && e.frame === poses.frame && e.child_frame === poses.child_frame;
+    plot.show(pose, poses, same ? { channel: state.estimate, poses: e } : null);
   } else {
     plot.clear();
   }
@@ -185,6 +188,7 @@ async function chooseEstimate(estimate) {
   const [truthTrack, estimateTrack] = await Promise.all([track(state.truth), track(estimate)]);
   scene.setTrack('truth', truthTrack);
   scene.setTrack('estimate', estimateTrack);
+  state.estimateTrack = estimateTrack;
   if (!estimate) {
     errorPlot.clear('No estimate chosen: the recording of a run (cdff run ... -o OUT.mcap) has the DFPCs\' pose products.');
     return;

@@ -1,4 +1,6 @@
-// A pose channel's position against time (uPlot), with a line at the replay's time.
+// A pose channel's position against time (uPlot), with a line at the replay's time; with an
+// estimate of the same transform, the estimate (solid) against the channel (dashed): the
+// trajectories, truth against estimate.
 import uPlot from 'uplot';
 import 'uplot/dist/uPlot.min.css';
 
@@ -9,8 +11,11 @@ export class PositionPlot {
     this.time = 0;
   }
 
-  /** Shows `poses` ({t, x, y, z, frame, child_frame}) of `channel`. */
-  show(channel, poses) {
+  /**
+   * Shows `poses` ({t, x, y, z, frame, child_frame}) of `channel`, and `estimate` ({channel,
+   * poses}) beside it when given.
+   */
+  show(channel, poses, estimate = null) {
     this.plot?.destroy();
     const marker = {
       hooks: {
@@ -42,8 +47,22 @@ export class PositionPlot {
       ],
       plugins: [marker],
     };
-    this.plot = new uPlot(options, [poses.t, poses.x, poses.y, poses.z], this.element);
+    let data = [poses.t, poses.x, poses.y, poses.z];
+    if (estimate) {
+      const e = estimate.poses;
+      options.title = `${estimate.channel} (solid) and ${channel} (dashed): position of ${poses.child_frame} in ${poses.frame} (m)`;
+      options.series = [{ label: 't (s)' }];
+      for (const [axis, colour] of [['x', '#c0392b'], ['y', '#27ae60'], ['z', '#2980b9']]) {
+        options.series.push({ label: `${axis} estimate`, stroke: colour, width: 2, spanGaps: true });
+      }
+      for (const [axis, colour] of [['x', '#c0392b'], ['y', '#27ae60'], ['z', '#2980b9']]) {
+        options.series.push({ label: `${axis} ${channel}`, stroke: colour, dash: [6, 4], spanGaps: true });
+      }
+      data = uPlot.join([[e.t, e.x, e.y, e.z], [poses.t, poses.x, poses.y, poses.z]]);
+    }
+    this.plot = new uPlot(options, data, this.element);
     this.element.dataset.points = String(poses.t.length);
+    this.element.dataset.estimates = String(estimate ? estimate.poses.t.length : 0);
   }
 
   clear() {

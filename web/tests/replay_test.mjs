@@ -144,6 +144,10 @@ try {
   pixels = await scenePixels(page, 'scene');
   const runInfo = await page.evaluate(() => fetch('/api/recordings/1').then((r) => r.json()));
   const estimateChannel = runInfo.channels.find((c) => c.topic === estimate);
+  const plotted = await page.$eval('#plot', (p) => ({ ...p.dataset }));
+  check('trajectory-plot-truth-and-estimate', Number(plotted.estimates) === estimateChannel?.messages
+        && Number(plotted.points) === runInfo.channels.find((c) => c.topic === '/truth/target_pose')?.messages,
+        `${plotted.estimates} estimated and ${plotted.points} true positions against time`);
   check('3d-estimate-trajectory', Number(scene.estimateTrack) === estimateChannel?.messages && Number(scene.truthTrack) > 0,
         `${scene.estimateTrack} estimated positions of ${estimateChannel?.messages}, ${scene.truthTrack} true ones`);
   check('3d-estimate-and-truth', scene.estimate === 'true' && scene.truth === 'true' && pixels.model > 200 && pixels.truth > 50,
