@@ -359,6 +359,31 @@ TEST_F(SceneRoutes, ContourOfTheModelAtAPoseOverTheImage) {
   expectError(route + "image=/nope&pose=/truth/target_pose", 404, "/nope");
 }
 
+// The target's trajectory in LVLH: servicer_T_target through lvlh_T_servicer.
+TEST_F(SceneRoutes, PosesViaAnotherTransform) {
+  Reply r = get(port_, "/api/recordings/0/poses?channel=/truth/target_pose&via=/truth/tf/servicer");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const json p = r.json();
+  EXPECT_EQ(p["frame"], "lvlh");
+  EXPECT_EQ(p["child_frame"], "target");
+  EXPECT_EQ(p["unmatched"], 0);
+  ASSERT_EQ(p["t"].size(), static_cast<std::size_t>(kFrames));
+  for (int k = 0; k < kFrames; ++k) {
+    // (k, 0, 0) + Rx(90 deg) (0, 0, 10 - k) = (k, -(10 - k), 0).
+    EXPECT_NEAR(p["x"][k].get<double>(), k, 1e-9);
+    EXPECT_NEAR(p["y"][k].get<double>(), -(10.0 - k), 1e-9);
+    EXPECT_NEAR(p["z"][k].get<double>(), 0, 1e-9);
+  }
+  r = get(port_, "/api/recordings/0/poses?channel=/truth/target_pose&via=/cdff/test/pose");
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_NE(r.json().value("error", "").find("child frame is 'servicer'"), std::string::npos)
+      << r.body;
+  r = get(port_, "/api/recordings/0/poses?channel=/truth/target_pose&via=/camera/image");
+  EXPECT_EQ(r.status, 400) << r.body;
+  r = get(port_, "/api/recordings/0/poses?channel=/truth/target_pose&via=/nope");
+  EXPECT_EQ(r.status, 404) << r.body;
+}
+
 TEST_F(SceneRoutes, ErrorsAreEvalsWithTheirThresholds) {
   const Reply r = get(port_, "/api/recordings/0/errors?estimate=/cdff/test/pose");
   ASSERT_EQ(r.status, 200) << r.body;

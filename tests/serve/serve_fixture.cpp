@@ -107,6 +107,11 @@ std::filesystem::path writeSceneRecording(const Files& files) {
     product.pose.rotation = Eigen::Quaterniond(
         Eigen::AngleAxisd(kProductTurnDeg * M_PI / 180, Eigen::Vector3d::UnitZ()));
     EXPECT_TRUE(recorder.write("/cdff/test/pose", product).isOk());
+    // The servicer in LVLH: k m along x, turned 90 degrees about x.
+    Transform servicer = Transform::identity("lvlh", "servicer", stamp);
+    servicer.translation = Eigen::Vector3d(k, 0, 0);
+    servicer.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()));
+    EXPECT_TRUE(recorder.write("/truth/tf/servicer", servicer).isOk());
     if (k == 0) {
       TriangleMesh mesh;
       mesh.stamp = stamp;

@@ -61,7 +61,7 @@ Received decodeFrame(const std::string& data, bool text);
 /// vertices (0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0.5), 2 triangles facing -z) once;
 /// /camera/image (64x48) as in makeFiles, with a pinhole camera model (focal kSceneFocal px,
 /// centre (32, 24)), and its mounting /chaser/tf/camera_optical (servicer_T_camera_optical, the
-/// identity) once.
+/// identity) once; /truth/tf/servicer (lvlh_T_servicer) at (k, 0, 0) m turned 90 degrees about x.
 constexpr int kScenePoints = 1000;
 constexpr double kSceneFocal = 50;       // px
 constexpr double kProductOffset = 0.1;   // m

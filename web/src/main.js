@@ -3,7 +3,7 @@ import './style.css';
 import { getJson } from './api.js';
 import { ErrorPlot } from './errorplot.js';
 import { LivePage } from './live.js';
-import { PositionPlot } from './plot.js';
+import { LvlhPlot, PositionPlot } from './plot.js';
 import { ReplayStream } from './replay.js';
 import { ContourOverlay } from './overlay.js';
 import { SceneView, recordingScene } from './scene.js';
@@ -25,6 +25,7 @@ const state = {
 const plot = new PositionPlot($('plot'));
 const scene = new SceneView($('scene'), $('scene-caption'));
 const errorPlot = new ErrorPlot($('error-plot'));
+const lvlhPlot = new LvlhPlot($('lvlh-plot'));
 const overlay = new ContourOverlay($('frame'), $('frame-overlay'));
 
 // The contour of the model at the estimate's pose (or the truth's) over the image shown: one
@@ -189,6 +190,7 @@ async function chooseEstimate(estimate) {
   scene.setTrack('truth', truthTrack);
   scene.setTrack('estimate', estimateTrack);
   state.estimateTrack = estimateTrack;
+  await showLvlh(estimate, estimateTrack);
   if (!estimate) {
     errorPlot.clear('No estimate chosen: the recording of a run (cdff run ... -o OUT.mcap) has the DFPCs\' pose products.');
     return;
@@ -199,6 +201,18 @@ async function chooseEstimate(estimate) {
   } catch (e) {
     errorPlot.clear(e.message);
   }
+}
+
+// The chaser's and the target's true trajectories in LVLH (the simulator's /truth/tf/servicer and
+// /truth/tf/target), and the estimate through the chaser's when it is relative to the servicer.
+async function showLvlh(estimate, estimateTrack) {
+  const has = (topic) => state.recording.channels.some((c) => c.topic === topic && c.messages > 0);
+  const get = (params) => getJson(`/api/recordings/${state.recording.id}/poses`, { max_points: 4000, ...params });
+  const chaser = has('/truth/tf/servicer') ? await get({ channel: '/truth/tf/servicer' }) : null;
+  const target = has('/truth/tf/target') ? await get({ channel: '/truth/tf/target' }) : null;
+  const relative = estimateTrack && chaser && estimateTrack.frame === chaser.child_frame;
+  const through = relative ? await get({ channel: estimate, via: '/truth/tf/servicer' }) : null;
+  lvlhPlot.show(chaser, target, through, { chaser: 'chaser', target: 'target truth', estimate: 'target estimate' });
 }
 
 async function selectRecording(id) {

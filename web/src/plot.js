@@ -77,3 +77,44 @@ export class PositionPlot {
     this.plot?.redraw(false, false);
   }
 }
+
+// Chaser and target trajectories in LVLH against time: the chaser's truth (dotted), the target's
+// truth (dashed) and its estimate (solid: the estimated servicer_T_target through the chaser's
+// true lvlh_T_servicer, composed by the server).
+export class LvlhPlot {
+  constructor(element) {
+    this.element = element;
+    this.plot = null;
+  }
+
+  /** Each {t, x, y, z} or null: `chaser`, `target` (truth), `estimate`; `names` their channels. */
+  show(chaser, target, estimate, names) {
+    this.plot?.destroy();
+    this.plot = null;
+    const tables = [];
+    const series = [{ label: 't (s)' }];
+    const axes = [['x', '#c0392b'], ['y', '#27ae60'], ['z', '#2980b9']];
+    for (const [track, name, style] of [[chaser, names.chaser, { dash: [2, 3] }],
+                                        [target, names.target, { dash: [6, 4] }],
+                                        [estimate, names.estimate, { width: 2 }]]) {
+      if (!track) continue;
+      tables.push([track.t, track.x, track.y, track.z]);
+      for (const [axis, colour] of axes) series.push({ label: `${axis} ${name}`, stroke: colour, spanGaps: true, ...style });
+    }
+    this.element.dataset.chaser = String(chaser?.t.length ?? 0);
+    this.element.dataset.target = String(target?.t.length ?? 0);
+    this.element.dataset.estimate = String(estimate?.t.length ?? 0);
+    if (tables.length === 0) {
+      this.element.replaceChildren();
+      return;
+    }
+    this.plot = new uPlot({
+      title: 'trajectories in LVLH (m): chaser (dotted), target truth (dashed), target estimate (solid)',
+      width: Math.max(320, this.element.clientWidth),
+      height: 260,
+      scales: { x: { time: false } },
+      axes: [{ label: 't (s)' }, { label: 'm' }],
+      series,
+    }, tables.length === 1 ? tables[0] : uPlot.join(tables), this.element);
+  }
+}

@@ -246,7 +246,7 @@ export class SceneView {
     const centre = new THREE.Vector3().setFromMatrixPosition(object.matrix);
     const radius = Math.max(object.geometry.boundingSphere?.radius ?? 1, 0.1);
     const toward = centre.lengthSq() > 0 ? centre.clone().normalize() : new THREE.Vector3(1, 0, 0);
-    this.camera.position.copy(centre).addScaledVector(toward, -2.2 * radius).add(new THREE.Vector3(0, 0, 0.6 * radius));
+    this.camera.position.copy(centre).addScaledVector(toward, -3 * radius).add(new THREE.Vector3(0, 0, 0.8 * radius));
     this.camera.far = Math.max(5000, 4 * centre.length());
     this.camera.updateProjectionMatrix();
     this.controls.target.copy(centre);

@@ -148,6 +148,11 @@ try {
   check('trajectory-plot-truth-and-estimate', Number(plotted.estimates) === estimateChannel?.messages
         && Number(plotted.points) === runInfo.channels.find((c) => c.topic === '/truth/target_pose')?.messages,
         `${plotted.estimates} estimated and ${plotted.points} true positions against time`);
+  const lvlh = await page.$eval('#lvlh-plot', (p) => ({ ...p.dataset }));
+  const count = (topic) => runInfo.channels.find((c) => c.topic === topic)?.messages;
+  check('lvlh-trajectories', Number(lvlh.chaser) === count('/truth/tf/servicer') && Number(lvlh.target) === count('/truth/tf/target')
+        && Number(lvlh.estimate) === estimateChannel?.messages,
+        `chaser ${lvlh.chaser}, target ${lvlh.target}, estimate ${lvlh.estimate} positions in LVLH`);
   check('3d-estimate-trajectory', Number(scene.estimateTrack) === estimateChannel?.messages && Number(scene.truthTrack) > 0,
         `${scene.estimateTrack} estimated positions of ${estimateChannel?.messages}, ${scene.truthTrack} true ones`);
   check('3d-estimate-and-truth', scene.estimate === 'true' && scene.truth === 'true' && pixels.model > 200 && pixels.truth > 50,

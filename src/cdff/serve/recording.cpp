@@ -259,10 +259,39 @@ Result<std::vector<Transform>> Recording::transforms(const std::string& topic) c
   return out;
 }
 
-Result<json> Recording::poses(const std::string& topic, std::size_t max_points) const {
+Result<json> Recording::poses(const std::string& topic, std::size_t max_points,
+                              const std::string& via) const {
   Result<std::vector<Transform>> poses = transforms(topic);
   if (!poses) return poses.status();
   const ChannelSummary& c = *channel(topic);
+  std::vector<std::uint64_t> times = c.times_ns;
+  std::size_t unmatched = 0;
+  if (!via.empty()) {
+    Result<std::vector<Transform>> outer = transforms(via);
+    if (!outer) return outer.status();
+    if (!outer->empty() && !poses->empty() &&
+        outer->front().child_frame != poses->front().parent_frame)
+      return invalidInput(
+          "via = '{}' holds {}_T_{}; expected a transform whose child frame is '{}', the parent "
+          "frame of '{}'",
+          via, outer->front().parent_frame, outer->front().child_frame, poses->front().parent_frame,
+          topic);
+    std::vector<Transform> composed;
+    std::vector<std::uint64_t> composed_times;
+    for (std::size_t i = 0; i < poses->size(); ++i) {
+      const Transform& p = (*poses)[i];
+      std::optional<Transform> o = eval::truthAt(*outer, p.stamp, {});
+      if (!o) {
+        ++unmatched;
+        continue;
+      }
+      composed.push_back(Transform::fromIsometry(o->isometry() * p.isometry(), o->parent_frame,
+                                                 p.child_frame, p.stamp));
+      composed_times.push_back(times[i]);
+    }
+    *poses = std::move(composed);
+    times = std::move(composed_times);
+  }
   const std::size_t n = poses->size();
   const std::size_t stride = std::max<std::size_t>(1, (n + max_points - 1) / max_points);
   json cols = {{"channel", topic}, {"stride", stride}};
@@ -271,7 +300,7 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
     // Every stride-th pose, and the last one while there is room for it.
     if (i % stride != 0 && (i + 1 != n || t.size() >= max_points)) continue;
     const Transform& pose = (*poses)[i];
-    t.push_back(secondsOf(c.times_ns[i]));
+    t.push_back(secondsOf(times[i]));
     x.push_back(pose.translation.x());
     y.push_back(pose.translation.y());
     z.push_back(pose.translation.z());
@@ -280,6 +309,7 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
     qy.push_back(pose.rotation.y());
     qz.push_back(pose.rotation.z());
   }
+  if (!via.empty()) cols.update({{"via", via}, {"unmatched", unmatched}});
   cols.update({{"frame", n ? poses->back().parent_frame : ""},
                {"child_frame", n ? poses->back().child_frame : ""},
                {"t", t},

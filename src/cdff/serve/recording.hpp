@@ -82,8 +82,13 @@ class Recording {
   Result<EncodedImage> imageAt(const std::string& topic, double t, int max_width,
                                int quality) const;
   /// The positions and attitudes of a pose channel against time, as columns
-  /// {t, x, y, z, qw, qx, qy, qz}, decimated to at most `max_points`.
-  Result<nlohmann::json> poses(const std::string& topic, std::size_t max_points) const;
+  /// {t, x, y, z, qw, qx, qy, qz}, decimated to at most `max_points`. With `via` (a pose channel
+  /// whose child frame is the poses' parent, e.g. /truth/tf/servicer = lvlh_T_servicer for
+  /// servicer_T_target), each pose is expressed in via's parent frame: via interpolated at the
+  /// pose's stamp as `cdff eval` interpolates the truth, times the pose (lvlh_T_target); a pose
+  /// without a via pose within 0.5 s is left out (counted in `unmatched`).
+  Result<nlohmann::json> poses(const std::string& topic, std::size_t max_points,
+                               const std::string& via = "") const;
 
   /// Every pose of a pose channel, in time order (a PoseWithCovariance's or RigidBodyState's
   /// pose alone).

@@ -482,13 +482,15 @@ Response Router::api(const Request& req, const Target& target) const {
   }
   if (what == "image") return imageResponse(req, **rec, target.query);
   if (what == "poses") {
-    if (Status s = expectParameters(target.query, {"channel", "max_points"}); !s.isOk())
+    if (Status s = expectParameters(target.query, {"channel", "max_points", "via"}); !s.isOk())
       return fromStatus(req, s);
     Result<std::string> channel = requiredText(target.query, "channel", "a pose channel's topic");
     if (!channel) return fromStatus(req, channel.status());
     Result<double> points = number(target.query, "max_points", 5000, 2, 1e6, "a number of points");
     if (!points) return fromStatus(req, points.status());
-    Result<json> poses = (*rec)->poses(*channel, static_cast<std::size_t>(*points));
+    const auto via = target.query.find("via");
+    Result<json> poses = (*rec)->poses(*channel, static_cast<std::size_t>(*points),
+                                       via == target.query.end() ? "" : via->second);
     return poses ? jsonResponse(req, *poses) : fromStatus(req, poses.status());
   }
   if (what == "mesh") {
