@@ -5,15 +5,18 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <thread>
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
 
+#include "cdff/egse/model_io.hpp"
 #include "cdff/io/recorder.hpp"
 #include "serve_fixture.hpp"
 
@@ -61,6 +64,9 @@ std::filesystem::path writeLiveRecording(const Files& files, bool noisy = false)
     pose.covariance.diagonal() << Eigen::Vector3d::Constant(1e-4), Eigen::Vector3d::Constant(1e-6);
     EXPECT_TRUE(recorder.write("/chaser/target_pose_measurement", pose).isOk());
     EXPECT_TRUE(recorder.write("/truth/target_pose", pose).isOk());
+    // A LIDAR scan for the 3D view: 30000 points, more than a browser gets of one.
+    std::vector<Eigen::Vector3f> xyz(30000, Eigen::Vector3f(1.0f, 0.5f, static_cast<float>(k)));
+    EXPECT_TRUE(recorder.write("/lidar/points", PointCloud::fromXyz(xyz, "lidar", stamp)).isOk());
   }
   EXPECT_TRUE(recorder.close().isOk());
   return path;
@@ -126,6 +132,59 @@ std::string startBody(double speed = 2.0) {
   return json{{"graph", kGraph}, {"recording", 0}, {"speed", speed}}.dump();
 }
 
+// GET /api/graphs/model: a served graph's mesh_file (lidar_tracking.yaml's, named absolutely here:
+// the server reads it relative to its working directory) as a mesh body; refusals as JSON.
+TEST(LiveRun, GraphModelIsItsMeshFile) {
+  const Files files = makeFiles("live_model");
+  const std::string mesh = std::string(CDFF_SOURCE_DIR) + "/data/models/target.ply";
+  std::ifstream in(std::string(CDFF_SOURCE_DIR) + "/dfpcs/lidar_tracking.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  for (std::size_t at = 0; (at = yaml.find("data/models/target.ply", at)) != std::string::npos;
+       at += mesh.size())
+    yaml.replace(at, std::string("data/models/target.ply").size(), mesh);
+  const std::string lidar = (files.dir / "lidar_model.yaml").string();
+  std::ofstream(lidar) << yaml;
+  ServerOptions options;
+  options.port = 0;
+  options.app_dir = files.app_dir;
+  options.recordings = {files.recording.string()};
+  options.graphs = {kGraph, lidar};
+  Result<std::unique_ptr<Server>> server = Server::start(options);
+  ASSERT_TRUE(server.isOk()) << server.status().message();
+  const unsigned short port = (*server)->port();
+
+  const Reply r = get(port, "/api/graphs/model?graph=" + lidar);
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.headers.at("Content-Type"), "application/octet-stream");
+  std::uint32_t n = 0;
+  std::memcpy(&n, r.body.data(), 4);
+  const json header = json::parse(r.body.substr(4, n));
+  EXPECT_EQ(header["type"], "mesh");
+  EXPECT_EQ(header["source"], mesh);
+  Result<egse::TargetModel> model = egse::loadModel(mesh);
+  ASSERT_TRUE(model.isOk()) << model.status().message();
+  EXPECT_EQ(header["vertices"], model->mesh.vertexCount());
+  EXPECT_EQ(header["triangles"], model->mesh.triangleCount());
+  EXPECT_GT(model->mesh.triangleCount(), 100u);
+  EXPECT_EQ(r.body.size(), 4 + n + 12 * (model->mesh.vertexCount() + model->mesh.triangleCount()));
+
+  const auto expectError = [&](const std::string& target, int status, const std::string& says) {
+    Reply e = get(port, target);
+    EXPECT_EQ(e.status, status) << target << ": " << e.body;
+    EXPECT_EQ(e.headers["Content-Type"], "application/json") << target;
+    EXPECT_NE(e.json().value("error", "").find(says), std::string::npos)
+        << target << ": " << e.body;
+  };
+  expectError("/api/graphs/model?graph=" + kGraph, 404, "names no mesh_file");
+  expectError("/api/graphs/model", 400, "'graph' is missing");
+  expectError("/api/graphs/model?graph=../dfpcs/lidar_tracking.yaml", 400, "is a path");
+  expectError("/api/graphs/model?graph=dfpcs/lidar_tracking.yaml", 404, "not a served graph");
+  expectError("/api/graphs/model?graph=" + lidar + "&x=1", 400, "'x' is unknown");
+  EXPECT_EQ(post(port, "/api/graphs/model?graph=" + lidar, "{}").status, 405);
+}
+
 TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
   const Files files = makeFiles("live");
   const std::filesystem::path rec = writeLiveRecording(files);
@@ -160,12 +219,25 @@ TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
   // Poses near the truth of their time (exact measurements: the filter's error stays within
   // its 0.2 m/s velocity times a 0.1 s frame interval until its velocity converges), camera
   // images of the frame of their time, the DFPC's status RUNNING.
-  int poses = 0, images = 0, statuses = 0;
+  int poses = 0, images = 0, statuses = 0, scans = 0, errors = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while ((poses < 3 || images < 1 || statuses < 1) && std::chrono::steady_clock::now() < deadline) {
+  while ((poses < 3 || images < 1 || statuses < 1 || scans < 1 || errors < 1) &&
+         std::chrono::steady_clock::now() < deadline) {
     const Received m = client.next();
     const std::string type = m.header.value("type", "");
-    if (m.image) {
+    if (m.image && type == "points") {
+      // The latest scan, thinned to the live stream's 20000 points at most.
+      ++scans;
+      EXPECT_EQ(m.header["channel"], "/lidar/points");
+      EXPECT_EQ(m.header["source_count"], 30000);
+      EXPECT_LE(m.header["count"].get<int>(), 20000);
+      EXPECT_EQ(m.header["count"], 15000);  // every 2nd point
+      ASSERT_EQ(m.payload.size(), m.header["count"].get<std::size_t>() * 12);
+      float z = -1;
+      std::memcpy(&z, m.payload.data() + 8, 4);
+      const Timestamp stamp = m.header["stamp_us"];
+      EXPECT_EQ(z, static_cast<float>((stamp - kLiveStart) / kPeriod));
+    } else if (m.image) {
       ++images;
       EXPECT_EQ(m.header["channel"], "/camera/image");
       EXPECT_EQ(m.header["width"], 64);
@@ -181,6 +253,20 @@ TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
       EXPECT_LT((p - truthAt(stamp)).norm(), 0.02 + 1e-3) << m.header.dump();
       EXPECT_EQ(m.header["covariance"].size(), 36u);
       EXPECT_GT(m.header["covariance"][0].get<double>(), 0.0);
+      // The truth of its time from the recording, its error as `cdff eval` measures it and the
+      // thresholds of SR_DFPC_0100 (mid range: 10 m).
+      if (m.header.contains("error")) {
+        ++errors;
+        EXPECT_EQ(m.header["truth"]["channel"], "/truth/target_pose");
+        const Eigen::Vector3d t(m.header["truth"]["p"][0], m.header["truth"]["p"][1],
+                                m.header["truth"]["p"][2]);
+        EXPECT_LT((t - truthAt(stamp)).norm(), 1e-9);
+        EXPECT_NEAR(m.header["error"]["position_error_m"].get<double>(), (p - t).norm(), 1e-9);
+        EXPECT_NEAR(m.header["error"]["range_m"].get<double>(), t.norm(), 1e-9);
+        EXPECT_EQ(m.header["error"]["position_threshold_m"], 1.0);
+        EXPECT_EQ(m.header["error"]["angle_threshold_deg"], 10.0);
+        EXPECT_EQ(m.header["error"]["requirement"], "SR_DFPC_0100");
+      }
     } else if (type == "status") {
       ++statuses;
       EXPECT_EQ(m.header["name"], "pose_filtering");
@@ -190,6 +276,8 @@ TEST(LiveRun, PosesAndImagesStreamAndTheStateFollowsTheExternalApi) {
   EXPECT_GE(poses, 3);
   EXPECT_GE(images, 1);
   EXPECT_GE(statuses, 1);
+  EXPECT_GE(scans, 1);
+  EXPECT_GE(errors, 1);
 
   r = get(port, "/api/live");
   ASSERT_EQ(r.status, 200) << r.body;

@@ -1,6 +1,8 @@
 #include "serve_fixture.hpp"
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 
 #include <unistd.h>
 
@@ -59,6 +61,69 @@ Files makeFiles(const std::string& name) {
   }
   EXPECT_TRUE(recorder.close().isOk());
   return f;
+}
+
+std::filesystem::path writeSceneRecording(const Files& files) {
+  const std::filesystem::path path = files.dir / "scene.mcap";
+  io::Recorder recorder;
+  EXPECT_TRUE(recorder.open(path.string()).isOk());
+  for (int k = 0; k < kFrames; ++k) {
+    const Timestamp stamp = kFirstStamp + k * kPeriod;
+    Result<Image> image =
+        Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 20 * k), 64, 48, PixelFormat::kGray8);
+    EXPECT_TRUE(image.isOk());
+    image->stamp = stamp;
+    image->frame_id = "camera_optical";
+    CameraModel camera;
+    camera.width = 64;
+    camera.height = 48;
+    camera.fx = camera.fy = kSceneFocal;
+    camera.cx = 32;
+    camera.cy = 24;
+    image->camera = camera;
+    EXPECT_TRUE(recorder.write("/camera/image", *image).isOk());
+    if (k == 0) {
+      // The camera's mounting: its optical frame is the servicer's.
+      EXPECT_TRUE(recorder
+                      .write("/chaser/tf/camera_optical",
+                             Transform::identity("servicer", "camera_optical", stamp))
+                      .isOk());
+    }
+    std::vector<Eigen::Vector3f> xyz;
+    for (int i = 0; i < kScenePoints; ++i) {
+      const float nan = std::numeric_limits<float>::quiet_NaN();
+      xyz.emplace_back(i % 10 == 9 ? nan : 0.01f * i, static_cast<float>(k), 1.0f);
+    }
+    EXPECT_TRUE(recorder.write("/lidar/points", PointCloud::fromXyz(xyz, "lidar", stamp)).isOk());
+    PoseWithCovariance truth;
+    truth.pose.stamp = stamp;
+    truth.pose.parent_frame = "servicer";
+    truth.pose.child_frame = "target";
+    truth.pose.translation = Eigen::Vector3d(0, 0, 10.0 - k);
+    truth.covariance = Matrix6d::Identity() * 1e-4;
+    EXPECT_TRUE(recorder.write("/truth/target_pose", truth).isOk());
+    PoseWithCovariance product = truth;
+    product.pose.translation.x() += kProductOffset;
+    product.pose.rotation = Eigen::Quaterniond(
+        Eigen::AngleAxisd(kProductTurnDeg * M_PI / 180, Eigen::Vector3d::UnitZ()));
+    EXPECT_TRUE(recorder.write("/cdff/test/pose", product).isOk());
+    // The servicer in LVLH: k m along x, turned 90 degrees about x.
+    Transform servicer = Transform::identity("lvlh", "servicer", stamp);
+    servicer.translation = Eigen::Vector3d(k, 0, 0);
+    servicer.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()));
+    EXPECT_TRUE(recorder.write("/truth/tf/servicer", servicer).isOk());
+    if (k == 0) {
+      TriangleMesh mesh;
+      mesh.stamp = stamp;
+      mesh.frame_id = "target";
+      mesh.vertices =
+          Buffer<Eigen::Vector3f>::fromVector({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0.5f}});
+      mesh.triangles = Buffer<std::array<std::uint32_t, 3>>::fromVector({{0, 2, 1}, {0, 3, 2}});
+      EXPECT_TRUE(recorder.write("/truth/target_mesh", mesh).isOk());
+    }
+  }
+  EXPECT_TRUE(recorder.close().isOk());
+  return path;
 }
 
 nlohmann::json Reply::json() const {
@@ -142,7 +207,9 @@ Received decodeFrame(const std::string& data, bool text) {
                           static_cast<std::uint32_t>(static_cast<std::uint8_t>(data[3])) << 24;
   r.header = nlohmann::json::parse(data.substr(4, n));
   r.image = true;
-  const std::vector<std::uint8_t> jpeg(data.begin() + 4 + n, data.end());
+  r.payload = data.substr(4 + n);
+  if (r.header.value("type", "") != "image") return r;
+  const std::vector<std::uint8_t> jpeg(r.payload.begin(), r.payload.end());
   r.mean = cv::mean(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE))[0];
   return r;
 }

@@ -2,6 +2,7 @@
 // order, refusals before the upgrade, and the per-browser queue that drops its oldest frames.
 #include <gtest/gtest.h>
 #include <condition_variable>
+#include <cstring>
 #include <mutex>
 
 #include <boost/asio/ip/tcp.hpp>
@@ -168,6 +169,69 @@ TEST(ReplayStream, RefusedBeforeTheUpgrade) {
   EXPECT_FALSE(same.error()) << same.error().message();
 }
 
+// The 3D view's stream: the LIDAR scan of the time as Float32 points, thinned to max_points.
+TEST(ReplayStream, PointCloudsThinnedToTheirBoundAsFloat32) {
+  Files files = makeFiles("stream_points");
+  files.recording = writeSceneRecording(files);
+  std::unique_ptr<Server> server = startServer(files);
+  const auto pointsOf = [](const std::vector<Received>& frames) {
+    for (const Received& r : frames)
+      if (r.image && r.header["type"] == "points") return r;
+    ADD_FAILURE() << "no points frame";
+    return Received{};
+  };
+  // 900 finite points of 1000, at most 100: every 9th finite one.
+  Client client(
+      server->port(),
+      "/api/recordings/0/stream?points=/lidar/points&pose=/truth/target_pose&max_points=100");
+  ASSERT_FALSE(client.error()) << client.error().message();
+  Received first = pointsOf(client.untilState());
+  EXPECT_EQ(first.header["count"], 100);
+  EXPECT_EQ(first.header["source_count"], kScenePoints);
+  EXPECT_EQ(first.header["finite_count"], 900);
+  EXPECT_EQ(first.header["stride"], 9);
+  EXPECT_EQ(first.header["frame"], "lidar");
+  EXPECT_EQ(first.header["channel"], "/lidar/points");
+  ASSERT_EQ(first.payload.size(), 100u * 3 * sizeof(float));
+  std::vector<float> xyz(300);
+  std::memcpy(xyz.data(), first.payload.data(), first.payload.size());
+  // Kept point j is finite point 9 j, i.e. point i = 10 j (every 10th point is NaN).
+  for (int j = 0; j < 100; ++j) {
+    EXPECT_NEAR(xyz[3 * j], 0.01f * (10 * j), 1e-6) << j;
+    EXPECT_EQ(xyz[3 * j + 1], 0.0f);
+    EXPECT_EQ(xyz[3 * j + 2], 1.0f);
+  }
+  // The scan of a scrubbed time.
+  client.send({{"cmd", "seek"}, {"t", 0.55}});
+  Received seek = pointsOf(client.untilState());
+  ASSERT_EQ(seek.payload.size(), 1200u);
+  std::memcpy(xyz.data(), seek.payload.data(), seek.payload.size());
+  EXPECT_EQ(xyz[1], 5.0f);
+  EXPECT_NEAR(seek.header["t"].get<double>(), 0.5, 1e-9);
+
+  // Refusals before the upgrade: JSON 4xx naming the value.
+  const auto refusal = [&](const std::string& target) {
+    const Reply r = sendRaw(server->port(), "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1:" +
+                                                std::to_string(server->port()) +
+                                                "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                                                "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                                                "Sec-WebSocket-Version: 13\r\n\r\n");
+    EXPECT_TRUE(r.json().contains("error")) << r.body;
+    return std::make_pair(r.status, r.body);
+  };
+  auto [status, body] = refusal("/api/recordings/0/stream?points=/camera/image");
+  EXPECT_EQ(status, 400);
+  EXPECT_NE(body.find("expected a PointCloud channel"), std::string::npos) << body;
+  std::tie(status, body) = refusal("/api/recordings/0/stream?points=/lidar/points&max_points=0");
+  EXPECT_EQ(status, 400);
+  EXPECT_NE(body.find("max_points"), std::string::npos) << body;
+  std::tie(status, body) =
+      refusal("/api/recordings/0/stream?points=/lidar/points&max_points=1000000");
+  EXPECT_EQ(status, 400);
+  std::tie(status, body) = refusal("/api/recordings/0/stream?points=/nope");
+  EXPECT_EQ(status, 404);
+}
+
 TEST(ReplayStream, ABrowserThatDoesNotReadNeverHoldsTheReplayBack) {
   const Files files = makeFiles("stream_slow");
   Result<std::unique_ptr<Recording>> recording = Recording::open(files.recording.string());
@@ -220,6 +284,19 @@ TEST(FrameQueue, DropsTheOldestFramesOfASlowBrowserOnly) {
   EXPECT_EQ(slow.size(), 3u);
   for (const char* kept : {"7", "8", "9"}) EXPECT_EQ(slow.pop()->data, kept);
   EXPECT_FALSE(slow.pop().has_value());
+}
+
+// Images and scans (binary, replaced by the next) go before poses and states (text, each its own).
+TEST(FrameQueue, DropsTheOldestBinaryFrameFirst) {
+  FrameQueue q(3);
+  q.push({true, "image 0"});
+  q.push({false, "pose 0"});
+  q.push({true, "image 1"});
+  q.push({false, "pose 1"});  // drops image 0
+  q.push({false, "pose 2"});  // drops image 1
+  q.push({false, "pose 3"});  // only text waits: drops pose 0
+  EXPECT_EQ(q.dropped(), 3u);
+  for (const char* kept : {"pose 1", "pose 2", "pose 3"}) EXPECT_EQ(q.pop()->data, kept);
 }
 
 }  // namespace

@@ -21,6 +21,18 @@ export async function getJson(path, params) {
   return body;
 }
 
+/** GET a binary route (a mesh body) as an ArrayBuffer; throws the server's {"error"} message. */
+export async function getBinary(path, params) {
+  const response = await fetch(withToken(path, params));
+  if (!response.ok) {
+    const body = await response.json().catch(() => ({}));
+    const error = new Error(`${path}: ${body.error ?? response.statusText}`);
+    error.status = response.status;
+    throw error;
+  }
+  return response.arrayBuffer();
+}
+
 /** A JSON request (POST, DELETE...) with an optional JSON body; throws the server's error. */
 export async function sendJson(method, path, body) {
   const init = { method };

@@ -5,7 +5,10 @@
 // (far-range tracking starts from it); the bearing against the truth; the estimated position
 // against the truth, each DFPC's state and faults, the events log.
 import uPlot from 'uplot';
-import { getJson, sendJson, openSocket, splitFrame } from './api.js';
+import { getBinary, getJson, sendJson, openSocket, splitFrame } from './api.js';
+import { ErrorPlot } from './errorplot.js';
+import { ContourOverlay } from './overlay.js';
+import { SceneView, meshGeometry, recordingScene } from './scene.js';
 
 const $ = (id) => document.getElementById(id);
 const POSE_TYPES = ['PoseWithCovariance', 'RigidBodyState', 'Transform'];
@@ -86,6 +89,9 @@ class LivePlot {
 export class LivePage {
   constructor() {
     this.plot = new LivePlot($('live-plot'));
+    this.scene = new SceneView($('live-scene'), $('live-scene-caption'));
+    this.errors = new ErrorPlot($('live-error-plot'));
+    this.overlay = new ContourOverlay($('live-frame'), $('live-frame-overlay'));
     this.socket = null;
     this.run = null;  // the server's state of the run
     this.runKey = '';  // the number of the run the plot shows
@@ -294,7 +300,8 @@ export class LivePage {
   receive(data) {
     if (typeof data !== 'string') {
       const { header, payload } = splitFrame(data);
-      this.showImage(header, new Blob([payload], { type: 'image/jpeg' }));
+      if (header.type === 'points') this.scene.setPoints(header, data, payload.byteOffset);
+      else this.showImage(header, new Blob([payload], { type: 'image/jpeg' }));
       return;
     }
     const frame = JSON.parse(data);
@@ -303,6 +310,10 @@ export class LivePage {
       if (String(frame.run) !== this.runKey) this.beginRun(String(frame.run));
       this.plot.add(frame);
       this.followPoseFrames(frame);
+      this.scene.setEstimate({ ...frame, source: frame.dfpc });
+      this.scene.extendTrack('estimate', frame);
+      this.scene.setTruth(frame.truth ? { ...frame.truth, source: frame.truth.channel } : null);
+      if (frame.error) this.errors.add(frame.t, frame.error);
       $('live-pose').textContent = `${frame.dfpc}: ${frame.child_frame} in ${frame.frame} at ${frame.t.toFixed(2)} s: `
         + `(${frame.p.map((v) => v.toFixed(3)).join(', ')}) m, σ (${[0, 7, 14].map((i) => Math.sqrt(frame.covariance[i]).toFixed(3)).join(', ')}) m`;
     } else if (frame.type === 'status') {
@@ -346,6 +357,7 @@ export class LivePage {
       $('live-events').replaceChildren();
       for (const e of run.events ?? []) this.addEvent(e);
       this.loadTruth(run.recording).catch((e) => { $('live-error').textContent = e.message; });
+      this.loadScene(run).catch((e) => { $('live-error').textContent = e.message; });
     }
   }
 
@@ -353,6 +365,24 @@ export class LivePage {
     this.runKey = key;
     this.plot.reset('estimated position (m)');
     this.clearOverlay();
+    this.errors.clear();
+    this.scene.setTrack('estimate', null);
+    this.scene.setTrack('truth', null);
+    this.errors.title = 'error of the estimate against the recording\'s truth, and the requirement thresholds';
+  }
+
+  // The 3D view of a run: the recording's mountings, and the graph's model (its mesh_file), or
+  // the recording's TriangleMesh channel when the graph names none (the caption says which).
+  async loadScene(run) {
+    const info = await getJson(`/api/recordings/${run.recording}`);
+    const resources = await recordingScene(info);
+    this.scene.setMountings(resources.mountings);
+    if (run.model_file) {
+      const { header, geometry } = meshGeometry(await getBinary('/api/graphs/model', { graph: run.graph }));
+      this.scene.setModel(geometry, `${header.source} (the graph's mesh_file)`);
+    } else if (resources.mesh) {
+      this.scene.setModel(resources.mesh.geometry, `${resources.meshChannel} of the recording (the graph names no mesh_file)`);
+    }
   }
 
   /**
@@ -393,6 +423,7 @@ export class LivePage {
     }
     this.plotTruthFrames = `${found.poses.frame}/${found.poses.child_frame}`;
     this.plot.setTruth(found.poses, `estimated position (solid) and ${found.name} (dashed, ${found.poses.child_frame} in ${found.poses.frame}), m`);
+    this.scene.setTrack('truth', found.poses);
   }
 
   /** The run's first pose: the plot's truth follows its frames. */
@@ -465,8 +496,15 @@ export class LivePage {
       setAttributes($('live-overlay'), { viewBox: `0 0 ${header.source_width} ${header.source_height}`, preserveAspectRatio: 'none' });
     }
     $('live-view').dataset.camera = header.channel;
+    if (header.contour?.segments) {
+      this.overlay.show(header.contour, header.source_width, header.source_height,
+                        `model at the estimate of ${header.contour.pose_t.toFixed(2)} s`);
+    } else {
+      this.overlay.clear();
+    }
     $('live-frame-caption').textContent = `${header.channel}: frame at ${header.t.toFixed(3)} s `
-      + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`;
+      + `(${header.source_width}×${header.source_height}, shown at ${header.width}×${header.height})`
+      + (header.contour?.error ? ` — no contour: ${header.contour.error}` : '');
   }
 }
 

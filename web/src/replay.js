@@ -2,12 +2,18 @@
 // as binary frames, poses and the replay's state as JSON (docs/web-ui.md#the-replay-stream).
 import { openSocket, splitFrame } from './api.js';
 
+// Points of a LIDAR scan sent at most (the server thins the scan to this bound).
+const MAX_POINTS = 20000;
+
 export class ReplayStream {
-  /** `handlers`: onImage(header, blob), onPose(frame), onState(state), onError(message). */
-  constructor(recordingId, { image, pose }, handlers) {
+  /**
+   * `pose`: a channel or a list; `points`: a PointCloud channel. `handlers`: onImage(header,
+   * blob), onPoints(header, buffer, offset), onPose(frame), onState(state), onError(message).
+   */
+  constructor(recordingId, { image, pose, points }, handlers) {
     this.handlers = handlers;
     this.socket = openSocket(`/api/recordings/${recordingId}/stream`,
-                             { image, pose, max_width: 640 });
+                             { image, pose, points, max_width: 640, max_points: points ? MAX_POINTS : undefined });
     this.pending = [];
     this.socket.addEventListener('open', () => {
       for (const c of this.pending) this.socket.send(JSON.stringify(c));
@@ -24,7 +30,8 @@ export class ReplayStream {
   receive(data) {
     if (typeof data !== 'string') {
       const { header, payload } = splitFrame(data);
-      this.handlers.onImage(header, new Blob([payload], { type: 'image/jpeg' }));
+      if (header.type === 'points') this.handlers.onPoints(header, data, payload.byteOffset);
+      else this.handlers.onImage(header, new Blob([payload], { type: 'image/jpeg' }));
       return;
     }
     const frame = JSON.parse(data);

@@ -5,21 +5,18 @@
 // Stop and Init (stopDFPC, initDFPC), Idle, Resume and Stop move the states; no console error.
 // Screenshots go to OUT_DIR.
 // usage: node live_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
-import { readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { check, finish, launchChromium, simulate, startServer, testArguments } from './harness.mjs';
+import { check, finish, launchChromium, overlayPixels, scenePixels, simulate, startServer, testArguments,
+         truthFilteringGraph } from './harness.mjs';
 
 const { cdff, out } = testArguments('live_test.mjs');
 const recording = path.join(out, 'live.mcap');
 simulate(cdff, recording);
 
-// The pose filter of dfpcs/pose_filtering.yaml fed with the simulator's truth (a graph that
-// runs on what `cdff sim` records, in the truth's frame so that the plot compares like with like).
+// The pose filter of dfpcs/pose_filtering.yaml fed with the simulator's truth.
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
-const graph = path.join(out, 'truth_filtering.yaml');
-writeFileSync(graph, readFileSync(path.join(root, 'dfpcs/pose_filtering.yaml'), 'utf8')
-  .replaceAll('/chaser/target_pose_measurement', '/truth/target_pose'));
+const graph = truthFilteringGraph(root, out);
 
 // From the repository's root: its dfpcs/ are offered too.
 const { server, url } = await startServer(cdff, [recording, '--graph', graph], { cwd: root });
@@ -60,7 +57,43 @@ try {
   // The whole recording played: the plot holds the run from start to end.
   check('recording-consumed', await waitFor(page, () => /consumed/.test(document.getElementById('live-state').textContent)),
         await page.$eval('#live-state', (p) => p.textContent));
-  await page.screenshot({ path: path.join(out, 'live-running.png') });
+  await page.screenshot({ path: path.join(out, 'live-running.png'), fullPage: true });
+
+  // The 3D view: the latest LIDAR scan (thinned by the server), the model (the recording's
+  // /truth/target_mesh: this graph names no mesh_file) at the estimated pose and the truth's
+  // wireframe, drawn in WebGL.
+  const scene = await page.$eval('#live-scene', (c) => ({ ...c.dataset }));
+  check('3d-points', Number(scene.points) > 0 && Number(scene.points) <= 20000
+        && (await page.$eval('#live-scene-caption', (c) => c.textContent)).includes(`${scene.points} of `),
+        `${scene.points} points; ${await page.$eval('#live-scene-caption', (c) => c.textContent)}`);
+  check('3d-trajectories', Number(scene.estimateTrack) >= 10 && Number(scene.truthTrack) === truth?.messages,
+        `${scene.estimateTrack} estimated positions, ${scene.truthTrack} true ones of ${truth?.messages}`);
+  check('3d-model-at-estimate-and-truth', Number(scene.model) > 0 && scene.estimate === 'true' && scene.truth === 'true',
+        JSON.stringify(scene));
+  const pixels = await scenePixels(page, 'live-scene');
+  check('3d-webgl-pixels', pixels.lit > 1000 && pixels.points > 20
+        && pixels.model > 200 && pixels.truth > 50, JSON.stringify(pixels));
+  await page.locator('#live-scene').screenshot({ path: path.join(out, 'live-scene.png') });
+
+  // The model's contour at the latest estimate over the camera image (sent with the image).
+  const contour = await overlayPixels(page, 'live-frame-overlay');
+  check('contour-over-image', contour.segments > 0 && contour.drawn > 50, JSON.stringify(contour));
+  await page.locator('#live .frame-box').screenshot({ path: path.join(out, 'live-contour.png') });
+
+  // Errors against time with the thresholds of the requirement at the truth's range (from the
+  // server, eval's table): every threshold drawn is one of GET /api/requirements'.
+  const table = await page.evaluate(() => fetch('/api/requirements').then((r) => r.json()));
+  const plot = await page.$eval('#live-error-plot', (p) => ({ ...p.dataset }));
+  const drawn = JSON.parse(plot.thresholds ?? '{}');
+  const allowed = (quantity) => table.pose.filter((r) => r.quantity === quantity).map((r) => r.threshold);
+  check('error-plot-points', Number(plot.points) >= 10, `${plot.points} errors`);
+  check('error-plot-thresholds',
+        ['position_error_m', 'angle_error_deg'].every((q) => drawn[q]?.length > 0 && drawn[q].every((v) => allowed(q).includes(v))),
+        `${plot.thresholds} (requirements ${plot.requirements})`);
+  const legend = await page.$$eval('#live-error-plot .u-legend .u-label', (ls) => ls.map((l) => l.textContent));
+  check('error-plot-threshold-lines', legend.some((l) => l.startsWith('position threshold'))
+        && legend.some((l) => l.startsWith('attitude threshold')), legend.join(' | '));
+  await page.locator('#live-error-plot').screenshot({ path: path.join(out, 'live-errors.png') });
 
   // One DFPC stopped and initialised again (stopDFPC, initDFPC) from its row.
   await page.click('#live-dfpcs tr[data-name="pose_filtering"] button[data-request="stop"]');

@@ -1,9 +1,11 @@
 #pragma once
-// The frames waiting to be sent to one browser. The producer (a replay, later a live run) never
-// waits on it: when the browser reads slower than frames come, the oldest waiting frame is
-// dropped. Only this browser's copy is decimated; the recording and the other browsers are not
-// affected.
+// The frames waiting to be sent to one browser. The producer (a replay, a live run) never waits
+// on it: when the browser reads slower than frames come, the oldest waiting binary frame (an
+// image or a point cloud: large, and replaced by the next one) is dropped, or the oldest frame
+// when only text frames (poses, errors, states, events: small, each its own) wait. Only this
+// browser's copy is decimated; the recording and the other browsers are not affected.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -22,11 +24,14 @@ class FrameQueue {
  public:
   explicit FrameQueue(std::size_t capacity) : capacity_(capacity < 1 ? 1 : capacity) {}
 
-  /// Appends a frame, dropping the oldest one when `capacity` frames already wait.
+  /// Appends a frame, dropping the oldest binary frame (the oldest frame when none is binary)
+  /// when `capacity` frames already wait.
   void push(Frame frame) {
     std::lock_guard lock(mutex_);
     if (frames_.size() >= capacity_) {
-      frames_.pop_front();
+      auto binary =
+          std::find_if(frames_.begin(), frames_.end(), [](const Frame& f) { return f.binary; });
+      frames_.erase(binary == frames_.end() ? frames_.begin() : binary);
       ++dropped_;
     }
     frames_.push_back(std::move(frame));

@@ -9,7 +9,11 @@
 
 #include "cdff/dfpc/graph.hpp"
 #include "cdff/dfpc/recording_streams.hpp"
+#include "cdff/egse/model_io.hpp"
+#include "cdff/eval/pose_evaluation.hpp"
+#include "cdff/serve/contour.hpp"
 #include "cdff/serve/replay_stream.hpp"
+#include "cdff/serve/scene.hpp"
 
 namespace cdff::serve {
 
@@ -22,6 +26,7 @@ constexpr double kStatusHz = 2;       // DFPC status frames
 constexpr std::size_t kEvents = 200;  // events kept for GET /api/live
 constexpr int kImageWidth = 640;      // camera frames downscaled to this width at most
 constexpr int kImageQuality = 80;
+constexpr std::size_t kCloudPoints = 20000;  // LIDAR points per scan sent at most
 
 // The steady clock run `speed` times faster: the API paces the recording and its subscriptions
 // on it, so a run at 4x plays 4 s of recording per second.
@@ -57,6 +62,16 @@ std::string dump(const json& j) {
   return j.dump(-1, ' ', false, json::error_handler_t::replace);
 }
 
+// The model the 3D view draws: the graph's first `mesh_file` parameter (its LIDAR model's), ""
+// when it names none.
+std::string modelFileOf(const dfpc::GraphSpec& graph) {
+  for (const dfpc::InstanceSpec& instance : graph.instances)
+    if (instance.parameters.IsMap() && instance.parameters["mesh_file"] &&
+        instance.parameters["mesh_file"].IsScalar())
+      return instance.parameters["mesh_file"].as<std::string>();
+  return "";
+}
+
 }  // namespace
 
 Result<api::StateRequest> parseStateRequest(const std::string& text) {
@@ -71,8 +86,14 @@ Result<api::StateRequest> parseStateRequest(const std::string& text) {
 
 class LiveHub::Run final : public dfpc::Sink {
  public:
-  Run(LiveHub& hub, std::uint64_t id, LiveSpec spec, const Recording& recording, std::string dfpc)
-      : hub_(hub), id_(id), spec_(std::move(spec)), recording_(recording), dfpc_(std::move(dfpc)) {}
+  Run(LiveHub& hub, std::uint64_t id, LiveSpec spec, const Recording& recording, std::string dfpc,
+      std::string model_file)
+      : hub_(hub),
+        id_(id),
+        spec_(std::move(spec)),
+        recording_(recording),
+        dfpc_(std::move(dfpc)),
+        model_file_(std::move(model_file)) {}
 
   ~Run() override {
     // The API's threads (input, subscriptions) call into this run. The subscriptions are
@@ -101,6 +122,7 @@ class LiveHub::Run final : public dfpc::Sink {
     Result<std::unique_ptr<api::Cdff>> cdff = api::Cdff::create(std::move(config));
     if (!cdff) return cdff.status();
     cdff_ = std::move(*cdff);
+    loadOutline();
     encoder_ = std::thread([this] { encode(); });
     Result<api::SubscriptionId> poses = cdff_->getDFPCPose(
         dfpc_, kPoseHz,
@@ -119,6 +141,8 @@ class LiveHub::Run final : public dfpc::Sink {
   }
 
   api::Cdff& cdff() { return *cdff_; }
+  const std::string& modelFile() const { return model_file_; }
+  const LiveSpec& spec() const { return spec_; }
 
   json state() const {
     json j = {{"active", true},
@@ -127,8 +151,12 @@ class LiveHub::Run final : public dfpc::Sink {
               {"recording", spec_.recording},
               {"speed", spec_.speed},
               {"camera", spec_.camera},
+              {"points", spec_.points},
+              {"model_file", model_file_},
               {"state", api::toString(cdff_->getCDFFState())}};
     if (!pose_error_.empty()) j["pose_error"] = pose_error_;
+    j["contour_model"] = outline_source_;
+    if (!contour_error_.empty()) j["contour_error"] = contour_error_;
     // The API is asked without mutex_ held: its input thread calls the sink (which takes
     // mutex_) under the API's own locks.
     Result<dfpc::DfpcStatus> s = cdff_->getDFPCStatus(dfpc_);
@@ -275,40 +303,138 @@ class LiveHub::Run final : public dfpc::Sink {
     }
     const dfpc::Message& message = *m.value();
     last_stamp_ = message.stamp;
-    if (message.channel != spec_.camera) return;
-    if (std::shared_ptr<const Image> image = message.value.as<Image>()) {
-      image_ = std::move(image);
-      image_stamp_ = message.stamp;
-      wake_.notify_all();
+    if (message.channel == spec_.camera) {
+      if (std::shared_ptr<const Image> image = message.value.as<Image>()) {
+        image_ = std::move(image);
+        image_stamp_ = message.stamp;
+        wake_.notify_all();
+      }
+    } else if (!spec_.points.empty() && message.channel == spec_.points) {
+      if (std::shared_ptr<const PointCloud> cloud = message.value.as<PointCloud>()) {
+        cloud_ = std::move(cloud);
+        cloud_stamp_ = message.stamp;
+        wake_.notify_all();
+      }
     }
   }
 
-  // The encoder thread: the latest image, when a browser watches (older ones are skipped).
+  // The encoder thread: the latest image and scan, when a browser watches (older ones are
+  // skipped).
   void encode() {
     std::unique_lock lock(mutex_);
     for (;;) {
-      wake_.wait(lock, [&] { return stop_ || image_; });
+      wake_.wait(lock, [&] { return stop_ || image_ || cloud_; });
       if (stop_) return;
       std::shared_ptr<const Image> image = std::move(image_);
+      std::shared_ptr<const PointCloud> cloud = std::move(cloud_);
       image_.reset();
-      const Timestamp stamp = image_stamp_;
+      cloud_.reset();
+      const Timestamp stamp = image_stamp_, scan_stamp = cloud_stamp_;
       if (hub_.listeners() == 0) continue;
       lock.unlock();
-      Result<EncodedImage> jpeg = encodeJpeg(*image, kImageWidth, kImageQuality);
-      if (jpeg) {
-        const json header = {{"type", "image"},
-                             {"channel", spec_.camera},
-                             {"t", seconds(stamp)},
-                             {"stamp_us", stamp},
-                             {"width", jpeg->width},
-                             {"height", jpeg->height},
-                             {"source_width", jpeg->source_width},
-                             {"source_height", jpeg->source_height}};
-        hub_.publish({true, binaryFrame(header, jpeg->jpeg)});
-      } else {
-        hub_.publish({false, dump({{"type", "error"}, {"error", jpeg.status().message()}})});
+      if (image) publishImage(*image, stamp);
+      if (cloud) {
+        const json header = {
+            {"channel", spec_.points}, {"t", seconds(scan_stamp)}, {"stamp_us", scan_stamp}};
+        hub_.publish({true, pointsFrame(header, *cloud, decimateCloud(*cloud, kCloudPoints))});
       }
       lock.lock();
+    }
+  }
+
+  void publishImage(const Image& image, Timestamp stamp) {
+    Result<EncodedImage> jpeg = encodeJpeg(image, kImageWidth, kImageQuality);
+    if (!jpeg) {
+      hub_.publish({false, dump({{"type", "error"}, {"error", jpeg.status().message()}})});
+      return;
+    }
+    json header = {{"type", "image"},
+                   {"channel", spec_.camera},
+                   {"t", seconds(stamp)},
+                   {"stamp_us", stamp},
+                   {"width", jpeg->width},
+                   {"height", jpeg->height},
+                   {"source_width", jpeg->source_width},
+                   {"source_height", jpeg->source_height}};
+    if (json contour = contourOver(image); !contour.is_null()) header["contour"] = contour;
+    hub_.publish({true, binaryFrame(header, jpeg->jpeg)});
+  }
+
+  // The model the contour is drawn of: the graph's mesh_file, else the recording's first
+  // TriangleMesh channel (the simulator's /truth/target_mesh); none (and why) when neither.
+  void loadOutline() {
+    Result<TriangleMesh> mesh = notFound(
+        "the graph names no mesh_file and the recording has no "
+        "TriangleMesh channel");
+    if (!model_file_.empty()) {
+      Result<egse::TargetModel> model = egse::loadModel(model_file_);
+      mesh = model ? Result<TriangleMesh>(model->mesh) : Result<TriangleMesh>(model.status());
+      outline_source_ = model_file_;
+    } else {
+      for (const ChannelSummary& c : recording_.channels())
+        if (c.type == "TriangleMesh" && !c.times_ns.empty()) {
+          mesh = recording_.mesh(c.topic);
+          outline_source_ = c.topic;
+          break;
+        }
+    }
+    Result<MeshOutline> outline =
+        mesh ? MeshOutline::of(*mesh) : Result<MeshOutline>(mesh.status());
+    if (outline)
+      outline_ = std::move(*outline);
+    else
+      contour_error_ = outline.status().message();
+  }
+
+  // The contour of the model at the latest estimated pose over `image` (the encoder thread's):
+  // null without a model, a camera model or a pose; {"error"} when the pose's frame cannot be
+  // brought into the image's.
+  json contourOver(const Image& image) {
+    std::optional<Transform> pose;
+    {
+      std::lock_guard lock(mutex_);
+      pose = latest_pose_;
+    }
+    if (!outline_ || !image.camera || !pose) return json();
+    Transform camera_T_parent = Transform::identity(image.frame_id, pose->parent_frame);
+    if (pose->parent_frame != image.frame_id) {
+      const auto key = std::pair(pose->parent_frame, image.frame_id);
+      auto it = mountings_.find(key);
+      if (it == mountings_.end())
+        it = mountings_.emplace(key, recording_.mounting(key.first, key.second)).first;
+      if (!it->second) return {{"error", it->second.status().message()}};
+      camera_T_parent = it->second->inverse();
+    }
+    const Transform camera_T_model = Transform::fromIsometry(
+        camera_T_parent.isometry() * pose->isometry(), image.frame_id, pose->child_frame);
+    Result<std::vector<std::array<float, 4>>> segments =
+        outline_->project(camera_T_model, *image.camera);
+    if (!segments) return {{"error", segments.status().message()}};
+    json j = contourJson(*segments);
+    j["pose_t"] = seconds(pose->stamp);
+    j["source"] = outline_source_;
+    return j;
+  }
+
+  // The truth of the poses' transform in the recording (once, at the first pose): the /truth/
+  // pose channel of the same parent and child frames, /truth/target_pose first, as `cdff eval`
+  // pairs them.
+  void findTruth(const Transform& pose) {
+    truth_searched_ = true;
+    std::vector<const ChannelSummary*> candidates;
+    for (const ChannelSummary& c : recording_.channels())
+      if (c.topic.starts_with("/truth/") && isPoseType(c.type) && !c.times_ns.empty())
+        candidates.push_back(&c);
+    std::stable_partition(candidates.begin(), candidates.end(),
+                          [](const ChannelSummary* c) { return c->topic == "/truth/target_pose"; });
+    for (const ChannelSummary* c : candidates) {
+      Result<std::vector<Transform>> truth = recording_.transforms(c->topic);
+      if (!truth || truth->empty() || truth->front().parent_frame != pose.parent_frame ||
+          truth->front().child_frame != pose.child_frame)
+        continue;
+      truth_ = std::move(*truth);
+      truth_channel_ = c->topic;
+      return;
     }
   }
 
@@ -317,6 +443,10 @@ class LiveHub::Run final : public dfpc::Sink {
     if (!pose) return;  // no pose yet
     if (last_pose_ && *last_pose_ == pose->pose.stamp) return;
     last_pose_ = pose->pose.stamp;
+    {
+      std::lock_guard lock(mutex_);
+      latest_pose_ = pose->pose;
+    }
     json j = poseJson(pose->pose);
     j["type"] = "pose";
     j["run"] = id_;
@@ -327,6 +457,22 @@ class LiveHub::Run final : public dfpc::Sink {
     for (int r = 0; r < 6; ++r)
       for (int c = 0; c < 6; ++c) covariance[r * 6 + c] = pose->covariance(r, c);
     j["covariance"] = covariance;
+    if (!truth_searched_) findTruth(pose->pose);
+    if (!truth_.empty()) {
+      if (std::optional<Transform> truth = eval::truthAt(truth_, pose->pose.stamp, {})) {
+        const PoseError e = poseError(pose->pose, *truth);
+        j["truth"] = poseJson(*truth);
+        j["truth"]["channel"] = truth_channel_;
+        j["error"] = {
+            {"range_m", e.range_m},
+            {"position_error_m", e.position_error_m},
+            {"angle_error_deg", e.angle_error_deg},
+            {"position_threshold_m",
+             e.position_threshold_m ? json(*e.position_threshold_m) : json()},
+            {"angle_threshold_deg", e.angle_threshold_deg ? json(*e.angle_threshold_deg) : json()},
+            {"requirement", e.requirement}};
+      }
+    }
     hub_.publish({false, dump(j)});
   }
   void onStatus(const Result<dfpc::DfpcStatus>& status) {
@@ -358,10 +504,14 @@ class LiveHub::Run final : public dfpc::Sink {
   const LiveSpec spec_;
   const Recording& recording_;
   const std::string dfpc_;
+  const std::string model_file_;  // the graph's mesh_file, "" when it names none
   std::unique_ptr<api::Cdff> cdff_;
   std::vector<api::SubscriptionId> subscriptions_;
   std::string pose_error_;              // why there is no pose subscription ("" when there is one)
-  std::optional<Timestamp> last_pose_;  // the subscription thread's only
+  std::optional<Timestamp> last_pose_;  // the subscription thread's only, as the truth:
+  bool truth_searched_ = false;
+  std::vector<Transform> truth_;
+  std::string truth_channel_;
 
   mutable std::mutex mutex_;  // what follows
   std::condition_variable wake_;
@@ -370,6 +520,13 @@ class LiveHub::Run final : public dfpc::Sink {
   std::optional<Timestamp> last_stamp_;
   std::shared_ptr<const Image> image_;
   Timestamp image_stamp_ = 0;
+  std::shared_ptr<const PointCloud> cloud_;
+  Timestamp cloud_stamp_ = 0;
+  std::optional<Transform> latest_pose_;  // the latest estimate, for the contour
+  // The contour's model and the mountings found (the encoder thread's, after start).
+  std::optional<MeshOutline> outline_;
+  std::string outline_source_, contour_error_;
+  std::map<std::pair<std::string, std::string>, Result<Transform>> mountings_;
   std::deque<json> events_;
   std::map<std::string, Timing> timings_;
   std::thread encoder_;
@@ -381,6 +538,16 @@ LiveHub::LiveHub(const std::vector<std::unique_ptr<Recording>>& recordings,
                  std::vector<std::string> graphs)
     : recordings_(recordings), graphs_(std::move(graphs)) {}
 
+Status LiveHub::checkGraph(const std::string& graph) const {
+  if (std::find(graphs_.begin(), graphs_.end(), graph) != graphs_.end()) return Status::ok();
+  const std::string list = graphs_.empty() ? std::string("none (cdff serve --graph FILE)")
+                                           : fmt::format("one of {}", fmt::join(graphs_, ", "));
+  if (graph.find("..") != std::string::npos || graph.find('\\') != std::string::npos)
+    return invalidInput("\"graph\" = \"{}\" is a path, not a served graph; expected {}", graph,
+                        list);
+  return notFound("\"graph\" = \"{}\" is not a served graph; expected {}", graph, list);
+}
+
 LiveHub::~LiveHub() {
   (void)remove();
 }
@@ -388,14 +555,7 @@ LiveHub::~LiveHub() {
 Status LiveHub::start(const LiveSpec& given, bool& conflict) {
   conflict = false;
   LiveSpec spec = given;
-  if (std::find(graphs_.begin(), graphs_.end(), spec.graph) == graphs_.end()) {
-    const std::string list = graphs_.empty() ? std::string("none (cdff serve --graph FILE)")
-                                             : fmt::format("one of {}", fmt::join(graphs_, ", "));
-    if (spec.graph.find("..") != std::string::npos || spec.graph.find('\\') != std::string::npos)
-      return invalidInput("\"graph\" = \"{}\" is a path, not a served graph; expected {}",
-                          spec.graph, list);
-    return notFound("\"graph\" = \"{}\" is not a served graph; expected {}", spec.graph, list);
-  }
+  CDFF_RETURN_IF_ERROR(checkGraph(spec.graph));
   if (spec.recording >= recordings_.size())
     return notFound("\"recording\" = {} does not exist; expected an index in [0, {})",
                     spec.recording, recordings_.size());
@@ -415,8 +575,22 @@ Status LiveHub::start(const LiveSpec& given, bool& conflict) {
       return invalidInput("\"camera\" = \"{}\" holds {} messages; expected an Image channel",
                           spec.camera, (*c)->type.empty() ? (*c)->schema : (*c)->type);
   }
+  if (spec.points.empty()) {
+    for (const ChannelSummary& c : recording.channels())
+      if (c.type == "PointCloud") {
+        spec.points = c.topic;
+        break;
+      }
+  } else {
+    Result<const ChannelSummary*> c = recording.findChannel(spec.points);
+    if (!c) return c.status();
+    if ((*c)->type != "PointCloud")
+      return invalidInput("\"points\" = \"{}\" holds {} messages; expected a PointCloud channel",
+                          spec.points, (*c)->type.empty() ? (*c)->schema : (*c)->type);
+  }
   Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(spec.graph);
   if (!graph) return graph.status();
+  const std::string model_file = modelFileOf(*graph);
   {
     std::lock_guard lock(run_mutex_);
     if (run_) {
@@ -424,7 +598,7 @@ Status LiveHub::start(const LiveSpec& given, bool& conflict) {
       return invalidInput(
           "a live run is already there; expected DELETE /api/live before starting another");
     }
-    auto run = std::make_unique<Run>(*this, ++runs_, spec, recording, graph->name);
+    auto run = std::make_unique<Run>(*this, ++runs_, spec, recording, graph->name, model_file);
     CDFF_RETURN_IF_ERROR(run->start(spec.graph));
     run_ = std::move(run);
   }
@@ -507,6 +681,22 @@ Status LiveHub::remove() {
   j["type"] = "state";
   publish({false, dump(j)});
   return Status::ok();
+}
+
+Result<std::string> LiveHub::modelBody(const std::string& graph) const {
+  CDFF_RETURN_IF_ERROR(checkGraph(graph));
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(graph);
+  if (!spec) return spec.status();
+  const std::string file = modelFileOf(*spec);
+  if (file.empty())
+    return notFound(
+        "graph '{}' names no mesh_file; expected a graph with a mesh model (e.g. "
+        "dfpcs/lidar_tracking.yaml), or the recording's TriangleMesh channel "
+        "(GET /api/recordings/<id>/mesh)",
+        graph);
+  Result<egse::TargetModel> model = egse::loadModel(file);
+  if (!model) return model.status().withContext(fmt::format("graph '{}', mesh_file", graph));
+  return meshBody(model->mesh, {{"source", file}, {"graph", graph}});
 }
 
 std::uint64_t LiveHub::addListener(Listener listener, DroppedCount dropped) {

@@ -4,11 +4,12 @@
 // getCDFFState, getDFPCStatus and its subscriptions), and watched by any number of browsers.
 //
 // Threads: the API consumes the recording on its input thread; a tee on that input keeps the
-// latest camera image (a shared pointer, no copy) for an encoder thread of the run's own, which
-// compresses it to JPEG when a browser watches; the API's subscription thread calls back with
-// each DFPC's pose and status; the run's sink receives events and timings on the input thread.
-// All of them hand frames to the browsers' listeners (each a bounded FrameQueue that drops its
-// oldest frame), so a slow or absent browser never slows the DFPCs: only its copy is decimated.
+// latest camera image and LIDAR scan (shared pointers, no copy) for an encoder thread of the
+// run's own, which compresses the image to JPEG and thins the scan when a browser watches; the
+// API's subscription thread calls back with each DFPC's pose and status; the run's sink receives
+// events and timings on the input thread. All of them hand frames to the browsers' listeners (each
+// a bounded FrameQueue that drops its oldest frame), so a slow or absent browser never slows the
+// DFPCs: only its copy is decimated.
 
 #include <condition_variable>
 #include <cstdint>
@@ -34,6 +35,9 @@ struct LiveSpec {
   std::size_t recording = 0;  // index of a served recording
   double speed = 1.0;         // stream seconds per wall second, in [1/16, 16]
   std::string camera;         // the Image channel shown; "" for the recording's first one
+  /// The PointCloud channel of the 3D view; "" for the recording's first one (none when it has
+  /// none).
+  std::string points;
 };
 
 /// "idle" | "initialize" | "reset" | "stop", or an error naming the value and the accepted ones.
@@ -76,6 +80,11 @@ class LiveHub {
   Result<nlohmann::json> designate(double x, double y, int width, int height, bool& no_run);
   /// Stops the run (setCDFFState(stop) when the state allows it) and removes it.
   Status remove();
+  /// A served graph's model for the 3D view: the first `mesh_file` parameter of its nodes
+  /// (relative to the working directory, as the run reads it), loaded with egse's loaders, as a
+  /// mesh body (scene.hpp). The graph is refused as start() refuses it; kNotFound when it names
+  /// no mesh file.
+  Result<std::string> modelBody(const std::string& graph) const;
 
   /// A browser: every frame of the run goes to `listener` from now on (first the current
   /// state); `dropped` tells what its queue dropped (in the state's "browsers"). Returns its id
@@ -89,6 +98,8 @@ class LiveHub {
  private:
   friend class Run;
   void publish(const Frame& frame) const;
+  /// Ok when `graph` is one of graphs(); else kNotFound, or kInvalidInput for a path.
+  Status checkGraph(const std::string& graph) const;
 
   const std::vector<std::unique_ptr<Recording>>& recordings_;
   std::vector<std::string> graphs_;

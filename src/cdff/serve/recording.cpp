@@ -10,8 +10,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "cdff/eval/recording_evaluation.hpp"
 #include "cdff/io/inspect.hpp"
 #include "cdff/io/recorder.hpp"
+#include "cdff/serve/contour.hpp"
+#include "cdff/serve/scene.hpp"
 #include "cdff/types/codec/codec.hpp"
 #include "cdff/types/opencv.hpp"
 
@@ -225,7 +228,7 @@ Result<EncodedImage> Recording::imageAt(const std::string& topic, double t, int 
   return imageOf(*message, max_width, quality);
 }
 
-Result<json> Recording::poses(const std::string& topic, std::size_t max_points) const {
+Result<std::vector<Transform>> Recording::transforms(const std::string& topic) const {
   Result<const ChannelSummary*> channel = findChannel(topic);
   if (!channel) return channel.status();
   const ChannelSummary& c = **channel;
@@ -234,29 +237,70 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
         "channel '{}' holds {} messages; expected PoseWithCovariance, RigidBodyState or "
         "Transform",
         topic, c.type.empty() ? c.schema : c.type);
-  const std::size_t stride = (c.times_ns.size() + max_points - 1) / max_points;
-  json cols = {{"channel", topic}, {"stride", stride}};
-  std::vector<double> t, x, y, z, qw, qx, qy, qz;
-  std::string frame, child;
+  std::vector<Transform> out;
+  out.reserve(c.times_ns.size());
   io::ReadOptions options;
   options.channels = {c.id};
   std::lock_guard lock(mutex_);
   auto it = reader_.messages(options);
-  for (std::size_t i = 0; it.next(); ++i) {
-    // Every stride-th pose, and the last one while there is room for it.
-    if (i % stride != 0 && (i + 1 != c.times_ns.size() || t.size() >= max_points)) continue;
+  while (it.next()) {
     const io::MessageView& m = it.message();
-    Transform pose;
     if (c.type == "Transform") {
-      CDFF_RETURN_IF_ERROR(codec::decode(m.data, m.owner, pose));
+      CDFF_RETURN_IF_ERROR(codec::decode(m.data, m.owner, out.emplace_back())
+                               .withContext(fmt::format("channel '{}'", topic)));
     } else {
       PoseWithCovariance p;
-      CDFF_RETURN_IF_ERROR(codec::decode(m.data, m.owner, p));
-      pose = p.pose;
+      CDFF_RETURN_IF_ERROR(
+          codec::decode(m.data, m.owner, p).withContext(fmt::format("channel '{}'", topic)));
+      out.push_back(std::move(p.pose));
     }
-    frame = pose.parent_frame;
-    child = pose.child_frame;
-    t.push_back(secondsOf(m.log_time));
+  }
+  CDFF_RETURN_IF_ERROR(it.status());
+  return out;
+}
+
+Result<json> Recording::poses(const std::string& topic, std::size_t max_points,
+                              const std::string& via) const {
+  Result<std::vector<Transform>> poses = transforms(topic);
+  if (!poses) return poses.status();
+  const ChannelSummary& c = *channel(topic);
+  std::vector<std::uint64_t> times = c.times_ns;
+  std::size_t unmatched = 0;
+  if (!via.empty()) {
+    Result<std::vector<Transform>> outer = transforms(via);
+    if (!outer) return outer.status();
+    if (!outer->empty() && !poses->empty() &&
+        outer->front().child_frame != poses->front().parent_frame)
+      return invalidInput(
+          "via = '{}' holds {}_T_{}; expected a transform whose child frame is '{}', the parent "
+          "frame of '{}'",
+          via, outer->front().parent_frame, outer->front().child_frame, poses->front().parent_frame,
+          topic);
+    std::vector<Transform> composed;
+    std::vector<std::uint64_t> composed_times;
+    for (std::size_t i = 0; i < poses->size(); ++i) {
+      const Transform& p = (*poses)[i];
+      std::optional<Transform> o = eval::truthAt(*outer, p.stamp, {});
+      if (!o) {
+        ++unmatched;
+        continue;
+      }
+      composed.push_back(Transform::fromIsometry(o->isometry() * p.isometry(), o->parent_frame,
+                                                 p.child_frame, p.stamp));
+      composed_times.push_back(times[i]);
+    }
+    *poses = std::move(composed);
+    times = std::move(composed_times);
+  }
+  const std::size_t n = poses->size();
+  const std::size_t stride = std::max<std::size_t>(1, (n + max_points - 1) / max_points);
+  json cols = {{"channel", topic}, {"stride", stride}};
+  std::vector<double> t, x, y, z, qw, qx, qy, qz;
+  for (std::size_t i = 0; i < n; ++i) {
+    // Every stride-th pose, and the last one while there is room for it.
+    if (i % stride != 0 && (i + 1 != n || t.size() >= max_points)) continue;
+    const Transform& pose = (*poses)[i];
+    t.push_back(secondsOf(times[i]));
     x.push_back(pose.translation.x());
     y.push_back(pose.translation.y());
     z.push_back(pose.translation.z());
@@ -265,9 +309,9 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
     qy.push_back(pose.rotation.y());
     qz.push_back(pose.rotation.z());
   }
-  CDFF_RETURN_IF_ERROR(it.status());
-  cols.update({{"frame", frame},
-               {"child_frame", child},
+  if (!via.empty()) cols.update({{"via", via}, {"unmatched", unmatched}});
+  cols.update({{"frame", n ? poses->back().parent_frame : ""},
+               {"child_frame", n ? poses->back().child_frame : ""},
                {"t", t},
                {"x", x},
                {"y", y},
@@ -276,6 +320,173 @@ Result<json> Recording::poses(const std::string& topic, std::size_t max_points) 
                {"qx", qx},
                {"qy", qy},
                {"qz", qz}});
+  return cols;
+}
+
+Result<TriangleMesh> Recording::mesh(const std::string& topic) const {
+  Result<const ChannelSummary*> channel = findChannel(topic);
+  if (!channel) return channel.status();
+  const ChannelSummary& c = **channel;
+  if (c.type != "TriangleMesh")
+    return invalidInput("channel '{}' holds {} messages; expected a TriangleMesh channel", topic,
+                        c.type.empty() ? c.schema : c.type);
+  if (c.times_ns.empty()) return notFound("channel '{}' has no message", topic);
+  Result<io::MessageView> message = [&] {
+    std::lock_guard lock(mutex_);
+    return readMessageAt(reader_, c, c.times_ns.front());
+  }();
+  if (!message) return message.status();
+  TriangleMesh mesh;
+  CDFF_RETURN_IF_ERROR(codec::decode(message->data, message->owner, mesh)
+                           .withContext(fmt::format("channel '{}'", topic)));
+  return mesh;
+}
+
+Result<std::string> Recording::meshBody(const std::string& topic) const {
+  Result<TriangleMesh> m = mesh(topic);
+  if (!m) return m.status();
+  return serve::meshBody(*m, {{"channel", topic}, {"source", topic}});
+}
+
+Result<Transform> Recording::mounting(const std::string& parent, const std::string& child) const {
+  std::vector<std::string> seen;
+  for (const ChannelSummary& c : channels_) {
+    if (c.type != "Transform" || c.times_ns.empty()) continue;
+    Result<io::MessageView> message = [&] {
+      std::lock_guard lock(mutex_);
+      return readMessageAt(reader_, c, c.times_ns.front());
+    }();
+    if (!message) return message.status();
+    Transform t;
+    CDFF_RETURN_IF_ERROR(codec::decode(message->data, message->owner, t)
+                             .withContext(fmt::format("channel '{}'", c.topic)));
+    if (t.parent_frame == parent && t.child_frame == child) return t;
+    seen.push_back(fmt::format("{} ({}_T_{})", c.topic, t.parent_frame, t.child_frame));
+  }
+  return notFound("no Transform channel holds {}_T_{}; expected one among {}", parent, child,
+                  seen.empty() ? std::string("the recording's (it has none)")
+                               : fmt::format("{}", fmt::join(seen, ", ")));
+}
+
+Result<json> Recording::contour(const std::string& image_topic, double t,
+                                const std::string& pose_topic,
+                                const std::string& mesh_topic) const {
+  Result<const ChannelSummary*> channel = findChannel(image_topic);
+  if (!channel) return channel.status();
+  if ((*channel)->type != "Image")
+    return invalidInput("image = '{}' holds {} messages; expected an Image channel", image_topic,
+                        (*channel)->type.empty() ? (*channel)->schema : (*channel)->type);
+  std::string model = mesh_topic;
+  if (model.empty()) {
+    for (const ChannelSummary& c : channels_)
+      if (c.type == "TriangleMesh" && !c.times_ns.empty()) {
+        model = c.topic;
+        break;
+      }
+    if (model.empty())
+      return notFound("the recording has no TriangleMesh channel; expected mesh=<channel>");
+  }
+  Result<TriangleMesh> mesh_value = mesh(model);
+  if (!mesh_value) return mesh_value.status();
+  Result<std::uint64_t> at = timeAt(t);
+  if (!at) return at.status();
+  const std::uint64_t frame_ns = (*channel)->times_ns[indexAt(**channel, *at)];
+  Result<io::MessageView> message = [&] {
+    std::lock_guard lock(mutex_);
+    return readMessageAt(reader_, **channel, frame_ns);
+  }();
+  if (!message) return message.status();
+  Image image;
+  CDFF_RETURN_IF_ERROR(codec::decode(message->data, message->owner, image)
+                           .withContext(fmt::format("channel '{}'", image_topic)));
+  if (!image.camera)
+    return invalidInput(
+        "the image of '{}' at {:.3f} s has no camera model; expected a calibrated camera's "
+        "images",
+        image_topic, secondsOf(frame_ns));
+  Result<std::vector<Transform>> poses = transforms(pose_topic);
+  if (!poses) return poses.status();
+  std::optional<Transform> pose = eval::truthAt(*poses, image.stamp, {});
+  if (!pose)
+    return notFound("'{}' has no pose within 0.5 s of the image at {:.3f} s", pose_topic,
+                    secondsOf(frame_ns));
+  Transform camera_T_parent = Transform::identity(image.frame_id, pose->parent_frame);
+  if (pose->parent_frame != image.frame_id) {
+    Result<Transform> mount = mounting(pose->parent_frame, image.frame_id);
+    if (!mount) return mount.status();
+    camera_T_parent = mount->inverse();
+  }
+  Result<MeshOutline> outline = MeshOutline::of(*mesh_value);
+  if (!outline) return outline.status().withContext(fmt::format("channel '{}'", model));
+  const Transform camera_T_model = Transform::fromIsometry(
+      camera_T_parent.isometry() * pose->isometry(), image.frame_id, pose->child_frame);
+  Result<std::vector<std::array<float, 4>>> segments =
+      outline->project(camera_T_model, *image.camera);
+  if (!segments) return segments.status();
+  json out = contourJson(*segments);
+  out.update({{"t", secondsOf(frame_ns)},
+              {"frame", image.frame_id},
+              {"source_width", image.width},
+              {"source_height", image.height},
+              {"pose", pose_topic},
+              {"mesh", model}});
+  return out;
+}
+
+Result<json> Recording::errors(const std::string& estimate, const std::string& truth,
+                               std::size_t max_points) const {
+  Result<const ChannelSummary*> product = findChannel(estimate);
+  if (!product) return product.status();
+  if (!truth.empty()) {
+    Result<const ChannelSummary*> t = findChannel(truth);
+    if (!t) return t.status();
+  }
+  eval::RecordingEvaluationOptions options;
+  options.products = {estimate};
+  if (!truth.empty()) options.pairs[estimate] = truth;
+  Result<eval::EvaluationReport> report = eval::evaluateRecording({path_}, options);
+  if (!report) return report.status();
+  const auto it =
+      std::find_if(report->products.begin(), report->products.end(),
+                   [&](const eval::PoseEvaluation& p) { return p.channel == estimate; });
+  if (it == report->products.end())
+    return notFound(
+        "'{}' has no truth of the same transform in this recording; expected a /truth/ pose "
+        "channel of its frames (or truth=<channel>)",
+        estimate);
+  const std::size_t n = it->errors.size();
+  const std::size_t stride = std::max<std::size_t>(1, (n + max_points - 1) / max_points);
+  json cols = {{"estimate", estimate},
+               {"truth", it->truth_channel},
+               {"frame", it->parent_frame},
+               {"child_frame", it->child_frame},
+               {"stride", stride},
+               {"frames", it->frames},
+               {"valid_frames", it->valid_frames},
+               {"matched_frames", it->matched_frames},
+               {"requirements", poseThresholdsJson()}};
+  std::vector<double> t, pos, ang, range;
+  std::vector<json> pos_limit, ang_limit, requirement;
+  for (std::size_t i = 0; i < n; i += stride) {
+    const eval::MatchedError& m = it->errors[i];
+    PoseError e;
+    e.range_m = m.range_m;
+    applyThresholds(e);
+    t.push_back(secondsOf(static_cast<std::uint64_t>(m.stamp) * 1000));
+    pos.push_back(m.position_error_m);
+    ang.push_back(m.angle_error_deg);
+    range.push_back(m.range_m);
+    pos_limit.push_back(e.position_threshold_m ? json(*e.position_threshold_m) : json());
+    ang_limit.push_back(e.angle_threshold_deg ? json(*e.angle_threshold_deg) : json());
+    requirement.push_back(e.requirement);
+  }
+  cols.update({{"t", t},
+               {"position_error_m", pos},
+               {"angle_error_deg", ang},
+               {"range_m", range},
+               {"position_threshold_m", pos_limit},
+               {"angle_threshold_deg", ang_limit},
+               {"requirement", requirement}});
   return cols;
 }
 

@@ -16,7 +16,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cdff/io/mcap.hpp"
+#include "cdff/types/geometry.hpp"
 #include "cdff/types/image.hpp"
+#include "cdff/types/mesh.hpp"
 #include "cdff/types/status.hpp"
 
 namespace cdff::serve {
@@ -80,8 +82,40 @@ class Recording {
   Result<EncodedImage> imageAt(const std::string& topic, double t, int max_width,
                                int quality) const;
   /// The positions and attitudes of a pose channel against time, as columns
-  /// {t, x, y, z, qw, qx, qy, qz}, decimated to at most `max_points`.
-  Result<nlohmann::json> poses(const std::string& topic, std::size_t max_points) const;
+  /// {t, x, y, z, qw, qx, qy, qz}, decimated to at most `max_points`. With `via` (a pose channel
+  /// whose child frame is the poses' parent, e.g. /truth/tf/servicer = lvlh_T_servicer for
+  /// servicer_T_target), each pose is expressed in via's parent frame: via interpolated at the
+  /// pose's stamp as `cdff eval` interpolates the truth, times the pose (lvlh_T_target); a pose
+  /// without a via pose within 0.5 s is left out (counted in `unmatched`).
+  Result<nlohmann::json> poses(const std::string& topic, std::size_t max_points,
+                               const std::string& via = "") const;
+
+  /// Every pose of a pose channel, in time order (a PoseWithCovariance's or RigidBodyState's
+  /// pose alone).
+  Result<std::vector<Transform>> transforms(const std::string& topic) const;
+  /// The 3D view's model: the first mesh of a TriangleMesh channel (the simulator's
+  /// /truth/target_mesh), as a mesh body (scene.hpp).
+  Result<std::string> meshBody(const std::string& topic) const;
+  /// The errors of a pose product against the truth as `cdff eval` measures them (its pairing,
+  /// validity and interpolation: eval::evaluateRecording), with the thresholds of the
+  /// requirement at each error's true range, as columns {t, position_error_m, angle_error_deg,
+  /// range_m, position_threshold_m, angle_threshold_deg, requirement}, decimated to at most
+  /// `max_points`. `truth` "" pairs by frames as `cdff eval` does.
+  Result<nlohmann::json> errors(const std::string& estimate, const std::string& truth,
+                                std::size_t max_points) const;
+
+  /// The tracked model's contour over the image of `image` at or before `t` (contour.hpp): the
+  /// model of `mesh` (a TriangleMesh channel; "" for the recording's first) at the pose of
+  /// `pose` at the image's stamp (interpolated as `cdff eval` does), brought into the image's
+  /// frame with the recording's Transform channel from the pose's parent frame to it, projected
+  /// with the image's camera model. {t, image_t, frame, source_width, source_height, pose,
+  /// mesh, count, segments}.
+  Result<nlohmann::json> contour(const std::string& image, double t, const std::string& pose,
+                                 const std::string& mesh) const;
+  /// The first mesh of a TriangleMesh channel.
+  Result<TriangleMesh> mesh(const std::string& topic) const;
+  /// parent_T_child from the first message of the Transform channel that holds it.
+  Result<Transform> mounting(const std::string& parent, const std::string& child) const;
 
   /// A reader of its own (for a stream that iterates while others query).
   Result<std::unique_ptr<io::McapReader>> openReader() const;

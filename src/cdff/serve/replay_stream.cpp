@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "cdff/serve/scene.hpp"
 #include "cdff/types/codec/codec.hpp"
 
 namespace cdff::serve {
@@ -20,10 +21,20 @@ constexpr auto kLateImage = std::chrono::milliseconds(200);
 }  // namespace
 
 Status validate(const Recording& recording, const StreamSpec& spec) {
-  if (spec.image.empty() && spec.poses.empty())
+  if (spec.image.empty() && spec.poses.empty() && spec.points.empty())
     return invalidInput(
-        "no channel to stream; expected image=<Image channel> and/or "
-        "pose=<pose channel> in the query");
+        "no channel to stream; expected image=<Image channel>, pose=<pose channel> and/or "
+        "points=<PointCloud channel> in the query");
+  if (!spec.points.empty()) {
+    Result<const ChannelSummary*> c = recording.findChannel(spec.points);
+    if (!c) return c.status();
+    if ((*c)->type != "PointCloud")
+      return invalidInput("points = '{}' holds {} messages; expected a PointCloud channel",
+                          spec.points, (*c)->type.empty() ? (*c)->schema : (*c)->type);
+  }
+  if (spec.max_points < 1 || spec.max_points > kMaxCloudPoints)
+    return invalidInput("max_points = {}: expected a number of points in [1, {}]", spec.max_points,
+                        kMaxCloudPoints);
   if (!spec.image.empty()) {
     Result<const ChannelSummary*> c = recording.findChannel(spec.image);
     if (!c) return c.status();
@@ -75,6 +86,7 @@ Result<std::unique_ptr<ReplayStream>> ReplayStream::start(const Recording& recor
   if (!s->spec_.image.empty()) s->channel_ids_.push_back(recording.channel(s->spec_.image)->id);
   for (const std::string& topic : s->spec_.poses)
     s->channel_ids_.push_back(recording.channel(topic)->id);
+  if (!s->spec_.points.empty()) s->channel_ids_.push_back(recording.channel(s->spec_.points)->id);
   s->seek_to_ = recording.startNs();
   s->thread_ = std::thread([p = s.get()] { p->run(); });
   return s;
@@ -168,6 +180,19 @@ void ReplayStream::emit(const io::MessageView& message, bool late) {
     sink_({true, binaryFrame(header, jpeg->jpeg)});
     return;
   }
+  if (topic == spec_.points) {
+    if (late) return;
+    PointCloud cloud;
+    if (Status s = codec::decode(message.data, message.owner, cloud); !s.isOk()) {
+      sink_({false, json{{"type", "error"}, {"error", s.withContext(topic).message()}}.dump()});
+      return;
+    }
+    const json header = {{"channel", topic},
+                         {"t", recording_.secondsOf(message.log_time)},
+                         {"log_time_ns", message.log_time}};
+    sink_({true, pointsFrame(header, cloud, decimateCloud(cloud, spec_.max_points))});
+    return;
+  }
   PoseWithCovariance pose;
   Status s = recording_.channel(topic)->type == "Transform"
                  ? codec::decode(message.data, message.owner, pose.pose)
@@ -189,6 +214,7 @@ void ReplayStream::emit(const io::MessageView& message, bool late) {
 void ReplayStream::seekTo(std::uint64_t log_time_ns) {
   std::vector<std::string> topics = spec_.poses;
   if (!spec_.image.empty()) topics.insert(topics.begin(), spec_.image);
+  if (!spec_.points.empty()) topics.push_back(spec_.points);
   for (const std::string& topic : topics) {
     const ChannelSummary& c = *recording_.channel(topic);
     const std::uint64_t at = c.times_ns[Recording::indexAt(c, log_time_ns)];

@@ -6,7 +6,8 @@
 //
 // Binary frame: 4 bytes, the header's length N (little endian), N bytes of JSON header
 // {"type":"image","channel","t","log_time_ns","width","height","source_width","source_height"},
-// then the JPEG.
+// then the JPEG. Point clouds: the points frame of scene.hpp (header {"type": "points",
+// "channel", "t", "log_time_ns", "frame", "count", "source_count", ...}, then Float32 x, y, z).
 
 #include <chrono>
 #include <condition_variable>
@@ -28,6 +29,8 @@ namespace cdff::serve {
 struct StreamSpec {
   std::string image;               // an Image channel; "" for none
   std::vector<std::string> poses;  // pose channels (PoseWithCovariance, RigidBodyState, Transform)
+  std::string points;              // a PointCloud channel for the 3D view; "" for none
+  std::size_t max_points = 20000;  // points per cloud at most (scene.hpp), 1..kMaxCloudPoints
   int max_width = 640;             // images are downscaled to this width at most
   int quality = 80;                // JPEG quality
 };

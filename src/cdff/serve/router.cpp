@@ -10,6 +10,8 @@
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "cdff/serve/scene.hpp"
+
 namespace cdff::serve {
 
 using nlohmann::json;
@@ -108,6 +110,17 @@ Response jsonResponse(const Request& req, const json& body) {
   res.set(http::field::content_type, "application/json");
   res.keep_alive(req.keep_alive());
   res.body() = body.dump(-1, ' ', false, json::error_handler_t::replace);
+  res.prepare_payload();
+  return res;
+}
+
+// A binary body (scene.hpp's mesh layout), read by the browser as an ArrayBuffer.
+Response binaryResponse(const Request& req, std::string body) {
+  Response res{http::status::ok, req.version()};
+  commonHeaders(res);
+  res.set(http::field::content_type, "application/octet-stream");
+  res.keep_alive(req.keep_alive());
+  res.body() = std::move(body);
   res.prepare_payload();
   return res;
 }
@@ -424,12 +437,19 @@ Response Router::api(const Request& req, const Target& target) const {
     return res;
   };
   if (seg.size() >= 2 && (seg[1] == "live" || seg[1] == "graphs")) return live(req, target);
+  if (seg.size() == 2 && seg[1] == "requirements") {
+    if (!get) return notAllowed("GET");
+    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+    return jsonResponse(req, json{{"pose", poseThresholdsJson()}});
+  }
   if (seg.size() < 2 || seg[1] != "recordings" || seg.size() > 4)
-    return errorResponse(http::status::not_found,
-                         fmt::format("no API route '{}'; expected /api/recordings[/<id>[/messages"
-                                     "|image|poses|stream]], /api/graphs or /api/live[/state]",
-                                     req.target()),
-                         req.version(), req.keep_alive());
+    return errorResponse(
+        http::status::not_found,
+        fmt::format("no API route '{}'; expected /api/recordings[/<id>[/messages"
+                    "|image|poses|mesh|errors|contour|stream]], /api/requirements, "
+                    "/api/graphs[/model] or /api/live[/state]",
+                    req.target()),
+        req.version(), req.keep_alive());
   if (seg.size() == 2) {
     if (!get) return notAllowed("GET");
     if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
@@ -463,22 +483,60 @@ Response Router::api(const Request& req, const Target& target) const {
   }
   if (what == "image") return imageResponse(req, **rec, target.query);
   if (what == "poses") {
-    if (Status s = expectParameters(target.query, {"channel", "max_points"}); !s.isOk())
+    if (Status s = expectParameters(target.query, {"channel", "max_points", "via"}); !s.isOk())
       return fromStatus(req, s);
     Result<std::string> channel = requiredText(target.query, "channel", "a pose channel's topic");
     if (!channel) return fromStatus(req, channel.status());
     Result<double> points = number(target.query, "max_points", 5000, 2, 1e6, "a number of points");
     if (!points) return fromStatus(req, points.status());
-    Result<json> poses = (*rec)->poses(*channel, static_cast<std::size_t>(*points));
+    const auto via = target.query.find("via");
+    Result<json> poses = (*rec)->poses(*channel, static_cast<std::size_t>(*points),
+                                       via == target.query.end() ? "" : via->second);
     return poses ? jsonResponse(req, *poses) : fromStatus(req, poses.status());
+  }
+  if (what == "mesh") {
+    if (Status s = expectParameters(target.query, {"channel"}); !s.isOk())
+      return fromStatus(req, s);
+    Result<std::string> channel =
+        requiredText(target.query, "channel", "a TriangleMesh channel's topic");
+    if (!channel) return fromStatus(req, channel.status());
+    Result<std::string> body = (*rec)->meshBody(*channel);
+    return body ? binaryResponse(req, std::move(*body)) : fromStatus(req, body.status());
+  }
+  if (what == "contour") {
+    if (Status s = expectParameters(target.query, {"image", "t", "pose", "mesh"}); !s.isOk())
+      return fromStatus(req, s);
+    Result<std::string> image = requiredText(target.query, "image", "an Image channel's topic");
+    Result<std::string> pose = requiredText(target.query, "pose", "a pose channel's topic");
+    Result<double> t = number(target.query, "t", 0, 0, 1e12, "seconds from the recording's start");
+    for (const Status* s : {&image.status(), &pose.status(), &t.status()})
+      if (!s->isOk()) return fromStatus(req, *s);
+    const auto mesh = target.query.find("mesh");
+    Result<json> contour =
+        (*rec)->contour(*image, *t, *pose, mesh == target.query.end() ? "" : mesh->second);
+    return contour ? jsonResponse(req, *contour) : fromStatus(req, contour.status());
+  }
+  if (what == "errors") {
+    if (Status s = expectParameters(target.query, {"estimate", "truth", "max_points"}); !s.isOk())
+      return fromStatus(req, s);
+    Result<std::string> estimate =
+        requiredText(target.query, "estimate", "a pose product's topic (/cdff/<dfpc>/<output>)");
+    if (!estimate) return fromStatus(req, estimate.status());
+    const auto truth = target.query.find("truth");
+    Result<double> points = number(target.query, "max_points", 5000, 2, 1e6, "a number of points");
+    if (!points) return fromStatus(req, points.status());
+    Result<json> errors =
+        (*rec)->errors(*estimate, truth == target.query.end() ? "" : truth->second,
+                       static_cast<std::size_t>(*points));
+    return errors ? jsonResponse(req, *errors) : fromStatus(req, errors.status());
   }
   if (what == "stream")
     return errorResponse(http::status::bad_request,
                          "'stream' is a WebSocket endpoint; expected an Upgrade: websocket request",
                          req.version(), req.keep_alive());
   return errorResponse(http::status::not_found,
-                       fmt::format("no API route '{}'; expected messages, image, poses or stream "
-                                   "after /api/recordings/<id>",
+                       fmt::format("no API route '{}'; expected messages, image, poses, mesh, "
+                                   "errors, contour or stream after /api/recordings/<id>",
                                    req.target()),
                        req.version(), req.keep_alive());
 }
@@ -512,7 +570,9 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
   }
   Result<const Recording*> rec = recording(seg[2]);
   if (!rec) return fromStatus(req, rec.status());
-  if (Status s = expectParameters(target.query, {"image", "pose", "max_width"}, "pose"); !s.isOk())
+  if (Status s = expectParameters(target.query,
+                                  {"image", "pose", "points", "max_width", "max_points"}, "pose");
+      !s.isOk())
     return fromStatus(req, s);
   Stream out;
   out.recording = *rec;
@@ -522,6 +582,11 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
   Result<double> width = number(target.query, "max_width", 640, 16, 4096, "pixels");
   if (!width) return fromStatus(req, width.status());
   out.spec.max_width = static_cast<int>(*width);
+  if (auto it = target.query.find("points"); it != target.query.end()) out.spec.points = it->second;
+  Result<double> points = number(target.query, "max_points", 20000, 1,
+                                 static_cast<double>(kMaxCloudPoints), "a number of points");
+  if (!points) return fromStatus(req, points.status());
+  out.spec.max_points = static_cast<std::size_t>(*points);
   if (Status s = validate(**rec, out.spec); !s.isOk()) return fromStatus(req, s);
   return out;
 }
@@ -565,15 +630,20 @@ Result<LiveSpec> liveSpec(const json& body) {
       spec.speed = value.get<double>();
     } else if (key == "camera" && value.is_string()) {
       spec.camera = value.get<std::string>();
-    } else if (key == "graph" || key == "recording" || key == "speed" || key == "camera") {
+    } else if (key == "points" && value.is_string()) {
+      spec.points = value.get<std::string>();
+    } else if (key == "graph" || key == "recording" || key == "speed" || key == "camera" ||
+               key == "points") {
       return invalidInput("\"{}\" = {}: expected {}", key, value.dump(),
                           key == "graph"       ? "a graph of GET /api/graphs (a string)"
                           : key == "recording" ? "a recording's id (an integer)"
                           : key == "speed"     ? "a factor in [0.0625, 16] (a number)"
-                                               : "an Image channel's topic (a string)");
+                          : key == "camera"    ? "an Image channel's topic (a string)"
+                                               : "a PointCloud channel's topic (a string)");
     } else {
       return invalidInput(
-          "key \"{}\" is unknown; expected one of {{graph, recording, speed, camera}}", key);
+          "key \"{}\" is unknown; expected one of {{graph, recording, speed, camera, points}}",
+          key);
     }
   }
   if (!graph) return invalidInput("\"graph\" is missing; expected a graph of GET /api/graphs");
@@ -693,14 +763,20 @@ Response Router::live(const Request& req, const Target& target) const {
   const bool state_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "state";
   const bool dfpc_route = seg.size() == 4 && seg[1] == "live" && seg[2] == "dfpcs";
   const bool designation_route = seg.size() == 3 && seg[1] == "live" && seg[2] == "designation";
-  if (!options_.live || (seg.size() > 2 && !state_route && !dfpc_route && !designation_route))
+  const bool model_route = seg.size() == 3 && seg[1] == "graphs" && seg[2] == "model";
+  if (!options_.live ||
+      (seg.size() > 2 && !state_route && !dfpc_route && !designation_route && !model_route))
     return errorResponse(http::status::not_found,
                          fmt::format("no API route '{}'; expected /api/graphs, /api/live, "
-                                     "/api/live/state, /api/live/designation or "
-                                     "/api/live/dfpcs/<dfpc>",
+                                     "/api/graphs/model, /api/live/state, /api/live/designation "
+                                     "or /api/live/dfpcs/<dfpc>",
                                      req.target()),
                          req.version(), req.keep_alive());
-  if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+  if (Status s = expectParameters(target.query,
+                                  model_route ? std::initializer_list<std::string_view>{"graph"}
+                                              : std::initializer_list<std::string_view>{});
+      !s.isOk())
+    return fromStatus(req, s);
   // A command (anything but GET) from a page of another site is refused, as the stream is: a
   // browser names the page's origin.
   if (req.method() != http::verb::get) {
@@ -713,12 +789,19 @@ Response Router::live(const Request& req, const Target& target) const {
           req.version(), req.keep_alive());
   }
   LiveHub& hub = *options_.live;
-  if (seg[1] == "graphs") {
+  if (seg[1] == "graphs" && !model_route) {
     if (req.method() != http::verb::get) return methodNotAllowed(req, "GET");
     return jsonResponse(req, json{{"graphs", hub.graphs()}});
   }
   if (dfpc_route) return liveDfpcRoute(req, hub, seg[3]);
   if (designation_route) return liveDesignationRoute(req, hub);
+  if (model_route) {
+    if (req.method() != http::verb::get) return methodNotAllowed(req, "GET");
+    Result<std::string> graph = requiredText(target.query, "graph", "a graph of GET /api/graphs");
+    if (!graph) return fromStatus(req, graph.status());
+    Result<std::string> body = hub.modelBody(*graph);
+    return body ? binaryResponse(req, std::move(*body)) : fromStatus(req, body.status());
+  }
   if (state_route) return liveStateRoute(req, hub);
   if (req.method() == http::verb::get) return jsonResponse(req, hub.state());
   if (req.method() == http::verb::delete_) {
