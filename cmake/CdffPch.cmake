@@ -12,13 +12,16 @@
 # default and -fPIC where PCL asks for it, agree on one setting), and the donors link the same
 # libraries for the same definitions (fmt's FMT_SHARED, GoogleTest's GTEST_HAS_PTHREAD).
 # ccache caches such files only with the sloppiness set in the compiler launcher (CMakeLists.txt).
+# The framework's headers are named by absolute path: a test that does not include them itself
+# (and lacks their include directory) still compiles with the header.
 # CDFF_PRECOMPILED_HEADERS=OFF compiles every file on its own (e.g. to check a file's includes).
 option(CDFF_PRECOMPILED_HEADERS "Reuse precompiled common headers in the DFNs and the tests" ON)
 
 set(CDFF_PCH_COMMON_HEADERS
   <algorithm> <cmath> <memory> <optional> <string> <string_view> <vector>
   <Eigen/Core> <Eigen/Geometry> <opencv2/core.hpp> <yaml-cpp/yaml.h> <fmt/format.h>
-  [["cdff/dfn/node.hpp"]] [["cdff/dfn/parameters.hpp"]] [["cdff/dfn/registry.hpp"]])
+  ${PROJECT_SOURCE_DIR}/src/cdff/dfn/node.hpp ${PROJECT_SOURCE_DIR}/src/cdff/dfn/parameters.hpp
+  ${PROJECT_SOURCE_DIR}/src/cdff/dfn/registry.hpp)
 
 # Defines the donor targets cdff_pch_dfn and cdff_pch_test (after cdff_dfn and
 # cdff_types_opencv, before the DFN areas).
@@ -61,13 +64,16 @@ function(cdff_use_precompiled_headers target kind)
   target_compile_options(${target} PRIVATE -fPIC -Winvalid-pch)
 endfunction()
 
-# Every GoogleTest program defined under DIR (recursively) reuses the test precompiled header.
+# Every GoogleTest program defined under DIR (recursively) reuses the test precompiled header,
+# but for those compiled to another C++ standard than the project's (ViSP's C++17 test).
 function(cdff_use_test_precompiled_headers dir)
   get_property(targets DIRECTORY ${dir} PROPERTY BUILDSYSTEM_TARGETS)
   foreach(target ${targets})
     get_target_property(type ${target} TYPE)
     get_target_property(libraries ${target} LINK_LIBRARIES)
-    if(type STREQUAL "EXECUTABLE" AND libraries MATCHES "GTest::")
+    get_target_property(standard ${target} CXX_STANDARD)
+    if(type STREQUAL "EXECUTABLE" AND libraries MATCHES "GTest::"
+       AND (NOT standard OR standard EQUAL CMAKE_CXX_STANDARD))
       cdff_use_precompiled_headers(${target} test)
     endif()
   endforeach()

@@ -252,27 +252,8 @@ TEST(ExternalApi, AGivenRecordingIsConsumedOnceRunningAndIdlePausesLiveInput) {
   EXPECT_EQ(status.instances[0].calls, 6u + 10u);  // 6 measurements, 10 predictions between
 }
 
-// A DFPC that reads designations the way dfpcs/far_range_tracking.yaml does: an image, the user's
-// region on /cdff/designation, TargetDesignation passing it on with the next image (no automatic
-// designation).
-constexpr const char* kDesignationGraph = R"(
-name: designation_probe
-inputs:
-  - {name: image, type: Image, channel: /camera/image}
-  - {name: designation, type: ImageRegion, channel: /cdff/designation, optional: true}
-outputs:
-  - {name: designated, type: ImageRegion}
-nodes:
-  designate:
-    dfn: TargetDesignation
-    dfi: FixedBlob
-    parameters: {automatic: false}
-    trigger: {on: [image]}
-connections:
-  - image -> designate.image
-  - designation -> designate.user
-  - designate.designation -> designated
-)";
+// tests/dfpc/designation_probe.yaml: a DFPC that reads designations as far-range tracking does.
+const std::string kDesignationGraph = CDFF_SOURCE_DIR "/tests/dfpc/designation_probe.yaml";
 
 dfpc::Message cameraImage(double t, int width = 64, int height = 48) {
   Result<Image> image = Image::fromBytes(std::vector<std::uint8_t>(width * height, 20), width,
@@ -284,7 +265,7 @@ dfpc::Message cameraImage(double t, int width = 64, int height = 48) {
 }
 
 TEST(ExternalApi, DesignateTargetDeliversTheUsersBoxAtTheStreamTime) {
-  Result<dfpc::GraphSpec> spec = dfpc::parseGraph(kDesignationGraph, "designation_probe.yaml");
+  Result<dfpc::GraphSpec> spec = dfpc::loadGraphFile(kDesignationGraph);
   ASSERT_OK(spec.status());
   Config config;
   config.graphs = {*spec};

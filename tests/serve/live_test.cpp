@@ -471,27 +471,7 @@ TEST(LiveRun, ABrowserThatDoesNotReadNeverHoldsTheRunBack) {
 
 // A DFPC that reads designations as dfpcs/far_range_tracking.yaml does (TargetDesignation passing
 // the user's region on with the next image), on the live recording's camera.
-std::filesystem::path writeDesignationGraph(const Files& files) {
-  const std::filesystem::path path = files.dir / "designation_probe.yaml";
-  std::ofstream(path) << R"(name: designation_probe
-inputs:
-  - {name: image, type: Image, channel: /camera/image}
-  - {name: designation, type: ImageRegion, channel: /cdff/designation, optional: true}
-outputs:
-  - {name: designated, type: ImageRegion}
-nodes:
-  designate:
-    dfn: TargetDesignation
-    dfi: FixedBlob
-    parameters: {automatic: false}
-    trigger: {on: [image]}
-connections:
-  - image -> designate.image
-  - designation -> designate.user
-  - designate.designation -> designated
-)";
-  return path;
-}
+const std::string kDesignationGraph = CDFF_SOURCE_DIR "/tests/dfpc/designation_probe.yaml";
 
 // POST /api/live/designation: the box (full-resolution pixels) goes through the external API's
 // designateTarget to the DFPC, which passes it on with the next image (a "region" frame on the
@@ -505,7 +485,7 @@ TEST(LiveRun, ADesignationReachesTheGraphThroughTheExternalApi) {
   options.port = 0;
   options.app_dir = files.app_dir;
   options.recordings = {rec.string()};
-  const std::string graph = writeDesignationGraph(files).string();
+  const std::string graph = kDesignationGraph;
   options.graphs = {graph, kGraph};
   Result<std::unique_ptr<Server>> server = Server::start(options);
   ASSERT_TRUE(server.isOk()) << server.status().message();

@@ -24,6 +24,21 @@ namespace http = beast::http;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
 
+namespace {
+
+/// The fixture recordings' k-th camera frame: a 64x48 uniform grey of 20 k, in camera_optical.
+Result<Image> frameOfGrey(int k, Timestamp stamp) {
+  Result<Image> image =
+      Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 20 * k), 64, 48, PixelFormat::kGray8);
+  if (image.isOk()) {
+    image->stamp = stamp;
+    image->frame_id = "camera_optical";
+  }
+  return image;
+}
+
+}  // namespace
+
 Files makeFiles(const std::string& name) {
   Files f;
   // One directory per process: CTest runs the tests of this program in parallel processes.
@@ -44,11 +59,8 @@ Files makeFiles(const std::string& name) {
   EXPECT_TRUE(recorder.open(f.recording.string()).isOk());
   for (int k = 0; k < kFrames; ++k) {
     const Timestamp stamp = kFirstStamp + k * kPeriod;
-    Result<Image> image =
-        Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 20 * k), 64, 48, PixelFormat::kGray8);
+    Result<Image> image = frameOfGrey(k, stamp);
     EXPECT_TRUE(image.isOk());
-    image->stamp = stamp;
-    image->frame_id = "camera_optical";
     EXPECT_TRUE(recorder.write("/camera/image", *image).isOk());
     PoseWithCovariance pose;
     pose.pose.stamp = stamp;
@@ -69,11 +81,8 @@ std::filesystem::path writeSceneRecording(const Files& files) {
   EXPECT_TRUE(recorder.open(path.string()).isOk());
   for (int k = 0; k < kFrames; ++k) {
     const Timestamp stamp = kFirstStamp + k * kPeriod;
-    Result<Image> image =
-        Image::fromBytes(std::vector<std::uint8_t>(64 * 48, 20 * k), 64, 48, PixelFormat::kGray8);
+    Result<Image> image = frameOfGrey(k, stamp);
     EXPECT_TRUE(image.isOk());
-    image->stamp = stamp;
-    image->frame_id = "camera_optical";
     CameraModel camera;
     camera.width = 64;
     camera.height = 48;

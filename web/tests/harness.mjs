@@ -141,3 +141,24 @@ export async function launchChromium() {
            ...(process.getuid?.() === 0 ? ['--no-sandbox'] : [])],
   });
 }
+
+/** A page of `browser` that records its console errors and uncaught exceptions in `errors`. */
+export async function openPage(browser, viewport, errors) {
+  const page = await browser.newPage({ viewport });
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(e.message));
+  return page;
+}
+
+/**
+ * The end of a browser test: closes Chromium, stops `cdff serve` (SIGTERM), checks that the page
+ * logged no error and that the server exited 0, and gives the verdict.
+ */
+export async function closeAndFinish(browser, server, errors) {
+  await browser.close();
+  server.kill('SIGTERM');
+  check('no-console-error', errors.length === 0, errors.join(' | '));
+  const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
+  check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
+  finish();
+}

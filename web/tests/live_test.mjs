@@ -7,8 +7,10 @@
 // usage: node live_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { check, finish, launchChromium, overlayPixels, scenePixels, simulate, startServer, testArguments,
-         truthFilteringGraph } from './harness.mjs';
+import {
+  check, closeAndFinish, launchChromium, openPage, overlayPixels, scenePixels, simulate,
+  startServer, testArguments, truthFilteringGraph,
+} from './harness.mjs';
 
 const { cdff, out } = testArguments('live_test.mjs');
 const recording = path.join(out, 'live.mcap');
@@ -25,9 +27,7 @@ const consoleErrors = [];
 const waitFor = (page, fn, arg, timeout = 30000) =>
   page.waitForFunction(fn, arg, { timeout }).then(() => true, () => false);
 try {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
-  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
-  page.on('pageerror', (e) => consoleErrors.push(e.message));
+  const page = await openPage(browser, { width: 1280, height: 900 }, consoleErrors);
   await page.goto(`${url}#live`);
   await page.waitForSelector('#live[data-ready="true"]', { timeout: 30000 });
   const graphs = await page.$$eval('#live-graph option', (os) => os.map((o) => o.value));
@@ -117,11 +117,5 @@ try {
   await page.screenshot({ path: path.join(out, 'live-stopped.png') });
 } catch (e) {
   check('browser', false, e.message);
-} finally {
-  await browser.close();
-  server.kill('SIGTERM');
 }
-check('no-console-error', consoleErrors.length === 0, consoleErrors.join(' | '));
-const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
-check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
-finish();
+await closeAndFinish(browser, server, consoleErrors);

@@ -6,8 +6,10 @@
 // usage: node replay_test.mjs CDFF OUT_DIR   (NODE_PATH: the build's web/node_modules)
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { check, finish, launchChromium, overlayPixels, runGraph, scenePixels, simulate, startServer, testArguments,
-         truthFilteringGraph } from './harness.mjs';
+import {
+  check, closeAndFinish, launchChromium, openPage, overlayPixels, runGraph, scenePixels, simulate,
+  startServer, testArguments, truthFilteringGraph,
+} from './harness.mjs';
 
 const { cdff, out } = testArguments('replay_test.mjs');
 const recording = path.join(out, 'replay.mcap');
@@ -22,9 +24,7 @@ const { server, url } = await startServer(cdff, [recording, run]);
 const browser = await launchChromium();
 const consoleErrors = [];
 try {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
-  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
-  page.on('pageerror', (e) => consoleErrors.push(e.message));
+  const page = await openPage(browser, { width: 1280, height: 900 }, consoleErrors);
   await page.goto(url);
   await page.waitForSelector('body[data-ready="true"]', { timeout: 30000 });
   await page.waitForSelector('#frame[data-t]', { timeout: 30000 });
@@ -179,11 +179,5 @@ try {
   await page.locator('#error-plot').screenshot({ path: path.join(out, 'replay-errors.png') });
 } catch (e) {
   check('browser', false, e.message);
-} finally {
-  await browser.close();
-  server.kill('SIGTERM');
 }
-check('no-console-error', consoleErrors.length === 0, consoleErrors.join(' | '));
-const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
-check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
-finish();
+await closeAndFinish(browser, server, consoleErrors);

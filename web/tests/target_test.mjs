@@ -13,7 +13,9 @@ import { spawnSync } from 'node:child_process';
 import { readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { check, finish, launchChromium, startServer, testArguments } from './harness.mjs';
+import {
+  check, closeAndFinish, launchChromium, openPage, startServer, testArguments,
+} from './harness.mjs';
 
 const { cdff, out } = testArguments('target_test.mjs');
 
@@ -53,9 +55,7 @@ const bearings = [];  // the stream's bearing frames, as the server sent them
 const waitFor = (page, fn, arg, timeout = 60000) =>
   page.waitForFunction(fn, arg, { timeout }).then(() => true, () => false);
 try {
-  const page = await browser.newPage({ viewport: { width: 1280, height: 1000 } });
-  page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
-  page.on('pageerror', (e) => consoleErrors.push(e.message));
+  const page = await openPage(browser, { width: 1280, height: 1000 }, consoleErrors);
   page.on('websocket', (ws) => ws.on('framereceived', ({ payload }) => {
     if (typeof payload !== 'string') return;
     const frame = JSON.parse(payload);
@@ -183,11 +183,5 @@ try {
         await page.$eval('#live-state', (p) => p.textContent));
 } catch (e) {
   check('browser', false, e.message);
-} finally {
-  await browser.close();
-  server.kill('SIGTERM');
 }
-check('no-console-error', consoleErrors.length === 0, consoleErrors.join(' | '));
-const code = server.exitCode ?? await new Promise((resolve) => server.on('exit', resolve));
-check('serve-stops-on-sigterm', code === 0, `exit ${code}`);
-finish();
+await closeAndFinish(browser, server, consoleErrors);

@@ -560,6 +560,53 @@ Status Cdff::flush(double timeout_s) noexcept {
   });
 }
 
+namespace {
+
+/// designateTarget's readers: the running DFPCs with an ImageRegion input on the designation
+/// channel (into out.dfpcs) and their Image inputs (what the box is drawn on); an error when there
+/// is none.
+Status designationReaders(dfpc::Orchestrator& orchestrator, Designated& out,
+                          std::vector<std::string>& image_channels) {
+  std::vector<std::string> readers, idle;
+  for (const std::string& name : orchestrator.dfpcNames()) {
+    const std::vector<dfpc::DfpcInputSpec> inputs = orchestrator.inputsOf(name);
+    if (std::none_of(inputs.begin(), inputs.end(), [](const dfpc::DfpcInputSpec& i) {
+          return i.channel == dfpc::kDesignationChannel && i.type == "ImageRegion";
+        }))
+      continue;
+    readers.push_back(name);
+    Result<dfpc::DfpcStatus> status = orchestrator.status(name);
+    if (!status) return status.status();
+    if (status->state != dfpc::DfpcState::kRunning) {
+      idle.push_back(fmt::format("{} is {}", name, dfpc::toString(status->state)));
+      continue;
+    }
+    out.dfpcs.push_back(name);
+    for (const dfpc::DfpcInputSpec& i : inputs)
+      if (i.type == "Image" && std::find(image_channels.begin(), image_channels.end(), i.channel) ==
+                                   image_channels.end())
+        image_channels.push_back(i.channel);
+  }
+  if (readers.empty())
+    return notFound(
+        "designateTarget: no DFPC reads designations (an ImageRegion input on {}); the DFPCs "
+        "are {{{}}}",
+        dfpc::kDesignationChannel, fmt::join(orchestrator.dfpcNames(), ", "));
+  if (out.dfpcs.empty())
+    return notFound(
+        "designateTarget: no running DFPC reads designations ({}); expected one running "
+        "(setCDFFState(initialize) or initDFPC)",
+        fmt::join(idle, ", "));
+  if (image_channels.empty())
+    return notFound(
+        "designateTarget: {} read designations but have no Image input; a designation is a "
+        "box of an image",
+        fmt::join(out.dfpcs, ", "));
+  return Status::ok();
+}
+
+}  // namespace
+
 Result<Designated> Cdff::designateTarget(double x, double y, int width, int height) noexcept {
   return guarded<Result<Designated>>("designateTarget", [&]() -> Result<Designated> {
     Impl& d = *impl_;
@@ -571,44 +618,9 @@ Result<Designated> Cdff::designateTarget(double x, double y, int width, int heig
     if (width < 1 || height < 1)
       return invalidInput("designateTarget: the box's size {}x{} px; expected at least 1x1 px",
                           width, height);
-    // The readers: DFPCs with an ImageRegion input on the designation channel; the running ones
-    // and their Image inputs (what the box is drawn on).
-    std::vector<std::string> readers, idle, image_channels;
     Designated out;
-    for (const std::string& name : d.orchestrator->dfpcNames()) {
-      const std::vector<dfpc::DfpcInputSpec> inputs = d.orchestrator->inputsOf(name);
-      if (std::none_of(inputs.begin(), inputs.end(), [](const dfpc::DfpcInputSpec& i) {
-            return i.channel == dfpc::kDesignationChannel && i.type == "ImageRegion";
-          }))
-        continue;
-      readers.push_back(name);
-      Result<dfpc::DfpcStatus> status = d.orchestrator->status(name);
-      if (!status) return status.status();
-      if (status->state != dfpc::DfpcState::kRunning) {
-        idle.push_back(fmt::format("{} is {}", name, dfpc::toString(status->state)));
-        continue;
-      }
-      out.dfpcs.push_back(name);
-      for (const dfpc::DfpcInputSpec& i : inputs)
-        if (i.type == "Image" && std::find(image_channels.begin(), image_channels.end(),
-                                           i.channel) == image_channels.end())
-          image_channels.push_back(i.channel);
-    }
-    if (readers.empty())
-      return notFound(
-          "designateTarget: no DFPC reads designations (an ImageRegion input on {}); the DFPCs "
-          "are {{{}}}",
-          dfpc::kDesignationChannel, fmt::join(d.orchestrator->dfpcNames(), ", "));
-    if (out.dfpcs.empty())
-      return notFound(
-          "designateTarget: no running DFPC reads designations ({}); expected one running "
-          "(setCDFFState(initialize) or initDFPC)",
-          fmt::join(idle, ", "));
-    if (image_channels.empty())
-      return notFound(
-          "designateTarget: {} read designations but have no Image input; a designation is a "
-          "box of an image",
-          fmt::join(out.dfpcs, ", "));
+    std::vector<std::string> image_channels;
+    CDFF_RETURN_IF_ERROR(designationReaders(*d.orchestrator, out, image_channels));
 
     std::lock_guard lock(d.process_mutex);
     const Impl::ImageSeen* image = nullptr;

@@ -4,12 +4,14 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
+#include "cdff/serve/query.hpp"
 #include "cdff/serve/scene.hpp"
 
 namespace cdff::serve {
@@ -17,8 +19,6 @@ namespace cdff::serve {
 using nlohmann::json;
 
 namespace {
-
-using Query = std::multimap<std::string, std::string>;
 
 int hexValue(char c) {
   if (c >= '0' && c <= '9') return c - '0';
@@ -48,40 +48,6 @@ Result<std::string> percentDecode(std::string_view s, bool query) {
   return out;
 }
 
-// Unknown or repeated parameters: an error naming them and the expected ones.
-Status expectParameters(const Query& query, std::initializer_list<std::string_view> keys,
-                        std::string_view repeatable = {}) {
-  for (auto it = query.begin(); it != query.end(); it = query.upper_bound(it->first)) {
-    if (std::find(keys.begin(), keys.end(), it->first) == keys.end())
-      return invalidInput(
-          "query parameter '{}' is unknown here; expected {}", it->first,
-          keys.size() ? fmt::format("one of {{{}}}", fmt::join(keys, ", ")) : std::string("none"));
-    if (query.count(it->first) > 1 && it->first != repeatable)
-      return invalidInput("query parameter '{}' is given {} times; expected it once", it->first,
-                          query.count(it->first));
-  }
-  return Status::ok();
-}
-
-Result<std::string> requiredText(const Query& query, const std::string& key, const char* what) {
-  auto it = query.find(key);
-  if (it == query.end() || it->second.empty())
-    return invalidInput("query parameter '{}' is missing; expected {}", key, what);
-  return it->second;
-}
-
-Result<double> number(const Query& query, const std::string& key, double fallback, double lo,
-                      double hi, const char* what) {
-  auto it = query.find(key);
-  if (it == query.end()) return fallback;
-  double v = 0;
-  const std::string& s = it->second;
-  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-  if (ec != std::errc() || end != s.data() + s.size() || !(v >= lo && v <= hi))
-    return invalidInput("{} = '{}': expected {} in [{}, {}]", key, s, what, lo, hi);
-  return v;
-}
-
 http::status httpStatus(const Status& s) {
   switch (s.code()) {
     case StatusCode::kNotFound:
@@ -92,6 +58,18 @@ http::status httpStatus(const Status& s) {
     default:
       return http::status::internal_server_error;
   }
+}
+
+/// 403 for a request whose Origin (a browser names the page's) is not this server's; none when it
+/// has no Origin (not a browser) or this server's.
+std::optional<Response> foreignOrigin(const Request& req, bool keep_alive) {
+  const std::string_view origin = req[http::field::origin];
+  const std::string expected = fmt::format("http://{}", req[http::field::host]);
+  if (origin.empty() || origin == expected) return std::nullopt;
+  return errorResponse(
+      http::status::forbidden,
+      fmt::format("Origin '{}' is not this server's; expected '{}'", origin, expected),
+      req.version(), keep_alive);
 }
 
 Response fromStatus(const Request& req, const Status& s) {
@@ -122,6 +100,15 @@ Response binaryResponse(const Request& req, std::string body) {
   res.keep_alive(req.keep_alive());
   res.body() = std::move(body);
   res.prepare_payload();
+  return res;
+}
+
+Response methodNotAllowed(const Request& req, const char* allowed) {
+  Response res = errorResponse(
+      http::status::method_not_allowed,
+      fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
+      req.version(), req.keep_alive());
+  res.set(http::field::allow, allowed);
   return res;
 }
 
@@ -423,65 +410,29 @@ Response imageResponse(const Request& req, const Recording& rec, const Query& qu
   return res;
 }
 
-}  // namespace
-
-Response Router::api(const Request& req, const Target& target) const {
+// /api/recordings/<id>[/<what>] of one recording.
+Response recordingRoute(const Request& req, const Target& target, const Recording& rec) {
   const auto& seg = target.segments;
   const bool get = req.method() == http::verb::get;
-  const auto notAllowed = [&](const char* allowed) {
-    Response res = errorResponse(
-        http::status::method_not_allowed,
-        fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
-        req.version(), req.keep_alive());
-    res.set(http::field::allow, allowed);
-    return res;
-  };
-  if (seg.size() >= 2 && (seg[1] == "live" || seg[1] == "graphs")) return live(req, target);
-  if (seg.size() == 2 && seg[1] == "requirements") {
-    if (!get) return notAllowed("GET");
-    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
-    return jsonResponse(req, json{{"pose", poseThresholdsJson()}});
-  }
-  if (seg.size() < 2 || seg[1] != "recordings" || seg.size() > 4)
-    return errorResponse(
-        http::status::not_found,
-        fmt::format("no API route '{}'; expected /api/recordings[/<id>[/messages"
-                    "|image|poses|mesh|errors|contour|stream]], /api/requirements, "
-                    "/api/graphs[/model] or /api/live[/state]",
-                    req.target()),
-        req.version(), req.keep_alive());
-  if (seg.size() == 2) {
-    if (!get) return notAllowed("GET");
-    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
-    json list = json::array();
-    for (std::size_t i = 0; i < recordings_.size(); ++i) {
-      json j = recordings_[i]->summary(false);
-      j["id"] = i;
-      list.push_back(std::move(j));
-    }
-    return jsonResponse(req, list);
-  }
-  Result<const Recording*> rec = recording(seg[2]);
-  if (!rec) return fromStatus(req, rec.status());
   const std::string what = seg.size() == 4 ? seg[3] : "";
   if (what == "messages") {
-    if (!get && req.method() != http::verb::post) return notAllowed("GET, POST");
+    if (!get && req.method() != http::verb::post) return methodNotAllowed(req, "GET, POST");
     Result<MessagesQuery> q = get ? messagesFromQuery(target.query) : messagesFromBody(req);
     if (!q && !get && q.status().reason().starts_with("Content-Type"))
       return errorResponse(http::status::unsupported_media_type, q.status().message(),
                            req.version(), req.keep_alive());
     if (!q) return fromStatus(req, q.status());
-    Result<json> messages = (*rec)->messages(q->channel, q->t, q->count);
+    Result<json> messages = rec.messages(q->channel, q->t, q->count);
     return messages ? jsonResponse(req, *messages) : fromStatus(req, messages.status());
   }
-  if (!get) return notAllowed("GET");
+  if (!get) return methodNotAllowed(req, "GET");
   if (what.empty()) {
     if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
-    json j = (*rec)->summary(true);
+    json j = rec.summary(true);
     j["id"] = std::stoul(seg[2]);
     return jsonResponse(req, j);
   }
-  if (what == "image") return imageResponse(req, **rec, target.query);
+  if (what == "image") return imageResponse(req, rec, target.query);
   if (what == "poses") {
     if (Status s = expectParameters(target.query, {"channel", "max_points", "via"}); !s.isOk())
       return fromStatus(req, s);
@@ -490,8 +441,8 @@ Response Router::api(const Request& req, const Target& target) const {
     Result<double> points = number(target.query, "max_points", 5000, 2, 1e6, "a number of points");
     if (!points) return fromStatus(req, points.status());
     const auto via = target.query.find("via");
-    Result<json> poses = (*rec)->poses(*channel, static_cast<std::size_t>(*points),
-                                       via == target.query.end() ? "" : via->second);
+    Result<json> poses = rec.poses(*channel, static_cast<std::size_t>(*points),
+                                   via == target.query.end() ? "" : via->second);
     return poses ? jsonResponse(req, *poses) : fromStatus(req, poses.status());
   }
   if (what == "mesh") {
@@ -500,7 +451,7 @@ Response Router::api(const Request& req, const Target& target) const {
     Result<std::string> channel =
         requiredText(target.query, "channel", "a TriangleMesh channel's topic");
     if (!channel) return fromStatus(req, channel.status());
-    Result<std::string> body = (*rec)->meshBody(*channel);
+    Result<std::string> body = rec.meshBody(*channel);
     return body ? binaryResponse(req, std::move(*body)) : fromStatus(req, body.status());
   }
   if (what == "contour") {
@@ -513,7 +464,7 @@ Response Router::api(const Request& req, const Target& target) const {
       if (!s->isOk()) return fromStatus(req, *s);
     const auto mesh = target.query.find("mesh");
     Result<json> contour =
-        (*rec)->contour(*image, *t, *pose, mesh == target.query.end() ? "" : mesh->second);
+        rec.contour(*image, *t, *pose, mesh == target.query.end() ? "" : mesh->second);
     return contour ? jsonResponse(req, *contour) : fromStatus(req, contour.status());
   }
   if (what == "errors") {
@@ -525,9 +476,8 @@ Response Router::api(const Request& req, const Target& target) const {
     const auto truth = target.query.find("truth");
     Result<double> points = number(target.query, "max_points", 5000, 2, 1e6, "a number of points");
     if (!points) return fromStatus(req, points.status());
-    Result<json> errors =
-        (*rec)->errors(*estimate, truth == target.query.end() ? "" : truth->second,
-                       static_cast<std::size_t>(*points));
+    Result<json> errors = rec.errors(*estimate, truth == target.query.end() ? "" : truth->second,
+                                     static_cast<std::size_t>(*points));
     return errors ? jsonResponse(req, *errors) : fromStatus(req, errors.status());
   }
   if (what == "stream")
@@ -539,6 +489,41 @@ Response Router::api(const Request& req, const Target& target) const {
                                    "errors, contour or stream after /api/recordings/<id>",
                                    req.target()),
                        req.version(), req.keep_alive());
+}
+
+}  // namespace
+
+Response Router::api(const Request& req, const Target& target) const {
+  const auto& seg = target.segments;
+  const bool get = req.method() == http::verb::get;
+  if (seg.size() >= 2 && (seg[1] == "live" || seg[1] == "graphs")) return live(req, target);
+  if (seg.size() == 2 && seg[1] == "requirements") {
+    if (!get) return methodNotAllowed(req, "GET");
+    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+    return jsonResponse(req, json{{"pose", poseThresholdsJson()}});
+  }
+  if (seg.size() < 2 || seg[1] != "recordings" || seg.size() > 4)
+    return errorResponse(
+        http::status::not_found,
+        fmt::format("no API route '{}'; expected /api/recordings[/<id>[/messages"
+                    "|image|poses|mesh|errors|contour|stream]], /api/requirements, "
+                    "/api/graphs[/model] or /api/live[/state]",
+                    req.target()),
+        req.version(), req.keep_alive());
+  if (seg.size() == 2) {
+    if (!get) return methodNotAllowed(req, "GET");
+    if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
+    json list = json::array();
+    for (std::size_t i = 0; i < recordings_.size(); ++i) {
+      json j = recordings_[i]->summary(false);
+      j["id"] = i;
+      list.push_back(std::move(j));
+    }
+    return jsonResponse(req, list);
+  }
+  Result<const Recording*> rec = recording(seg[2]);
+  if (!rec) return fromStatus(req, rec.status());
+  return recordingRoute(req, target, **rec);
 }
 
 std::variant<Router::Stream, Response> Router::stream(const Request& req) const {
@@ -555,13 +540,7 @@ std::variant<Router::Stream, Response> Router::stream(const Request& req) const 
                          req.version(), false);
   // A browser sends the page's origin: a page of another site must not open the stream
   // (WebSockets are not bound by the same-origin policy).
-  const std::string_view origin = req[http::field::origin];
-  const std::string expected = fmt::format("http://{}", req[http::field::host]);
-  if (!origin.empty() && origin != expected)
-    return errorResponse(
-        http::status::forbidden,
-        fmt::format("Origin '{}' is not this server's; expected '{}'", origin, expected),
-        req.version(), false);
+  if (std::optional<Response> refused = foreignOrigin(req, false)) return std::move(*refused);
   if (is_live) {
     if (Status s = expectParameters(target.query, {}); !s.isOk()) return fromStatus(req, s);
     Stream out;
@@ -654,15 +633,6 @@ Result<LiveSpec> liveSpec(const json& body) {
 }  // namespace
 
 namespace {
-
-Response methodNotAllowed(const Request& req, const char* allowed) {
-  Response res = errorResponse(
-      http::status::method_not_allowed,
-      fmt::format("method {} on '{}': expected {}", req.method_string(), req.target(), allowed),
-      req.version(), req.keep_alive());
-  res.set(http::field::allow, allowed);
-  return res;
-}
 
 // The API refuses what its state does not allow: a conflict with that state (409), with the
 // API's message; no run, or an unknown DFPC, is 404.
@@ -779,15 +749,9 @@ Response Router::live(const Request& req, const Target& target) const {
     return fromStatus(req, s);
   // A command (anything but GET) from a page of another site is refused, as the stream is: a
   // browser names the page's origin.
-  if (req.method() != http::verb::get) {
-    const std::string_view origin = req[http::field::origin];
-    const std::string expected = fmt::format("http://{}", req[http::field::host]);
-    if (!origin.empty() && origin != expected)
-      return errorResponse(
-          http::status::forbidden,
-          fmt::format("Origin '{}' is not this server's; expected '{}'", origin, expected),
-          req.version(), req.keep_alive());
-  }
+  if (req.method() != http::verb::get)
+    if (std::optional<Response> refused = foreignOrigin(req, req.keep_alive()))
+      return std::move(*refused);
   LiveHub& hub = *options_.live;
   if (seg[1] == "graphs" && !model_route) {
     if (req.method() != http::verb::get) return methodNotAllowed(req, "GET");
