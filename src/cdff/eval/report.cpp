@@ -145,14 +145,12 @@ std::string bearingText(const BearingEvaluation& b, const std::vector<Requiremen
 }
 
 double thresholdFor(const std::string& quantity, double range_m) {
-  for (const RequirementSpec& spec : poseRequirements()) {
-    const bool matches =
-        (quantity == "position_error_m" &&
-         spec.quantity == RequirementSpec::Quantity::kPositionError) ||
-        (quantity == "angle_error_deg" && spec.quantity == RequirementSpec::Quantity::kAngleError);
-    if (matches && range_m >= spec.min_range_m && range_m < spec.max_range_m) return spec.threshold;
-  }
-  return NAN;
+  using Q = RequirementSpec::Quantity;
+  const RequirementSpec* spec =
+      quantity == "position_error_m"  ? poseRequirementAt(Q::kPositionError, range_m)
+      : quantity == "angle_error_deg" ? poseRequirementAt(Q::kAngleError, range_m)
+                                      : nullptr;
+  return spec ? spec->threshold : NAN;
 }
 
 }  // namespace

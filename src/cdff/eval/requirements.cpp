@@ -43,6 +43,13 @@ const std::vector<RequirementSpec>& poseRequirements() {
   return requirements;
 }
 
+const RequirementSpec* poseRequirementAt(RequirementSpec::Quantity quantity, double range_m) {
+  for (const RequirementSpec& spec : poseRequirements())
+    if (spec.quantity == quantity && range_m >= spec.min_range_m && range_m < spec.max_range_m)
+      return &spec;
+  return nullptr;
+}
+
 const std::vector<RequirementSpec>& bearingRequirements() {
   using Q = RequirementSpec::Quantity;
   static const std::vector<RequirementSpec> requirements = {

@@ -33,6 +33,8 @@ struct RequirementSpec {
 /// SR_DFPC_0100 (mid range: < 1 m, < 10 deg), SR_DFPC_0101 (close range: < 0.05 m, < 5 deg),
 /// SR_DFPC_0102 (update rate >= 0.1 Hz), one entry per measured quantity.
 const std::vector<RequirementSpec>& poseRequirements();
+/// The pose requirement on `quantity` whose band of true range holds `range_m`; null when none.
+const RequirementSpec* poseRequirementAt(RequirementSpec::Quantity quantity, double range_m);
 
 /// Far-range tracking's bearing products (seed §2.2.2, issue 18): the bearing of the target's
 /// centre within 1 px on the sensor ("in the order of magnitude of 1 pixel"), an update at least

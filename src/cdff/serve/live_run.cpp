@@ -551,6 +551,29 @@ Status LiveHub::checkGraph(const std::string& graph) const {
 LiveHub::~LiveHub() {
   (void)remove();
 }
+namespace {
+
+/// The live run's `key` channel: the recording's first channel of `type` when `channel` is empty,
+/// else `channel`, which must hold `type` (`expected` says so in the error).
+Status chooseChannel(const Recording& recording, const char* key, const char* type,
+                     const char* expected, std::string& channel) {
+  if (channel.empty()) {
+    for (const ChannelSummary& c : recording.channels())
+      if (c.type == type) {
+        channel = c.topic;
+        break;
+      }
+    return Status::ok();
+  }
+  Result<const ChannelSummary*> c = recording.findChannel(channel);
+  if (!c) return c.status();
+  if ((*c)->type != type)
+    return invalidInput("\"{}\" = \"{}\" holds {} messages; expected {}", key, channel,
+                        (*c)->type.empty() ? (*c)->schema : (*c)->type, expected);
+  return Status::ok();
+}
+
+}  // namespace
 
 Status LiveHub::start(const LiveSpec& given, bool& conflict) {
   conflict = false;
@@ -562,32 +585,10 @@ Status LiveHub::start(const LiveSpec& given, bool& conflict) {
   if (!(spec.speed >= 1.0 / 16 && spec.speed <= 16))
     return invalidInput("\"speed\" = {}: expected a factor in [0.0625, 16]", spec.speed);
   const Recording& recording = *recordings_[spec.recording];
-  if (spec.camera.empty()) {
-    for (const ChannelSummary& c : recording.channels())
-      if (c.type == "Image") {
-        spec.camera = c.topic;
-        break;
-      }
-  } else {
-    Result<const ChannelSummary*> c = recording.findChannel(spec.camera);
-    if (!c) return c.status();
-    if ((*c)->type != "Image")
-      return invalidInput("\"camera\" = \"{}\" holds {} messages; expected an Image channel",
-                          spec.camera, (*c)->type.empty() ? (*c)->schema : (*c)->type);
-  }
-  if (spec.points.empty()) {
-    for (const ChannelSummary& c : recording.channels())
-      if (c.type == "PointCloud") {
-        spec.points = c.topic;
-        break;
-      }
-  } else {
-    Result<const ChannelSummary*> c = recording.findChannel(spec.points);
-    if (!c) return c.status();
-    if ((*c)->type != "PointCloud")
-      return invalidInput("\"points\" = \"{}\" holds {} messages; expected a PointCloud channel",
-                          spec.points, (*c)->type.empty() ? (*c)->schema : (*c)->type);
-  }
+  CDFF_RETURN_IF_ERROR(
+      chooseChannel(recording, "camera", "Image", "an Image channel", spec.camera));
+  CDFF_RETURN_IF_ERROR(
+      chooseChannel(recording, "points", "PointCloud", "a PointCloud channel", spec.points));
   Result<dfpc::GraphSpec> graph = dfpc::loadGraphFile(spec.graph);
   if (!graph) return graph.status();
   const std::string model_file = modelFileOf(*graph);

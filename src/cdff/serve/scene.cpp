@@ -84,15 +84,11 @@ PoseError poseError(const Transform& estimate, const Transform& truth) {
 
 void applyThresholds(PoseError& e) {
   using Q = eval::RequirementSpec::Quantity;
-  e.position_threshold_m.reset();
-  e.angle_threshold_deg.reset();
-  e.requirement.clear();
-  for (const eval::RequirementSpec& r : eval::poseRequirements()) {
-    if (!(e.range_m >= r.min_range_m && e.range_m < r.max_range_m)) continue;
-    if (r.quantity == Q::kPositionError) e.position_threshold_m = r.threshold;
-    if (r.quantity == Q::kAngleError) e.angle_threshold_deg = r.threshold;
-    if (r.quantity == Q::kPositionError || r.quantity == Q::kAngleError) e.requirement = r.id;
-  }
+  const eval::RequirementSpec* position = eval::poseRequirementAt(Q::kPositionError, e.range_m);
+  const eval::RequirementSpec* angle = eval::poseRequirementAt(Q::kAngleError, e.range_m);
+  e.position_threshold_m = position ? std::optional<double>(position->threshold) : std::nullopt;
+  e.angle_threshold_deg = angle ? std::optional<double>(angle->threshold) : std::nullopt;
+  e.requirement = angle ? angle->id : position ? position->id : "";
 }
 
 json poseThresholdsJson() {
