@@ -209,6 +209,14 @@ Result<json> Recording::messages(const std::string& topic, double t, std::size_t
   return out;
 }
 
+Result<io::MessageView> Recording::messageShownAt(const ChannelSummary& channel, double t) const {
+  Result<std::uint64_t> at = timeAt(t);
+  if (!at) return at.status();
+  const std::uint64_t frame_ns = channel.times_ns[indexAt(channel, *at)];
+  std::lock_guard lock(mutex_);
+  return readMessageAt(reader_, channel, frame_ns);
+}
+
 Result<EncodedImage> Recording::imageAt(const std::string& topic, double t, int max_width,
                                         int quality) const {
   Result<const ChannelSummary*> channel = findChannel(topic);
@@ -216,13 +224,7 @@ Result<EncodedImage> Recording::imageAt(const std::string& topic, double t, int 
   if ((*channel)->type != "Image")
     return invalidInput("channel '{}' holds {} messages; expected an Image channel", topic,
                         (*channel)->type.empty() ? (*channel)->schema : (*channel)->type);
-  Result<std::uint64_t> at = timeAt(t);
-  if (!at) return at.status();
-  const std::uint64_t frame = (*channel)->times_ns[indexAt(**channel, *at)];
-  Result<io::MessageView> message = [&] {
-    std::lock_guard lock(mutex_);
-    return readMessageAt(reader_, **channel, frame);
-  }();
+  Result<io::MessageView> message = messageShownAt(**channel, t);
   if (!message) return message.status();
   // Encoded without the lock: the message holds its chunk, other queries go on meanwhile.
   return imageOf(*message, max_width, quality);
@@ -388,14 +390,9 @@ Result<json> Recording::contour(const std::string& image_topic, double t,
   }
   Result<TriangleMesh> mesh_value = mesh(model);
   if (!mesh_value) return mesh_value.status();
-  Result<std::uint64_t> at = timeAt(t);
-  if (!at) return at.status();
-  const std::uint64_t frame_ns = (*channel)->times_ns[indexAt(**channel, *at)];
-  Result<io::MessageView> message = [&] {
-    std::lock_guard lock(mutex_);
-    return readMessageAt(reader_, **channel, frame_ns);
-  }();
+  Result<io::MessageView> message = messageShownAt(**channel, t);
   if (!message) return message.status();
+  const std::uint64_t frame_ns = message->log_time;
   Image image;
   CDFF_RETURN_IF_ERROR(codec::decode(message->data, message->owner, image)
                            .withContext(fmt::format("channel '{}'", image_topic)));

@@ -125,6 +125,8 @@ class Recording {
 
  private:
   Recording() = default;
+  /// The message of `channel` shown at `t` seconds (its last at or before), read under the lock.
+  Result<io::MessageView> messageShownAt(const ChannelSummary& channel, double t) const;
 
   std::string path_;
   std::uint64_t start_ns_ = 0, end_ns_ = 0, messages_ = 0;
