@@ -15,6 +15,8 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
+#include <map>
 #include <memory>
 #include <thread>
 
@@ -140,7 +142,6 @@ Result<std::uint64_t> play(const BridgeArguments& args, dfpc::McapInputStream& i
 }
 
 int runBridge(const BridgeArguments& args) {
-  dds::configureAllocatorForStreaming();
   if (args.speed < 0 || !std::isfinite(args.speed))
     return ddsFail(
         invalidParameter("--speed {}: expected a number >= 0 (0: as fast as the readers "
@@ -266,7 +267,6 @@ std::shared_ptr<dds::DdsInputStream> nodeInput(dds::Subscriber& subscriber, dds:
 }
 
 int runNode(const NodeArguments& args) {
-  dds::configureAllocatorForStreaming();
   Result<dfpc::ReplayOptions> given = nodeOptions(args);
   if (!given) return ddsFail(given.status());
   // A run set's graphs, maps, settings and rules, as `cdff run` takes them.
@@ -339,12 +339,26 @@ struct RecordArguments {
   std::vector<std::string> patterns;
   int domain = 0;
   double duration_s = 0;
+  double progress_s = 0;
   std::string compression = "lz4";
   bool quiet = false;
 };
 
+/// What `cdff record` has written so far, per channel (the --progress line).
+struct RecordCounts {
+  std::uint64_t written = 0;
+  std::map<std::string, std::uint64_t> per_channel;
+};
+
+void printProgress(const RecordCounts& counts) {
+  std::string line = fmt::format("recorded {} messages", counts.written);
+  for (const auto& [channel, n] : counts.per_channel) line += fmt::format(", {} {}", channel, n);
+  fmt::print("{}\n", line);
+  std::fflush(stdout);
+}
+
 Status recordMessages(dds::Subscriber& subscriber, io::Recorder& recorder, double timeout_s,
-                      bool quiet, std::uint64_t& written) {
+                      bool quiet, RecordCounts& counts) {
   std::vector<dfpc::Message> messages;
   std::vector<dds::Rejection> rejections;
   CDFF_RETURN_IF_ERROR(subscriber.poll(timeout_s, messages, rejections));
@@ -358,13 +372,13 @@ Status recordMessages(dds::Subscriber& subscriber, io::Recorder& recorder, doubl
   }
   for (const dfpc::Message& m : messages) {
     CDFF_RETURN_IF_ERROR(recorder.write(m.channel, m.value, m.stamp));
-    ++written;
+    ++counts.written;
+    ++counts.per_channel[m.channel];
   }
   return Status::ok();
 }
 
 int runRecord(const RecordArguments& args) {
-  dds::configureAllocatorForStreaming();
   const auto compression = io::compressionFromString(args.compression);
   if (!compression)
     return ddsFail(
@@ -378,17 +392,23 @@ int runRecord(const RecordArguments& args) {
   if (Status s = recorder.open(args.output, writer); !s) return ddsFail(s);
   dds::Subscriber subscriber(**participant);
   Status status = subscriber.subscribeDiscovered(args.patterns);
-  std::uint64_t written = 0;
+  RecordCounts counts;
   const auto start = Clock::now();
+  auto last_progress = start;
   while (status.isOk() && !stop_requested.load() &&
-         (args.duration_s <= 0 || ddsSecondsSince(start) < args.duration_s))
-    status = recordMessages(subscriber, recorder, 0.05, args.quiet, written);
+         (args.duration_s <= 0 || ddsSecondsSince(start) < args.duration_s)) {
+    status = recordMessages(subscriber, recorder, 0.05, args.quiet, counts);
+    if (args.progress_s > 0 && ddsSecondsSince(last_progress) >= args.progress_s) {
+      printProgress(counts);
+      last_progress = Clock::now();
+    }
+  }
   // What the readers hold was acknowledged: it is written before the file is closed.
-  if (status.isOk()) status = recordMessages(subscriber, recorder, 0, args.quiet, written);
+  if (status.isOk()) status = recordMessages(subscriber, recorder, 0, args.quiet, counts);
   if (Status s = recorder.close(); !s) return ddsFail(s);
   if (!status) return ddsFail(status);
   if (!args.quiet)
-    fmt::print("{} messages on {} channels -> {}\n", written, subscriber.channels().size(),
+    fmt::print("{} messages on {} channels -> {}\n", counts.written, subscriber.channels().size(),
                args.output);
   return 0;
 }
@@ -453,6 +473,9 @@ void addDdsCommands(CLI::App& root, int& exit_code) {
   r->add_option("--domain", record->domain, "DDS domain id")->capture_default_str();
   r->add_option("--duration", record->duration_s, "Stop after this many seconds (0: on a signal)");
   r->add_option("--compression", record->compression, "none, lz4 or zstd")->capture_default_str();
+  r->add_option("--progress", record->progress_s,
+                "Every this many seconds, print the messages written so far per channel (0: never)")
+      ->check(CLI::NonNegativeNumber);
   r->add_flag("-q,--quiet", record->quiet, "No log of the channels");
   r->callback([record, &exit_code] { exit_code = runRecord(*record); });
 }

@@ -33,7 +33,7 @@ Call api(int domain, const std::string& call) {
 TEST(DdsApi, ANodeAnswersTheExternalApiOverDds) {
   const fs::path dir = scratchDirectory("cdff_dds_api");
   fs::current_path(CDFF_SOURCE_DIR);
-  const int domain = testDomain(53);
+  const int domain = claimTestDomain();
   const fs::path log = dir / "node.log";
   const pid_t node =
       spawnCdff({"node", "dfpcs/pose_filtering.yaml", "--domain", std::to_string(domain)}, log);
@@ -111,7 +111,7 @@ TEST(DdsApi, ANodeAnswersTheExternalApiOverDds) {
   }
   // Another domain has no node: the client says so.
   const auto none =
-      runCdff(fmt::format("api getCDFFState --domain {} --timeout 0.5", testDomain(domain + 7)));
+      runCdff(fmt::format("api getCDFFState --domain {} --timeout 0.5", claimTestDomain()));
   EXPECT_EQ(none.status, 1);
   EXPECT_NE(none.output.find("no CDFF API server on DDS domain"), std::string::npos) << none.output;
 

@@ -20,6 +20,7 @@
 #include "cdff/dds/participant.hpp"
 #include "cdff/dds/publisher.hpp"
 #include "cdff/io/replay.hpp"
+#include "dds/test_domain.hpp"
 #include "support/command.hpp"
 
 namespace cdff::testing {
@@ -97,12 +98,6 @@ inline std::map<std::string, std::vector<Recorded>> channelsOf(const fs::path& f
   }
   EXPECT_TRUE(replay.status().isOk()) << replay.status().message();
   return channels;
-}
-
-/// A DDS domain of this test process's own (from its pid), offset so that two test programs
-/// started at once differ.
-inline int testDomain(int offset = 0) {
-  return 1 + static_cast<int>((::getpid() + offset) % dds::kMaxDomainId);
 }
 
 /// 8 s of the far-range approach (a 256x256 camera at 2 Hz, the AHRS at 10 Hz, the radar) in

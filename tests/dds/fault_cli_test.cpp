@@ -43,7 +43,7 @@ TEST(DdsFaults, ABridgeKilledMidStreamIsAnInputLostAndTheNodeFinishesCleanly) {
   const fs::path dir = scratchDirectory("cdff_dds_faults");
   simulateFarRange(dir);
   shortLeases();
-  const int domain = testDomain(17);
+  const int domain = claimTestDomain();
   const std::string d = std::to_string(domain), rec = (dir / "rec.mcap").string();
   const pid_t recorder = spawnCdff({"record", "-o", rec, "--domain", d, "/cdff/"}, dir / "rec.log");
   const pid_t node =
@@ -130,13 +130,29 @@ int takeStates(dds_entity_t witness) {
   return n;
 }
 
+// Waits until the recorder's last --progress line in `log` counts at least `count` messages on
+// `channel` (what its reader has acknowledged and written); false on the timeout.
+bool waitForRecorded(const fs::path& log, const std::string& channel, int count, double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  const std::string key = ", " + channel + " ";
+  do {
+    const std::string text = readFile(log);
+    const std::size_t line = text.rfind("recorded ");
+    const std::size_t at = line == std::string::npos ? line : text.find(key, line);
+    if (at != std::string::npos && std::atoi(text.c_str() + at + key.size()) >= count) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  } while (std::chrono::steady_clock::now() < deadline);
+  return false;
+}
+
 TEST(DdsFaults, ANodeKilledAndRestartedLosesNothingTheRecorderAcknowledged) {
   const fs::path dir = scratchDirectory("cdff_dds_restart");
   fs::current_path(CDFF_SOURCE_DIR);
   shortLeases();
-  const int domain = testDomain(29);
+  const int domain = claimTestDomain();
   const std::string d = std::to_string(domain), rec = (dir / "rec.mcap").string();
-  const pid_t recorder = spawnCdff({"record", "-o", rec, "--domain", d, "/cdff/"}, dir / "rec.log");
+  const pid_t recorder = spawnCdff(
+      {"record", "-o", rec, "--domain", d, "--progress", "0.1", "/cdff/"}, dir / "rec.log");
   auto participant = cdff::dds::Participant::create(domain);
   ASSERT_TRUE(participant.isOk());
   auto topic =
@@ -152,9 +168,12 @@ TEST(DdsFaults, ANodeKilledAndRestartedLosesNothingTheRecorderAcknowledged) {
     ASSERT_TRUE(waitForText(log, "external API on", 20)) << readFile(log);
     publishMeasurements(domain, 20 * run, 20);
     ASSERT_GT(productsAfter(domain, 20), 0);
-    // What the witness received was sent to the recorder too (reliable, same writer).
+    // What the witness received was sent to the recorder too (reliable, same writer); the node
+    // is stopped once the recorder says it has them (its reader has acknowledged them).
     states[run] = takeStates(*witness);
     ASSERT_GT(states[run], 0);
+    ASSERT_TRUE(waitForRecorded(dir / "rec.log", kState, states[0] + states[1], 20))
+        << readFile(dir / "rec.log");
     if (run == 0)
       EXPECT_EQ(stopProcess(node, SIGKILL), -1);  // killed: no stopped event, no flush
     else

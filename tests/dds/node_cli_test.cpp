@@ -115,7 +115,7 @@ class DdsCommandLine : public ::testing::Test {
   // before it stops (and returns what the rejection must say). The recording's path.
   fs::path runChain(const std::string& encoding, const std::function<std::string(int)>& malformed,
                     std::string& rejection) {
-    const int domain = testDomain(encoding == "ros2" ? 0 : 101);
+    const int domain = claimTestDomain();
     const std::string d = std::to_string(domain), rec = (dir_ / (encoding + ".mcap")).string();
     const fs::path node_log = dir_ / (encoding + "_node.log");
     const pid_t recorder =

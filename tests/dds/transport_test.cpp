@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "cdff/dds/streams.hpp"
+#include "dds/test_domain.hpp"
 #include "samples.hpp"
 
 namespace cdff::dds {
@@ -19,9 +20,10 @@ namespace {
 
 constexpr Timestamp kStamp = 5'000'000;
 
-// A domain per test process, so that concurrent test runs do not hear each other.
+// One domain for this test process, of its own (concurrent tests do not hear each other).
 int testDomain() {
-  return 1 + static_cast<int>(::getpid() % kMaxDomainId);
+  static const int domain = cdff::testing::claimTestDomain();
+  return domain;
 }
 
 std::vector<std::uint8_t> messageOf(const Value& v) {
