@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  build-essential cmake ninja-build ccache pkg-config git clang-format
+  build-essential cmake ninja-build ccache lld pkg-config git clang-format
   # core libraries
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libceres-dev libvisp-dev
   liboctomap-dev liburdfdom-dev liborocos-kdl-dev libtinyxml-dev libconsole-bridge-dev
