@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cdff/types/memory.hpp"
 #include "commands.hpp"
 
 namespace {
@@ -45,6 +46,7 @@ bool subcommandsAreKnown(CLI::App& app, int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  cdff::keepFreedBuffersForReuse();  // image-sized buffers reused frame after frame
   CLI::App app{"CDFF: data fusion for spacecraft relative navigation", "cdff"};
   app.set_version_flag("--version", std::string("cdff ") + CDFF_VERSION);
   app.require_subcommand(1);

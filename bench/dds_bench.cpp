@@ -33,6 +33,7 @@
 
 #include "cdff/dds/publisher.hpp"
 #include "cdff/dds/subscriber.hpp"
+#include "cdff/types/memory.hpp"
 
 namespace {
 
@@ -341,7 +342,7 @@ BENCHMARK(BM_DdsThroughput_Stereo25Hz_Lidar10Hz)
 
 // The benchmark's main, with the echo mode the ping-pong starts and the configuration for ddsperf.
 int main(int argc, char** argv) {
-  dds::configureAllocatorForStreaming();  // as `cdff node`, `bridge` and `record` do
+  keepFreedBuffersForReuse();  // as the `cdff` command does
   if (argc == 3 && std::strcmp(argv[1], "--echo") == 0) return runEcho(std::atoi(argv[2]));
   if (argc == 4 && std::strcmp(argv[1], "--sink") == 0)
     return runSink(std::atoi(argv[2]), std::atoi(argv[3]));

@@ -1,7 +1,6 @@
 #include "cdff/dds/participant.hpp"
 
 #include <fmt/format.h>
-#include <malloc.h>
 
 #include <cstdlib>
 
@@ -11,11 +10,6 @@ Status ddsError(dds_return_t code, std::string_view what) {
   const StatusCode status =
       code == DDS_RETCODE_TIMEOUT ? StatusCode::kTimeout : StatusCode::kIoError;
   return {status, fmt::format("{}: {} (DDS return code {})", what, dds_strretcode(code), code)};
-}
-
-void configureAllocatorForStreaming() {
-  mallopt(M_MMAP_THRESHOLD, 32 << 20);
-  mallopt(M_TRIM_THRESHOLD, 256 << 20);
 }
 
 Result<std::unique_ptr<Participant>> Participant::create(int domain) {

@@ -52,15 +52,6 @@ inline constexpr const char* kDefaultConfiguration =
     "<MaxMessageSize>65500B</MaxMessageSize></General><Internal>"
     "<SocketReceiveBufferSize min=\"default\" max=\"16MB\"/></Internal></Domain></CycloneDDS>";
 
-/// Sets this process's allocator (glibc's malloc) for streaming MB-sized samples: blocks up to
-/// 32 MB come from the heap rather than from their own mmap, and freed memory is returned to the
-/// system only above 256 MB. With glibc's defaults each received 2 MB image is a fresh mapping
-/// (or a trimmed heap) whose 500 pages fault in while the pixels are copied and are unmapped when
-/// the image is dropped: on loopback that doubles the receiving process's CPU (docs/dds.md,
-/// measured figures). Process-wide, so the programs that stream call it (`cdff node`, `bridge`,
-/// `record`), never the library by itself. The process then keeps its peak heap.
-void configureAllocatorForStreaming();
-
 /// The largest DDS domain id (Cyclone's default port mapping).
 inline constexpr int kMaxDomainId = 232;
 

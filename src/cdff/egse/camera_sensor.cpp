@@ -115,6 +115,7 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
   PinholeCamera canvas;
   canvas.fx = m.fx;
   canvas.fy = m.fy;
+  std::vector<float> remap;  // distorted cameras: per pixel, the canvas (u, v) its ray lands on
   if (!m.hasDistortion()) {
     canvas.width = m.width;
     canvas.height = m.height;
@@ -150,8 +151,7 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
           "{}: the distortion is too strong to render: the undistorted field of view needs a "
           "{}x{} canvas for a {}x{} image; expected at most 3 times the image size",
           name, canvas.width, canvas.height, m.width, m.height);
-    s.identity_remap_ = false;
-    s.remap_.resize(2 * static_cast<std::size_t>(m.width) * m.height);
+    remap.resize(2 * static_cast<std::size_t>(m.width) * m.height);
     Eigen::Vector2d guess((0 - m.cx) / m.fx, (0 - m.cy) / m.fy);
     for (int y = 0; y < m.height; ++y) {
       Eigen::Vector2d row_guess = guess;
@@ -161,12 +161,13 @@ Result<CameraSensor> CameraSensor::create(const CameraSpec& spec, const std::str
         row_guess = n;
         if (x == 0) guess = n;
         const std::size_t i = static_cast<std::size_t>(y) * m.width + x;
-        s.remap_[2 * i] = static_cast<float>(m.fx * n.x() + canvas.cx);
-        s.remap_[2 * i + 1] = static_cast<float>(m.fy * n.y() + canvas.cy);
+        remap[2 * i] = static_cast<float>(m.fx * n.x() + canvas.cx);
+        remap[2 * i + 1] = static_cast<float>(m.fy * n.y() + canvas.cy);
       }
     }
   }
   s.canvas_ = canvas;
+  s.samples_ = canvasSamples(m, canvas, remap);
   const int k = spec.supersampling;
   s.render_camera_ = canvas;
   s.render_camera_.width = canvas.width * k;
@@ -351,8 +352,33 @@ void CameraSensor::spectralResponse(const RenderOutput& canvas, int C) const {
   }
 }
 
+std::vector<CameraSensor::CanvasSample> CameraSensor::canvasSamples(
+    const CameraModel& m, const PinholeCamera& canvas, const std::vector<float>& remap) {
+  const int W = m.width, H = m.height, CW = canvas.width, CH = canvas.height;
+  std::vector<CanvasSample> samples(static_cast<std::size_t>(W) * H);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const std::size_t i = static_cast<std::size_t>(y) * W + x;
+      double u = x - m.cx + canvas.cx, v = y - m.cy + canvas.cy;
+      if (!remap.empty()) {
+        u = remap[2 * i];
+        v = remap[2 * i + 1];
+      }
+      const int iu = std::clamp(static_cast<int>(std::floor(u)), 0, CW - 2);
+      const int iv = std::clamp(static_cast<int>(std::floor(v)), 0, CH - 2);
+      const int nu = std::clamp(static_cast<int>(std::lround(u)), 0, CW - 1);
+      const int nv = std::clamp(static_cast<int>(std::lround(v)), 0, CH - 1);
+      CanvasSample& s = samples[i];
+      s.corner = static_cast<std::uint32_t>(iv * CW + iu);
+      s.nearest = static_cast<std::uint32_t>(nv * CW + nu);
+      s.fu = static_cast<float>(std::clamp(u - iu, 0.0, 1.0));
+      s.fv = static_cast<float>(std::clamp(v - iv, 0.0, 1.0));
+    }
+  return samples;
+}
+
 void CameraSensor::distort(const RenderOutput& canvas, int C, CameraFrame& frame) const {
-  const int CW = canvas_.width, CH = canvas_.height;
+  const int CW = canvas_.width;
   const std::vector<float>& canvas_signal = canvas_signal_;
   const int W = spec_.model.width, H = spec_.model.height;
   const std::size_t pixels = static_cast<std::size_t>(W) * H;
@@ -361,43 +387,30 @@ void CameraSensor::distort(const RenderOutput& canvas, int C, CameraFrame& frame
   std::vector<float>& depth = depth_;
   depth.resize(pixels);
   frame.labels.resize(pixels);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const std::size_t i = static_cast<std::size_t>(y) * W + x;
-      double u = x - spec_.model.cx + canvas_.cx, v = y - spec_.model.cy + canvas_.cy;
-      if (!identity_remap_) {
-        u = remap_[2 * i];
-        v = remap_[2 * i + 1];
-      }
-      const int iu = std::clamp(static_cast<int>(std::floor(u)), 0, CW - 2);
-      const int iv = std::clamp(static_cast<int>(std::floor(v)), 0, CH - 2);
-      const float fu = static_cast<float>(std::clamp(u - iu, 0.0, 1.0)),
-                  fv = static_cast<float>(std::clamp(v - iv, 0.0, 1.0));
-      for (int c = 0; c < C; ++c) {
-        auto at = [&](int xx, int yy) {
-          return canvas_signal[(static_cast<std::size_t>(yy) * CW + xx) * C + c];
-        };
-        signal[i * C + c] = (1 - fv) * ((1 - fu) * at(iu, iv) + fu * at(iu + 1, iv)) +
-                            fv * ((1 - fu) * at(iu, iv + 1) + fu * at(iu + 1, iv + 1));
-      }
-      const int nu = std::clamp(static_cast<int>(std::lround(u)), 0, CW - 1);
-      const int nv = std::clamp(static_cast<int>(std::lround(v)), 0, CH - 1);
-      const std::size_t n = static_cast<std::size_t>(nv) * CW + nu;
-      frame.labels[i] = canvas.id[n];
-      // Depth: bilinear inside one surface (all four neighbours on the same object), nearest at
-      // silhouettes so that no depth is invented between two surfaces.
-      const std::size_t a = static_cast<std::size_t>(iv) * CW + iu;
-      const std::uint8_t label = canvas.id[a];
-      const bool same = label != 0 && canvas.id[a + 1] == label && canvas.id[a + CW] == label &&
-                        canvas.id[a + CW + 1] == label;
-      const float d00 = canvas.depth[a], d01 = canvas.depth[a + 1], d10 = canvas.depth[a + CW],
-                  d11 = canvas.depth[a + CW + 1];
-      const float smooth_limit = 0.02f * std::min({d00, d01, d10, d11});
-      if (same && std::max({d00, d01, d10, d11}) - std::min({d00, d01, d10, d11}) < smooth_limit)
-        depth[i] = (1 - fv) * ((1 - fu) * d00 + fu * d01) + fv * ((1 - fu) * d10 + fu * d11);
-      else
-        depth[i] = std::isfinite(canvas.depth[n]) ? canvas.depth[n] : 0.0f;
+  for (std::size_t i = 0; i < pixels; ++i) {
+    const CanvasSample& s = samples_[i];
+    const std::size_t a = s.corner;
+    const float fu = s.fu, fv = s.fv;
+    for (int c = 0; c < C; ++c) {
+      auto at = [&](std::size_t canvas_index) { return canvas_signal[canvas_index * C + c]; };
+      signal[i * C + c] = (1 - fv) * ((1 - fu) * at(a) + fu * at(a + 1)) +
+                          fv * ((1 - fu) * at(a + CW) + fu * at(a + CW + 1));
     }
+    const std::size_t n = s.nearest;
+    frame.labels[i] = canvas.id[n];
+    // Depth: bilinear inside one surface (all four neighbours on the same object), nearest at
+    // silhouettes so that no depth is invented between two surfaces.
+    const std::uint8_t label = canvas.id[a];
+    const bool same = label != 0 && canvas.id[a + 1] == label && canvas.id[a + CW] == label &&
+                      canvas.id[a + CW + 1] == label;
+    const float d00 = canvas.depth[a], d01 = canvas.depth[a + 1], d10 = canvas.depth[a + CW],
+                d11 = canvas.depth[a + CW + 1];
+    const float smooth_limit = 0.02f * std::min({d00, d01, d10, d11});
+    if (same && std::max({d00, d01, d10, d11}) - std::min({d00, d01, d10, d11}) < smooth_limit)
+      depth[i] = (1 - fv) * ((1 - fu) * d00 + fu * d01) + fv * ((1 - fu) * d10 + fu * d11);
+    else
+      depth[i] = std::isfinite(canvas.depth[n]) ? canvas.depth[n] : 0.0f;
+  }
 }
 
 double CameraSensor::blurSigma(const CameraFrame& frame) const {

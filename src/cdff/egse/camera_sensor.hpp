@@ -100,8 +100,20 @@ class CameraSensor {
   CameraSpec spec_;
   std::string name_;
   PinholeCamera canvas_, render_camera_;
-  bool identity_remap_ = true;
-  std::vector<float> remap_;  // per output pixel: canvas (u, v)
+  // Where each output pixel samples the canvas (the same on every frame, so found once): the
+  // canvas index of the top-left of its 2x2 bilinear neighbourhood, the weights of the right and
+  // lower neighbours, and the canvas index of its nearest canvas pixel.
+  struct CanvasSample {
+    std::uint32_t corner = 0, nearest = 0;
+    float fu = 0, fv = 0;
+  };
+  std::vector<CanvasSample> samples_;
+  // The samples of every pixel of `model` on `canvas`: through `remap` (per pixel: canvas u, v)
+  // for a distorted camera, the pixel moved by the canvas's margin for an undistorted one (an
+  // empty remap).
+  static std::vector<CanvasSample> canvasSamples(const CameraModel& model,
+                                                 const PinholeCamera& canvas,
+                                                 const std::vector<float>& remap);
   mutable RenderOutput canvas_scratch_;
   mutable std::vector<float> canvas_signal_, signal_, depth_, blur_scratch_;
 };
