@@ -4,8 +4,7 @@
 // Gaussian noise of 2 mm on each axis, as PointCloudAssembly's fused cloud of a fly-around would
 // be. The counters give what each mesh is worth: its triangles, the p95 distance of points
 // sampled on it to the true surface (accuracy), the fraction of the true surface within 1 cm of it
-// (completeness; the target's inside parts, which no sensor sees, are included, so neither DFI
-// reaches 1) and fit_fraction (the input points within one point spacing of the mesh).
+// (completeness) and fit_fraction (the input points within one point spacing of the mesh).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
