@@ -4,7 +4,10 @@
 // Gaussian noise of 2 mm on each axis, as PointCloudAssembly's fused cloud of a fly-around would
 // be. The counters give what each mesh is worth: its triangles, the p95 distance of points
 // sampled on it to the true surface (accuracy), the fraction of the true surface within 1 cm of it
-// (completeness) and fit_fraction (the input points within one point spacing of the mesh).
+// (completeness) and fit_fraction (the input points within one point spacing of the mesh). The
+// raw PCL calls with the DFIs' settings on the same cloud (its normals given) are measured beside
+// them: the difference is what the DFN adds (checks, spacing, trimming, orientation, vertex
+// normals, fit_fraction).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -14,11 +17,16 @@
 #include <string>
 #include <vector>
 
+#include <pcl/surface/gp3.h>
+#include <pcl/surface/poisson.h>
+
 #include "MeshReconstruction.gen.hpp"
 #include "bench_support.hpp"
 #include "cdff/egse/procedural.hpp"
 #include "cdff/types/kd_tree.hpp"
 #include "cdff/types/mesh.hpp"
+#include "cdff/types/pcl.hpp"
+#include "cdff/types/point_spacing.hpp"
 #include "cdff/types/triangle.hpp"
 
 namespace {
@@ -97,6 +105,61 @@ void BM_MeshReconstruction(benchmark::State& state, const char* dfi, bool normal
   addQuality(state, *dfn->out.mesh);
 }
 
+/// PCL's Poisson alone, with the DFI's settings for this cloud (depth 9: 1.1 x extent / 2^9 at
+/// most the spacing).
+void BM_PclPoisson(benchmark::State& state) {
+  const PointCloud input = cloud(static_cast<std::size_t>(state.range(0)), true);
+  const double spacing = pointSpacing(input);
+  Eigen::Array3f lo = Eigen::Array3f::Constant(1e30f), hi = -lo;
+  for (const Point4f& p : input.points) {
+    lo = lo.min(p.vec().array());
+    hi = hi.max(p.vec().array());
+  }
+  const int depth = static_cast<int>(std::ceil(std::log2(1.1 * (hi - lo).maxCoeff() / spacing)));
+  const auto pcl_cloud = toPclWithNormals(input).value();
+  std::size_t triangles = 0;
+  for (auto _ : state) {
+    pcl::Poisson<pcl::PointNormal> poisson;
+    poisson.setInputCloud(pcl_cloud);
+    poisson.setDepth(depth);
+    poisson.setMinDepth(5);
+    poisson.setSamplesPerNode(2.0f);
+    poisson.setPointWeight(4.0f);
+    pcl::PointCloud<pcl::PointNormal> vertices;
+    std::vector<pcl::Vertices> polygons;
+    poisson.reconstruct(vertices, polygons);
+    triangles = polygons.size();
+  }
+  state.counters["depth"] = depth;
+  state.counters["triangles_untrimmed"] = static_cast<double>(triangles);
+}
+
+/// PCL's greedy projection alone, with the DFI's default settings for this cloud.
+void BM_PclGreedyProjection(benchmark::State& state) {
+  const PointCloud input = cloud(static_cast<std::size_t>(state.range(0)), true);
+  const double spacing = pointSpacing(input);
+  const auto pcl_cloud = toPclWithNormals(input).value();
+  std::size_t triangles = 0;
+  for (auto _ : state) {
+    pcl::GreedyProjectionTriangulation<pcl::PointNormal> gp3;
+    gp3.setInputCloud(pcl_cloud);
+    gp3.setSearchRadius(3 * spacing);
+    gp3.setMu(4);
+    gp3.setMaximumNearestNeighbors(100);
+    gp3.setMaximumSurfaceAngle(M_PI / 4);
+    gp3.setMinimumAngle(M_PI / 18);
+    gp3.setMaximumAngle(2 * M_PI / 3);
+    gp3.setNormalConsistency(true);
+    gp3.setConsistentVertexOrdering(true);
+    std::vector<pcl::Vertices> polygons;
+    gp3.reconstruct(polygons);
+    triangles = polygons.size();
+  }
+  state.counters["triangles"] = static_cast<double>(triangles);
+}
+
+BENCHMARK(BM_PclPoisson)->Arg(50000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PclGreedyProjection)->Arg(50000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_MeshReconstruction, Poisson, "Poisson", true)
     ->Arg(20000)
     ->Arg(50000)

@@ -228,9 +228,11 @@ double fitFraction(const PointCloud& points, const TriangleMesh& mesh, double to
   }
   lo -= tol;
   hi += tol;
-  // Cells about a triangle wide (each triangle in a few), at most 2^20 a side (21-bit keys).
-  const float cell = std::max({tol, static_cast<float>(edges / (3.0 * mesh.triangleCount())),
-                               (hi - lo).maxCoeff() / float(1 << 20)});
+  // Cells as wide as a typical triangle's box grown by the tolerance, so that most triangles
+  // are in 1 to 8 of them (narrower cells multiply the entries to sort); at most 2^20 a side
+  // (21-bit keys).
+  const float cell = std::max(static_cast<float>(edges / (3.0 * mesh.triangleCount())) + 2 * tol,
+                              (hi - lo).maxCoeff() / float(1 << 20));
   auto cellOf = [&](const Eigen::Array3f& p) {
     return ((p - lo) / cell).floor().cast<std::int64_t>().max(0).min((1 << 20));
   };
