@@ -278,22 +278,8 @@ class PointCloudAssemblyVoxelFusion final : public PointCloudAssemblyVoxelFusion
   PointCloud removeOutliers(const PointCloud& cloud) {
     tree_.build(cloud.points.span());
     const int k = params_.outlier_neighbours;
-    mean_distance_.resize(cloud.size());
-    double sum = 0, sum2 = 0;
-    for (std::size_t i = 0; i < cloud.size(); ++i) {
-      tree_.kNearest(cloud.points[i].vec(), k + 1, neighbours_);  // the nearest is itself
-      double d = 0;
-      for (std::size_t j = 1; j < neighbours_.size(); ++j)
-        d += std::sqrt(static_cast<double>(neighbours_[j].squared_distance));
-      d /= static_cast<double>(std::max<std::size_t>(1, neighbours_.size() - 1));
-      mean_distance_[i] = d;
-      sum += d;
-      sum2 += d * d;
-    }
-    const double n = static_cast<double>(cloud.size());
-    const double mean = sum / n;
-    const double std = std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / std::max(1.0, n - 1)));
-    const double threshold = mean + params_.outlier_std_ratio * std;
+    const double threshold = outlierDistanceThreshold(
+        tree_, cloud.points.span(), k, params_.outlier_std_ratio, mean_distance_, neighbours_);
     std::vector<Point4f> points, normals;
     for (std::size_t i = 0; i < cloud.size(); ++i) {
       if (mean_distance_[i] > threshold) continue;

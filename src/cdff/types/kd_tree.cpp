@@ -250,4 +250,25 @@ void KdTree3f::withinRadius(const Eigen::Vector3f& query, float radius,
   searchRadius(0, query.data(), radius * radius, found);
 }
 
+double outlierDistanceThreshold(const KdTree3f& tree, std::span<const Point4f> points, int k,
+                                double std_ratio, std::vector<double>& mean_distance,
+                                std::vector<KdTree3f::Neighbour>& neighbours) {
+  mean_distance.resize(points.size());
+  double sum = 0, sum2 = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    tree.kNearest(points[i].vec(), k + 1, neighbours);  // k + 1: the nearest is the point itself
+    double d = 0;
+    for (std::size_t j = 1; j < neighbours.size(); ++j)
+      d += std::sqrt(static_cast<double>(neighbours[j].squared_distance));
+    d /= static_cast<double>(std::max<std::size_t>(1, neighbours.size() - 1));
+    mean_distance[i] = d;
+    sum += d;
+    sum2 += d * d;
+  }
+  const double n = static_cast<double>(points.size());
+  const double mean = sum / n;
+  const double std = std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / std::max(1.0, n - 1)));
+  return mean + std_ratio * std;
+}
+
 }  // namespace cdff

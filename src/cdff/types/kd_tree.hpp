@@ -75,4 +75,12 @@ class KdTree3f {
   std::vector<std::uint32_t> indices_;    // original index of points_[i]
 };
 
+/// Statistical outlier removal's measure (the rule of PCL's StatisticalOutlierRemoval): each
+/// point's mean distance to its k nearest other points of `tree` (built on `points`), written to
+/// `mean_distance`; returns mean + std_ratio * std of those distances, above which a point is an
+/// outlier. `neighbours` is scratch space.
+double outlierDistanceThreshold(const KdTree3f& tree, std::span<const Point4f> points, int k,
+                                double std_ratio, std::vector<double>& mean_distance,
+                                std::vector<KdTree3f::Neighbour>& neighbours);
+
 }  // namespace cdff
